@@ -1,0 +1,1 @@
+"""Built-in behaviour families of cptbt, registered through the ``cptbt.behaviours`` entry points."""

@@ -1,0 +1,158 @@
+"""The base class of every plan behaviour, its parameter base model and its collaborators.
+
+A plan behaviour is a py_trees leaf that maps the cycle's :class:`~cptbt.types.Percept` to a
+:class:`~cptbt.types.Command` or to nothing. Having an output means RUNNING (and writing the
+command); having none means FAILURE, so a memory-less priority selector over such leaves is the
+subsumption network of TRO Fig. 2 (SPEC §3).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar, Protocol
+
+import py_trees
+from py_trees.common import Access, Status
+from pydantic import BaseModel, ConfigDict, Field
+
+from cptbt.frames import OpArea
+from cptbt.types import Command, Percept, Point
+
+
+class BehaviourParams(BaseModel):
+    """Base of every behaviour's parameter model: frozen, unknown keys rejected.
+
+    Subclasses declare each parameter once, with its unit in the name (``lambda_s``, ``d_leaf_m``,
+    ``beta_deg``); the model is at once the YAML schema, the documentation and the validation.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    speed_mps: float | None = Field(
+        default=None, gt=0, description="Speed command while active, m/s (default: mission speed)"
+    )
+
+
+class PerceptSource(Protocol):
+    """Where a behaviour reads the current cycle's percept."""
+
+    @property
+    def percept(self) -> Percept:
+        """The percept of the current cycle."""
+        ...
+
+
+@dataclass(slots=True)
+class MissionContext:
+    """Collaborators a behaviour binds in ``setup()``: the percept and the mission's geometry.
+
+    The planner owns one per vehicle and replaces ``percept`` every cycle before it ticks.
+    """
+
+    op_area: OpArea
+    home: Point
+    start: Point | None
+    speed_mps: float
+    percept: Percept | None = None
+    true_source: Point | None = None
+    """Known only in simulation; the oracle declaration refuses to run without it."""
+
+
+class PlanBehaviour(py_trees.behaviour.Behaviour):
+    """A leaf of the arbitration tree: percept in, command or nothing out.
+
+    Subclasses set ``family``, ``variant`` and ``Params`` and implement :meth:`decide`; those that
+    keep state across ticks reset it in :meth:`initialise` (called on every new activation, in
+    particular after pre-emption) — the lifecycle py_trees defines.
+
+    Class attributes:
+        family: the behaviour slot it fills (``find_plume``, ``maintain_plume``, ...).
+        variant: its name within the family (``billiard``, ``track_in_out``, ...).
+        Params: its frozen parameter model.
+        ends_move_to_field: once this behaviour has had an output, move-to-field stops for good.
+    """
+
+    family: ClassVar[str] = ""
+    variant: ClassVar[str] = ""
+    Params: ClassVar[type[BehaviourParams]] = BehaviourParams
+    ends_move_to_field: ClassVar[bool] = True
+
+    def __init__(
+        self,
+        params: BehaviourParams | None = None,
+        *,
+        name: str | None = None,
+        namespace: str = "/",
+    ) -> None:
+        super().__init__(name or f"{self.family}.{self.variant}")
+        self.params = params if params is not None else self.Params()
+        self.namespace = namespace
+        self.bb = self.attach_blackboard_client(name=self.name, namespace=namespace)
+        self.bb.register_key("command", access=Access.WRITE)
+        self.bb.register_key("field_reached", access=Access.WRITE)
+        self.context: MissionContext | None = None
+        self.last_command: Command | None = None
+
+    def setup(self, **kwargs: Any) -> None:
+        """Bind the collaborators: ``context`` (a :class:`MissionContext`) is required."""
+        context = kwargs.get("context")
+        if not isinstance(context, MissionContext):
+            raise KeyError(f"{self.name}: setup() needs context=MissionContext(...)")
+        self.context = context
+
+    @property
+    def speed(self) -> float:
+        """This behaviour's speed command: its own override or the mission speed."""
+        assert self.context is not None
+        return self.params.speed_mps or self.context.speed_mps
+
+    def command(self, heading_deg: float, speed_mps: float | None = None) -> Command | None:
+        """Build a command, or None when the heading is not finite (never emit a bad command)."""
+        speed = self.speed if speed_mps is None else speed_mps
+        if not (math.isfinite(heading_deg) and math.isfinite(speed)):
+            return None
+        return Command(heading_deg, speed)
+
+    def decide(self, p: Percept) -> Command | None:
+        """Return this cycle's command, or None when the behaviour has no output."""
+        raise NotImplementedError
+
+    def update(self) -> Status:
+        """Tick: RUNNING with the command written to the blackboard, or FAILURE."""
+        assert self.context is not None and self.context.percept is not None, "call setup()"
+        cmd = self.decide(self.context.percept)
+        self.last_command = cmd
+        if cmd is None:
+            return Status.FAILURE
+        self.bb.command = cmd
+        if self.ends_move_to_field:
+            self.bb.field_reached = True
+        return Status.RUNNING
+
+    def watch(self, p: Percept) -> None:
+        """Perceptual work that must run every cycle, even while a higher behaviour drives.
+
+        The default does nothing; the tree builder adds a watcher node for classes that override
+        it (declare-source uses it to keep checking the lost-contact list).
+        """
+
+
+def overrides_watch(cls: type[PlanBehaviour]) -> bool:
+    """Whether a behaviour class has perceptual work of its own to run every cycle."""
+    return cls.watch is not PlanBehaviour.watch
+
+
+class Watch(py_trees.behaviour.Behaviour):
+    """Runs a behaviour's :meth:`PlanBehaviour.watch` every cycle; always SUCCESS."""
+
+    def __init__(self, behaviour: PlanBehaviour) -> None:
+        super().__init__(f"watch:{behaviour.name}")
+        self.behaviour = behaviour
+
+    def update(self) -> Status:
+        """Run the watched behaviour's perception on the current percept."""
+        context = self.behaviour.context
+        assert context is not None and context.percept is not None, "call setup()"
+        self.behaviour.watch(context.percept)
+        return Status.SUCCESS

@@ -1,0 +1,128 @@
+"""The planner facade: feed it samples and vehicle state, tick it, read the command.
+
+One :class:`Planner` drives one vehicle. It owns the perception, the mission context its
+behaviours are bound to, and a blackboard namespace of its own, so many planners can run side by
+side in one process (Monte Carlo batches).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import py_trees
+from py_trees.common import Access, Status
+
+from cptbt.mission import MissionBase
+from cptbt.node import MissionContext
+from cptbt.perception import Perception
+from cptbt.registry import Registry, default_registry
+from cptbt.tree import build_tree, plan_leaves
+from cptbt.types import Command, Percept, Point, Pose
+
+_ids = itertools.count()
+
+DEFAULT_LAMBDA_S = 8.5
+"""TRO Table I; used when the mission has no maintain-plume behaviour that sets ``lambda_s``."""
+
+
+class Planner:
+    """The Adaptive Mission Planner for one vehicle.
+
+    Args:
+        mission: a validated mission.
+        registry: where its behaviours are found (default: installed entry points).
+        true_source: the simulated source (planning frame); only the oracle declaration reads
+            it, and it must stay None on a real vehicle.
+        namespace: blackboard namespace (default: a fresh one).
+    """
+
+    def __init__(
+        self,
+        mission: MissionBase,
+        registry: Registry | None = None,
+        *,
+        true_source: Point | None = None,
+        namespace: str | None = None,
+    ) -> None:
+        self.mission = mission
+        self.registry = registry or default_registry()
+        entries = mission.entries()
+        self.op_area = mission.op_area_geometry()
+        lambda_s = next(
+            (e.params.lambda_s for e in entries
+             if e.family == "maintain_plume" and hasattr(e.params, "lambda_s")),
+            DEFAULT_LAMBDA_S,
+        )
+        self.perception = Perception(
+            self.op_area, mission.threshold, lambda_s, mission.flow_window_s
+        )
+        self.context = MissionContext(
+            op_area=self.op_area,
+            home=mission.to_xy(mission.home),
+            start=mission.to_xy(mission.start) if mission.start is not None else None,
+            speed_mps=mission.speed_mps,
+            true_source=true_source,
+        )
+        self.namespace = namespace or f"/cptbt/p{next(_ids)}"
+        self.root = build_tree(entries, self.registry, self.namespace)
+        self.leaves = plan_leaves(self.root)
+        self.bb = py_trees.blackboard.Client(name="planner", namespace=self.namespace)
+        for key in ("command", "field_reached", "declared_source", "go_home", "mission_done"):
+            self.bb.register_key(key, access=Access.WRITE)
+        self.bb.field_reached = not any(e.family == "move_to_field" for e in entries)
+        self.bb.declared_source = None
+        self.bb.go_home = False
+        self.bb.mission_done = False
+        for node in self.root.iterate():
+            node.setup(context=self.context)
+        self.command: Command | None = None
+        self.active: str | None = None
+        self.percept: Percept | None = None
+
+    # -- inputs ---------------------------------------------------------------------------
+    def add_sample(self, t: float, concentration: float) -> None:
+        """One concentration sample (any rate; condensed per cycle)."""
+        self.perception.add_sample(t, concentration)
+
+    def add_flow(self, t: float, vx: float, vy: float) -> None:
+        """One flow-over-ground sample, planning frame, m/s."""
+        self.perception.add_flow(t, vx, vy)
+
+    def set_pose(self, x: float, y: float, heading_deg: float = math.nan) -> None:
+        """The latest navigation estimate (planning frame)."""
+        self.perception.set_pose(Pose(x, y, heading_deg))
+
+    def request_home(self) -> None:
+        """Ask the return-home behaviour (if the mission has one) to take over."""
+        self.bb.go_home = True
+
+    # -- the cycle ------------------------------------------------------------------------
+    def tick(self, t: float) -> Command | None:
+        """Run one planning cycle at time ``t``; returns the command, or None (no output)."""
+        self.percept = self.context.percept = self.perception.cycle(t)
+        self.bb.command = None
+        self.root.tick_once()
+        cmd = self.bb.command if self.root.status == Status.RUNNING else None
+        self.command = cmd
+        tip = self.root.tip() if cmd is not None else None
+        self.active = tip.name if tip is not None else None
+        return cmd
+
+    # -- outputs --------------------------------------------------------------------------
+    @property
+    def declared_source(self) -> Point | None:
+        """The declared source (planning frame), once declared."""
+        return self.bb.declared_source  # type: ignore[no-any-return]
+
+    @property
+    def done(self) -> bool:
+        """Declared and home: the AMP has finished its job."""
+        return bool(self.bb.mission_done)
+
+    def close(self) -> None:
+        """Release this planner's blackboard keys (long batches create many planners)."""
+        for leaf in self.leaves:
+            for client in leaf.blackboards:
+                client.unregister(clear=True)
+        self.bb.unregister(clear=True)

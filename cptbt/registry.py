@@ -1,0 +1,192 @@
+"""The behaviour registry: behaviours are found by (family, variant) name, registered as data.
+
+Built-in behaviours, and any third-party package's, are declared in the entry-point group
+``cptbt.behaviours``; each entry point names an iterable of :class:`BehaviourSpec` or
+:class:`~cptbt.node.PlanBehaviour` subclasses. The core never imports the behaviours itself.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from importlib.metadata import entry_points
+
+import py_trees
+
+from cptbt.node import BehaviourParams, PlanBehaviour
+
+ENTRY_POINT_GROUP = "cptbt.behaviours"
+
+#: The behaviour slots of TRO Fig. 2, in their default priority (SPEC §3).
+FAMILIES: tuple[str, ...] = (
+    "safety",
+    "declare_source",
+    "maintain_plume",
+    "reacquire_plume",
+    "find_plume",
+    "return_home",
+    "move_to_field",
+)
+
+Builder = Callable[[BehaviourParams, str], py_trees.behaviour.Behaviour]
+
+
+class RegistryError(Exception):
+    """Base of the registry's errors."""
+
+
+class UnknownBehaviourError(RegistryError, KeyError):
+    """No behaviour under that name; the message lists the close matches."""
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+class DuplicateBehaviourError(RegistryError):
+    """Two registrations under one (family, variant)."""
+
+
+@dataclass(frozen=True)
+class BehaviourSpec:
+    """One registered variant.
+
+    Attributes:
+        family: the slot it fills; one of :data:`FAMILIES` or a new family of a plug-in.
+        variant: its name within the family.
+        params: its frozen parameter model (the YAML schema of its mission entry).
+        build: makes the node (or sub-tree) from validated params and a blackboard namespace.
+        summary: one line for listings.
+        behaviour_classes: the PlanBehaviour classes the node is made of (for conformance checks).
+        default: the variant used when a mission names the family without a variant.
+    """
+
+    family: str
+    variant: str
+    params: type[BehaviourParams]
+    build: Builder
+    summary: str = ""
+    behaviour_classes: tuple[type[PlanBehaviour], ...] = field(default=())
+    default: bool = False
+
+    @property
+    def key(self) -> str:
+        """``family.variant``."""
+        return f"{self.family}.{self.variant}"
+
+    @classmethod
+    def of(cls, behaviour: type[PlanBehaviour], *, default: bool = False) -> BehaviourSpec:
+        """The spec of a single-leaf behaviour class."""
+
+        def build(params: BehaviourParams, namespace: str) -> PlanBehaviour:
+            return behaviour(params, namespace=namespace)
+
+        return cls(
+            family=behaviour.family,
+            variant=behaviour.variant,
+            params=behaviour.Params,
+            build=build,
+            summary=_first_line(behaviour.__doc__),
+            behaviour_classes=(behaviour,),
+            default=default,
+        )
+
+
+def _first_line(doc: str | None) -> str:
+    return (doc or "").strip().splitlines()[0] if doc and doc.strip() else ""
+
+
+class Registry:
+    """Behaviour variants by (family, variant)."""
+
+    def __init__(self) -> None:
+        self._specs: dict[tuple[str, str], BehaviourSpec] = {}
+
+    def register(self, item: BehaviourSpec | type[PlanBehaviour]) -> BehaviourSpec:
+        """Add one variant.
+
+        Raises:
+            DuplicateBehaviourError: the (family, variant) is taken.
+        """
+        spec = item if isinstance(item, BehaviourSpec) else BehaviourSpec.of(item)
+        if not spec.family or not spec.variant:
+            raise RegistryError(f"{spec!r} has no family or variant name")
+        key = (spec.family, spec.variant)
+        if key in self._specs:
+            raise DuplicateBehaviourError(f"behaviour {spec.key} is registered twice")
+        self._specs[key] = spec
+        return spec
+
+    def register_all(self, items: Iterable[BehaviourSpec | type[PlanBehaviour]]) -> None:
+        """Add several variants."""
+        for item in items:
+            self.register(item)
+
+    def families(self) -> list[str]:
+        """Family names: the TRO slots first, in priority order, then plug-in families."""
+        present = {f for f, _ in self._specs}
+        return [f for f in FAMILIES if f in present] + sorted(present - set(FAMILIES))
+
+    def variants(self, family: str) -> list[BehaviourSpec]:
+        """The specs of one family, the default first."""
+        specs = [s for (f, _), s in self._specs.items() if f == family]
+        return sorted(specs, key=lambda s: (not s.default, s.variant))
+
+    def specs(self) -> list[BehaviourSpec]:
+        """Every spec, grouped by family."""
+        return [s for f in self.families() for s in self.variants(f)]
+
+    def get(self, family: str, variant: str | None = None) -> BehaviourSpec:
+        """Look up a variant (the family's default when ``variant`` is None).
+
+        Raises:
+            UnknownBehaviourError: no such family or variant; the message lists close matches.
+        """
+        families = self.families()
+        if family not in families:
+            raise UnknownBehaviourError(
+                f"unknown behaviour {family!r}{_close(family, families)}"
+            )
+        variants = self.variants(family)
+        if variant is None:
+            return variants[0]
+        spec = self._specs.get((family, variant))
+        if spec is None:
+            raise UnknownBehaviourError(
+                f"unknown variant {variant!r} of {family}"
+                f"{_close(variant, [s.variant for s in variants])}"
+            )
+        return spec
+
+    def __len__(self) -> int:
+        return len(self._specs)
+
+
+def _close(word: str, choices: list[str]) -> str:
+    matches = difflib.get_close_matches(word, choices, n=3, cutoff=0.5)
+    if matches:
+        return "; did you mean " + " or ".join(repr(m) for m in matches) + "?"
+    return "; known: " + ", ".join(choices)
+
+
+_DEFAULT: Registry | None = None
+
+
+def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
+    """A new registry holding every variant declared in the entry-point group."""
+    registry = Registry()
+    for ep in sorted(entry_points(group=group), key=lambda e: e.name):
+        try:
+            items = ep.load()
+        except Exception as exc:  # a broken plug-in must say which one it is
+            raise RegistryError(f"cannot load behaviours from entry point {ep.value}: {exc}") from exc
+        registry.register_all(items)
+    return registry
+
+
+def default_registry() -> Registry:
+    """The registry of the installed entry points (loaded once)."""
+    global _DEFAULT
+    if _DEFAULT is None:
+        _DEFAULT = load_entry_points()
+    return _DEFAULT

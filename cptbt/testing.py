@@ -1,0 +1,295 @@
+"""Test doubles for behaviour authors: scripted perception, a fake vehicle, and conformance.
+
+Test your own variant tick by tick in three lines::
+
+    script = ScriptedPerception(op_area=square_area(100), flow=(1.0, 0.0))
+    ticks = run_script(MyFindPlume(), [script.step(t, x=10, y=5) for t in range(5)])
+    assert [tk.command.heading_deg for tk in ticks] == [...]
+
+and check it against the rules every behaviour must keep with :func:`check_behaviour`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import py_trees
+from py_trees.common import Access, Status
+
+from cptbt.angles import unit
+from cptbt.frames import OpArea
+from cptbt.node import BehaviourParams, MissionContext, PlanBehaviour, Watch, overrides_watch
+from cptbt.perception import Perception
+from cptbt.registry import BehaviourSpec
+from cptbt.types import Command, Percept, Point, Pose
+
+_namespaces = iter(range(10**12))
+
+
+def square_area(side_m: float = 100.0) -> OpArea:
+    """An OpArea ``[0, side] × [-side/2, side/2]`` (AB's 100 × 100 m area by default)."""
+    return OpArea(0.0, side_m, -side_m / 2, side_m / 2)
+
+
+def make_context(
+    op_area: OpArea | None = None,
+    home: tuple[float, float] = (0.0, 0.0),
+    start: tuple[float, float] | None = None,
+    speed_mps: float = 1.0,
+    true_source: tuple[float, float] | None = None,
+) -> MissionContext:
+    """A mission context for tests."""
+    return MissionContext(
+        op_area=op_area or square_area(),
+        home=Point(*home),
+        start=Point(*start) if start else None,
+        speed_mps=speed_mps,
+        true_source=Point(*true_source) if true_source else None,
+    )
+
+
+class ScriptedPerception:
+    """Builds percepts from a script of poses and concentrations, through the real perception.
+
+    Each :meth:`step` is one planning cycle: the pose, the concentration (one sample) and
+    optionally a flow sample. Because the real :class:`~cptbt.perception.Perception` condenses
+    them, last detection, contact count and lost-contact list are consistent with the script.
+    """
+
+    def __init__(
+        self,
+        op_area: OpArea | None = None,
+        flow: tuple[float, float] = (1.0, 0.0),
+        threshold: float = 0.2,
+        lambda_s: float = 8.5,
+        flow_window_s: float = 100.0,
+    ) -> None:
+        self.perception = Perception(op_area or square_area(), threshold, lambda_s, flow_window_s)
+        self.flow = flow
+
+    def step(
+        self,
+        t: float,
+        x: float,
+        y: float,
+        heading_deg: float = 0.0,
+        conc: float = 0.0,
+        flow: tuple[float, float] | None = None,
+    ) -> Percept:
+        """One cycle at time ``t``: returns its percept."""
+        fx, fy = flow if flow is not None else self.flow
+        self.perception.add_flow(t, fx, fy)
+        self.perception.add_sample(t, conc)
+        self.perception.set_pose(Pose(x, y, heading_deg))
+        return self.perception.cycle(t)
+
+
+@dataclass(frozen=True)
+class Tick:
+    """What one tick produced."""
+
+    t: float
+    status: Status
+    command: Command | None
+    active: str | None
+
+
+class TreeHarness:
+    """Ticks one behaviour or a whole tree against scripted percepts.
+
+    It owns a blackboard namespace of its own and the keys the planner provides, so nodes run
+    exactly as they do in the planner.
+    """
+
+    def __init__(
+        self,
+        root: py_trees.behaviour.Behaviour,
+        context: MissionContext | None = None,
+        *,
+        field_reached: bool = True,
+    ) -> None:
+        self.root = root
+        self.context = context or make_context()
+        self.watchers = [Watch(n) for n in root.iterate()
+                         if isinstance(n, PlanBehaviour) and overrides_watch(type(n))
+                         and not any(isinstance(w, Watch) and w.behaviour is n
+                                     for w in root.iterate())]
+        self.bb = py_trees.blackboard.Client(name="harness")
+        for key in ("command", "field_reached", "declared_source", "go_home", "mission_done"):
+            self.bb.register_key(f"{_namespace(root)}/{key}", access=Access.WRITE)
+        self.set("field_reached", field_reached)
+        for key in ("declared_source",):
+            self.set(key, None)
+        self.set("go_home", False)
+        self.set("mission_done", False)
+        for node in root.iterate():
+            node.setup(context=self.context)
+
+    def set(self, key: str, value: object) -> None:
+        """Write a planner-owned blackboard key (``field_reached``, ``go_home``, ...)."""
+        self.bb.set(f"{_namespace(self.root)}/{key}", value)
+
+    def get(self, key: str) -> object:
+        """Read any key of the tree's namespace (None when unset)."""
+        name = f"{_namespace(self.root)}/{key}"
+        return py_trees.blackboard.Blackboard.storage.get(name)
+
+    def tick(self, p: Percept) -> Tick:
+        """One cycle with percept ``p``."""
+        self.context.percept = p
+        for w in self.watchers:
+            w.tick_once()
+        self.set("command", None)
+        self.root.tick_once()
+        running = self.root.status == Status.RUNNING
+        cmd = self.get("command") if running else None
+        tip = self.root.tip() if running else None
+        return Tick(p.t, self.root.status, cmd, tip.name if tip else None)  # type: ignore[arg-type]
+
+    def run(self, percepts: Iterable[Percept]) -> list[Tick]:
+        """Tick through a script; one :class:`Tick` per percept."""
+        return [self.tick(p) for p in percepts]
+
+
+def _namespace(root: py_trees.behaviour.Behaviour) -> str:
+    for node in root.iterate():
+        if isinstance(node, PlanBehaviour):
+            return node.namespace.rstrip("/")
+    return ""
+
+
+def fresh_namespace() -> str:
+    """A blackboard namespace no other test uses."""
+    return f"/test{next(_namespaces)}"
+
+
+def run_script(
+    node: py_trees.behaviour.Behaviour,
+    percepts: Iterable[Percept],
+    context: MissionContext | None = None,
+    *,
+    field_reached: bool = True,
+) -> list[Tick]:
+    """Tick one node (or tree) through scripted percepts; see :class:`TreeHarness`."""
+    return TreeHarness(node, context, field_reached=field_reached).run(percepts)
+
+
+class FakeVehicle:
+    """A point vehicle that turns instantly and moves at the commanded speed plus a current."""
+
+    def __init__(self, x: float, y: float, heading_deg: float = 0.0,
+                 current: tuple[float, float] = (0.0, 0.0)) -> None:
+        self.x, self.y, self.heading_deg = x, y, heading_deg
+        self.current = current
+
+    def apply(self, cmd: Command | None, dt: float) -> None:
+        """Move for ``dt`` seconds under ``cmd`` (None holds the heading)."""
+        speed = 0.0
+        if cmd is not None:
+            self.heading_deg, speed = cmd.heading_deg, cmd.speed_mps
+        ux, uy = unit(self.heading_deg)
+        self.x += (speed * ux + self.current[0]) * dt
+        self.y += (speed * uy + self.current[1]) * dt
+
+
+def _state(node: PlanBehaviour, base: set[str]) -> dict[str, object]:
+    keep = set(getattr(node, "persistent_state", ()))
+    return {k: v for k, v in vars(node).items() if k not in base and k not in keep}
+
+
+_BASE_ATTRS: set[str] | None = None
+
+
+def _base_attrs() -> set[str]:
+    global _BASE_ATTRS
+    if _BASE_ATTRS is None:
+        class _Probe(PlanBehaviour):
+            family, variant = "probe", "probe"
+
+        _BASE_ATTRS = set(vars(_Probe(namespace=fresh_namespace())))
+        _BASE_ATTRS.add("context")
+    return _BASE_ATTRS
+
+
+def check_behaviour(
+    spec: BehaviourSpec,
+    params: BehaviourParams | None = None,
+    *,
+    ticks: int = 400,
+    seed: int = 0,
+    max_speed_mps: float = 2.8,
+) -> None:
+    """Conformance check every registered behaviour must pass.
+
+    Drives the behaviour's node in closed loop with a :class:`FakeVehicle` through a seeded random
+    script (plume hits, sensor NaNs, navigation jumps, a reversing flow), and asserts that:
+
+    - every status is RUNNING, SUCCESS or FAILURE (never INVALID after a tick);
+    - a RUNNING node wrote a command with a finite heading in (-180, 180] and a speed in
+      (0, ``max_speed_mps``]; a FAILURE wrote none;
+    - after pre-emption (``stop(INVALID)``) and re-activation (``initialise``), every leaf's
+      per-activation state equals that of a freshly built leaf; attributes a class lists in
+      ``persistent_state`` (kept on purpose across activations) are exempt.
+
+    Raises:
+        AssertionError: naming the rule broken and the tick.
+    """
+    rng = np.random.default_rng(seed)
+    params = params if params is not None else spec.params()
+    area = square_area(100.0)
+    context = make_context(area, home=(5.0, 0.0), start=(50.0, 10.0), true_source=(20.0, 0.0))
+    ns = fresh_namespace()
+    node = spec.build(params, ns)
+    harness = TreeHarness(node, context, field_reached=False)
+    script = ScriptedPerception(area, flow=(1.0, 0.0), lambda_s=1.0)
+    vehicle = FakeVehicle(60.0, 0.0, 180.0)
+    dt = 0.5
+    for i in range(ticks):
+        t = i * dt
+        if i == ticks // 3:
+            harness.set("field_reached", True)
+        if i == ticks // 2:
+            script.flow = (-0.5, 0.3)
+        conc = float(rng.choice([0.0, 0.5, math.nan], p=[0.6, 0.3, 0.1]))
+        if abs(vehicle.y) > 15:  # hits only near the axis, like a plume
+            conc = 0.0
+        jump = rng.normal(0.0, 10.0, 2) if rng.random() < 0.02 else (0.0, 0.0)
+        p = script.step(t, vehicle.x + jump[0], vehicle.y + jump[1], vehicle.heading_deg, conc)
+        tk = harness.tick(p)
+        where = f"{spec.key} tick {i} (t={t})"
+        assert tk.status in (Status.RUNNING, Status.SUCCESS, Status.FAILURE), f"{where}: {tk}"
+        if tk.status == Status.RUNNING:
+            cmd = tk.command
+            assert cmd is not None, f"{where}: RUNNING without a command"
+            assert math.isfinite(cmd.heading_deg) and -180 < cmd.heading_deg <= 180, where
+            assert 0 < cmd.speed_mps <= max_speed_mps, f"{where}: speed {cmd.speed_mps}"
+        else:
+            assert tk.command is None, f"{where}: {tk.status} with a command"
+        vehicle.apply(tk.command, dt)
+        if not area.contains(vehicle.x, vehicle.y):  # keep the fake vehicle in play
+            vehicle.x = min(max(vehicle.x, area.xmin + 1), area.xmax - 1)
+            vehicle.y = min(max(vehicle.y, area.ymin + 1), area.ymax - 1)
+    node.stop(Status.INVALID)
+    base = _base_attrs()
+    fresh = spec.build(params, fresh_namespace())
+    TreeHarness(fresh, make_context(area))
+    for old, new in zip(_leaves(node), _leaves(fresh), strict=True):
+        old.initialise()
+        new.initialise()
+        got, want = _state(old, base), _state(new, base)
+        assert got.keys() == want.keys() and all(
+            _same(got[k], want[k]) for k in got
+        ), f"{spec.key}: state not reset after pre-emption: {got} != {want}"
+
+
+def _same(a: object, b: object) -> bool:
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b
+
+
+def _leaves(root: py_trees.behaviour.Behaviour) -> Sequence[PlanBehaviour]:
+    return [n for n in root.iterate() if isinstance(n, PlanBehaviour)]
