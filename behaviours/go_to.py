@@ -78,4 +78,7 @@ class ReturnHome(PlanBehaviour):
         return self.command(p.pose.point.bearing_to(home))
 
 
-BEHAVIOURS = [BehaviourSpec.of(MoveToField, default=True), BehaviourSpec.of(ReturnHome, default=True)]
+BEHAVIOURS = [
+    BehaviourSpec.of(MoveToField, default=True),
+    BehaviourSpec.of(ReturnHome, default=True),
+]

@@ -16,11 +16,13 @@ class OpAreaSafetyParams(BehaviourParams):
     """Parameters of the OpArea safety behaviour."""
 
     trigger_m: float = Field(
-        default=5.0, ge=0,
+        default=5.0,
+        ge=0,
         description="Take over once the vehicle is this far outside the OpArea, m",
     )
     inset_m: float = Field(
-        default=10.0, ge=0,
+        default=10.0,
+        ge=0,
         description="Steer for the point this far inside the boundary nearest the vehicle, m",
     )
 

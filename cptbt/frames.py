@@ -107,8 +107,10 @@ class OpArea:
         cn = sum(c[0] for c in corners) / 4.0
         ce = sum(c[1] for c in corners) / 4.0
         ordered = sorted(corners, key=lambda c: math.atan2(c[1] - ce, c[0] - cn))
-        edges = [(ordered[(i + 1) % 4][0] - ordered[i][0], ordered[(i + 1) % 4][1] - ordered[i][1])
-                 for i in range(4)]
+        edges = [
+            (ordered[(i + 1) % 4][0] - ordered[i][0], ordered[(i + 1) % 4][1] - ordered[i][1])
+            for i in range(4)
+        ]
         lengths = [math.hypot(*e) for e in edges]
         if min(lengths) <= 0.0:
             raise ValueError("OpArea corners must be distinct")
@@ -118,6 +120,9 @@ class OpArea:
         frame = PlanningFrame(x_bearing_deg, cn, ce)
         pts = [frame.ne_to_xy(n, e) for n, e in corners]
         return cls(
-            min(p.x for p in pts), max(p.x for p in pts),
-            min(p.y for p in pts), max(p.y for p in pts), frame,
+            min(p.x for p in pts),
+            max(p.x for p in pts),
+            min(p.y for p in pts),
+            max(p.y for p in pts),
+            frame,
         )

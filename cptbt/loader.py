@@ -35,10 +35,12 @@ def _walk(node: yaml.Node, path: Loc, lines: dict[Loc, int], source: str) -> Non
         for key_node, value_node in node.value:
             key = key_node.value
             if key in seen:
-                raise MissionError([
-                    f"{source}:{key_node.start_mark.line + 1}: {_dotted((*path, key))}: "
-                    f"duplicate key (first at line {seen[key]})"
-                ])
+                raise MissionError(
+                    [
+                        f"{source}:{key_node.start_mark.line + 1}: {_dotted((*path, key))}: "
+                        f"duplicate key (first at line {seen[key]})"
+                    ]
+                )
             seen[key] = key_node.start_mark.line + 1
             _walk(value_node, (*path, key), lines, source)
             lines[(*path, key)] = key_node.start_mark.line + 1
@@ -85,7 +87,9 @@ def _data_path(loc: Loc, data: Any) -> Loc:
     path: list[str | int] = []
     cur = data
     for part in loc:
-        if (isinstance(cur, dict) and part in cur) or (isinstance(cur, list) and isinstance(part, int) and 0 <= part < len(cur)):
+        if (isinstance(cur, dict) and part in cur) or (
+            isinstance(cur, list) and isinstance(part, int) and 0 <= part < len(cur)
+        ):
             cur = cur[part]
         elif isinstance(cur, dict) and part == cur.get("variant"):
             continue  # the tag of a discriminated union, not a key of the file
@@ -98,8 +102,9 @@ def _data_path(loc: Loc, data: Any) -> Loc:
     return tuple(path)
 
 
-def format_errors(exc: ValidationError, data: Any, lines: dict[Loc, int], source: str,
-                  prefix: Loc = ()) -> list[str]:
+def format_errors(
+    exc: ValidationError, data: Any, lines: dict[Loc, int], source: str, prefix: Loc = ()
+) -> list[str]:
     """One ``FILE:LINE: path: message`` line per pydantic error."""
     out = []
     for err in exc.errors(include_url=False):
@@ -113,8 +118,9 @@ def format_errors(exc: ValidationError, data: Any, lines: dict[Loc, int], source
     return out
 
 
-def validate_data(data: Any, lines: dict[Loc, int], source: str,
-                  model: type[BaseModel]) -> BaseModel:
+def validate_data(
+    data: Any, lines: dict[Loc, int], source: str, model: type[BaseModel]
+) -> BaseModel:
     """Validate parsed YAML against a model, turning errors into a :class:`MissionError`."""
     try:
         return model.model_validate(data)
@@ -122,8 +128,9 @@ def validate_data(data: Any, lines: dict[Loc, int], source: str,
         raise MissionError(format_errors(exc, data, lines, source)) from None
 
 
-def load_mission(path: str | Path, registry: Registry | None = None,
-                 environment: type[BaseModel] | None = None) -> MissionBase:
+def load_mission(
+    path: str | Path, registry: Registry | None = None, environment: type[BaseModel] | None = None
+) -> MissionBase:
     """Read, parse and validate a mission file.
 
     Args:
@@ -143,13 +150,18 @@ def load_mission(path: str | Path, registry: Registry | None = None,
     return loads_mission(text, source, registry, environment)
 
 
-def loads_mission(text: str, source: str = "<mission>", registry: Registry | None = None,
-                  environment: type[BaseModel] | None = None) -> MissionBase:
+def loads_mission(
+    text: str,
+    source: str = "<mission>",
+    registry: Registry | None = None,
+    environment: type[BaseModel] | None = None,
+) -> MissionBase:
     """Like :func:`load_mission`, from text."""
     data, lines = parse_yaml(text, source)
     if not isinstance(data, dict):
-        raise MissionError([f"{source}:1: (top): a mission is a mapping of keys, "
-                            f"not {type(data).__name__}"])
+        raise MissionError(
+            [f"{source}:1: (top): a mission is a mapping of keys, not {type(data).__name__}"]
+        )
     model = mission_model(registry or default_registry(), environment)
     return validate_data(data, lines, source, model)  # type: ignore[return-value]
 

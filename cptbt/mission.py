@@ -115,7 +115,7 @@ class BehaviourEntry(BaseModel):
         """From a validated behaviour-list item (a model with exactly one family set)."""
         if isinstance(item, BehaviourEntry):
             return item
-        (family, params), = ((k, v) for k, v in item if v is not None)
+        ((family, params),) = ((k, v) for k, v in item if v is not None)
         return cls(family=family, variant=params.variant, params=params)
 
     def to_data(self) -> dict[str, Any]:
@@ -149,7 +149,7 @@ def _item_model(registry: Registry) -> type[BaseModel]:
     def check(cls: type[BaseModel], data: Any) -> Any:
         if not isinstance(data, dict) or len(data) != 1:
             raise ValueError("each behaviour is one mapping 'family: {variant: ..., params}'")
-        (family, body), = data.items()
+        ((family, body),) = data.items()
         try:
             registry.get(str(family))
             if body is None:
@@ -172,14 +172,19 @@ def _item_model(registry: Registry) -> type[BaseModel]:
 
 
 @cache
-def mission_model(registry: Registry, environment: type[BaseModel] | None = None) -> type[MissionBase]:
+def mission_model(
+    registry: Registry, environment: type[BaseModel] | None = None
+) -> type[MissionBase]:
     """The full mission model for a registry (and, in the application layer, an environment)."""
     item = _item_model(registry)
     env: Any = (environment, Field(default_factory=environment)) if environment else (Any, None)
     return create_model(  # type: ignore[no-any-return]
         "Mission",
         __base__=MissionBase,
-        behaviours=(list[item], Field(min_length=1, description="Behaviours, highest priority first")),  # type: ignore[valid-type]
+        behaviours=(
+            list[item],
+            Field(min_length=1, description="Behaviours, highest priority first"),
+        ),  # type: ignore[valid-type]
         environment=env,
     )
 

@@ -50,8 +50,11 @@ class Planner:
         entries = mission.entries()
         self.op_area = mission.op_area_geometry()
         lambda_s = next(
-            (e.params.lambda_s for e in entries
-             if e.family == "maintain_plume" and hasattr(e.params, "lambda_s")),
+            (
+                e.params.lambda_s
+                for e in entries
+                if e.family == "maintain_plume" and hasattr(e.params, "lambda_s")
+            ),
             DEFAULT_LAMBDA_S,
         )
         self.perception = Perception(

@@ -144,9 +144,7 @@ class Registry:
         """
         families = self.families()
         if family not in families:
-            raise UnknownBehaviourError(
-                f"unknown behaviour {family!r}{_close(family, families)}"
-            )
+            raise UnknownBehaviourError(f"unknown behaviour {family!r}{_close(family, families)}")
         variants = self.variants(family)
         if variant is None:
             return variants[0]
@@ -179,7 +177,9 @@ def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
         try:
             items = ep.load()
         except Exception as exc:  # a broken plug-in must say which one it is
-            raise RegistryError(f"cannot load behaviours from entry point {ep.value}: {exc}") from exc
+            raise RegistryError(
+                f"cannot load behaviours from entry point {ep.value}: {exc}"
+            ) from exc
         registry.register_all(items)
     return registry
 

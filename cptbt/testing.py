@@ -113,10 +113,13 @@ class TreeHarness:
     ) -> None:
         self.root = root
         self.context = context or make_context()
-        self.watchers = [Watch(n) for n in root.iterate()
-                         if isinstance(n, PlanBehaviour) and overrides_watch(type(n))
-                         and not any(isinstance(w, Watch) and w.behaviour is n
-                                     for w in root.iterate())]
+        self.watchers = [
+            Watch(n)
+            for n in root.iterate()
+            if isinstance(n, PlanBehaviour)
+            and overrides_watch(type(n))
+            and not any(isinstance(w, Watch) and w.behaviour is n for w in root.iterate())
+        ]
         self.bb = py_trees.blackboard.Client(name="harness")
         for key in ("command", "field_reached", "declared_source", "go_home", "mission_done"):
             self.bb.register_key(f"{_namespace(root)}/{key}", access=Access.WRITE)
@@ -180,8 +183,13 @@ def run_script(
 class FakeVehicle:
     """A point vehicle that turns instantly and moves at the commanded speed plus a current."""
 
-    def __init__(self, x: float, y: float, heading_deg: float = 0.0,
-                 current: tuple[float, float] = (0.0, 0.0)) -> None:
+    def __init__(
+        self,
+        x: float,
+        y: float,
+        heading_deg: float = 0.0,
+        current: tuple[float, float] = (0.0, 0.0),
+    ) -> None:
         self.x, self.y, self.heading_deg = x, y, heading_deg
         self.current = current
 
@@ -206,6 +214,7 @@ _BASE_ATTRS: set[str] | None = None
 def _base_attrs() -> set[str]:
     global _BASE_ATTRS
     if _BASE_ATTRS is None:
+
         class _Probe(PlanBehaviour):
             family, variant = "probe", "probe"
 
@@ -280,9 +289,9 @@ def check_behaviour(
         old.initialise()
         new.initialise()
         got, want = _state(old, base), _state(new, base)
-        assert got.keys() == want.keys() and all(
-            _same(got[k], want[k]) for k in got
-        ), f"{spec.key}: state not reset after pre-emption: {got} != {want}"
+        assert got.keys() == want.keys() and all(_same(got[k], want[k]) for k in got), (
+            f"{spec.key}: state not reset after pre-emption: {got} != {want}"
+        )
 
 
 def _same(a: object, b: object) -> bool:
