@@ -1,1 +1,1 @@
-"""Built-in behaviour families of cptbt, registered through the ``cptbt.behaviours`` entry points."""
+"""Built-in behaviour families of cptbt, registered as cptbt.behaviours entry points."""

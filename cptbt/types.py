@@ -79,7 +79,7 @@ class FlowEstimate:
 
 @dataclass(frozen=True, slots=True)
 class Detection:
-    """A detection event: when and where (estimated position) the concentration crossed threshold."""
+    """A detection: when and where (estimated position) the concentration crossed threshold."""
 
     t: float
     x: float
