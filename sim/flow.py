@@ -1,0 +1,311 @@
+"""Flow fields in the planning frame: a uniform flow and the meandering flow of Farrell et al. 2002.
+
+The meandering flow follows the approach of Farrell, Murlis, Long, Li and Cardé (2002), cited by
+AB §2.2: the velocity (u, v) lives on a coarse regular grid and obeys an advection–diffusion
+(K-closure) equation,
+
+    du/dt = -(u du/dx + v du/dy) + K (d2u/dx2 + d2u/dy2)     (and the same for v),
+
+whose Dirichlet boundary values are the mean flow plus coloured noise: one first-order
+Gauss–Markov (Ornstein–Uhlenbeck) process per grid corner and component, interpolated linearly
+along the edges. Advection uses first-order upwind differences so the explicit scheme is stable
+for any cell Péclet number; the step is sub-divided to respect the CFL/diffusion limit.
+
+Angles are in degrees from +x toward +y; ``toward`` is where the water goes.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+Domain = tuple[float, float, float, float]
+FlowPreset = Literal["uniform", "small_meander", "large_meander", "ocean"]
+
+# Calibrated with benchmarks/../tests/sim/test_flow.py::test_meander_presets: the 90th percentile
+# of the plume centreline deviation 100 m downflow is ~6 m (small) and ~17 m (large) at 1 m/s;
+# the ocean preset gives a flow direction wandering by ±10–20° over ten minutes (TRO Table II).
+_PRESETS: dict[str, dict[str, Any]] = {
+    "uniform": dict(
+        mean_speed_mps=1.0,
+        mean_dir_deg=0.0,
+        noise_std_mps=0.0,
+        noise_corr_time_s=10.0,
+        diffusivity_m2ps=1.0,
+        grid_n=11,
+        margin_m=20.0,
+    ),
+    "small_meander": dict(
+        mean_speed_mps=1.0,
+        mean_dir_deg=0.0,
+        noise_std_mps=0.17,
+        noise_corr_time_s=8.0,
+        diffusivity_m2ps=5.0,
+        grid_n=21,
+        margin_m=20.0,
+    ),
+    "large_meander": dict(
+        mean_speed_mps=1.0,
+        mean_dir_deg=0.0,
+        noise_std_mps=0.2,
+        noise_corr_time_s=40.0,
+        diffusivity_m2ps=5.0,
+        grid_n=21,
+        margin_m=20.0,
+    ),
+    "ocean": dict(
+        mean_speed_mps=0.1,
+        mean_dir_deg=2.0,
+        noise_std_mps=0.03,
+        noise_corr_time_s=300.0,
+        diffusivity_m2ps=2.0,
+        grid_n=15,
+        margin_m=40.0,
+    ),
+}
+
+
+class FlowParams(BaseModel):
+    """Flow-model settings; unset fields take the values of ``preset``.
+
+    ``FlowParams(preset="large_meander", noise_std_mps=0.4)`` is the large-meander preset with a
+    stronger boundary noise.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    preset: FlowPreset = "ocean"
+    mean_speed_mps: float = Field(ge=0.0, description="Mean flow speed, m/s.")
+    mean_dir_deg: float = Field(description="Mean direction the water moves toward, deg from +x.")
+    noise_std_mps: float = Field(
+        ge=0.0, description="Stationary std of each boundary-corner velocity component, m/s."
+    )
+    noise_corr_time_s: float = Field(gt=0.0, description="Correlation time of that noise, s.")
+    diffusivity_m2ps: float = Field(gt=0.0, description="Eddy diffusivity K of the velocity, m²/s.")
+    grid_n: int = Field(ge=3, le=101, description="Grid nodes along the domain's longer side.")
+    margin_m: float = Field(ge=0.0, description="Grid extends this far beyond the area, m.")
+    max_substep_s: float = Field(1.0, gt=0.0, description="Longest internal PDE step, s.")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _fill_from_preset(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            preset = data.get("preset", "ocean")
+            if isinstance(preset, str) and preset in _PRESETS:
+                return {**_PRESETS[preset], **data}
+        return data
+
+
+class FlowField(Protocol):
+    """What the plume, the vehicles and the world need from a flow."""
+
+    @property
+    def domain(self) -> Domain: ...
+
+    @property
+    def mean_velocity(self) -> NDArray[np.float64]: ...
+
+    def step(self, dt: float) -> None: ...
+
+    def velocity_at(self, xy: NDArray[np.float64]) -> NDArray[np.float64]: ...
+
+
+def unit(deg: float) -> NDArray[np.float64]:
+    """Unit vector (cos θ, sin θ) of a planning-frame angle in degrees."""
+    rad = math.radians(deg)
+    return np.array([math.cos(rad), math.sin(rad)])
+
+
+class UniformFlow:
+    """Constant, spatially uniform flow (for tests and calm-water setups).
+
+    Args:
+        speed_mps: Flow speed, m/s.
+        toward_deg: Direction the water moves toward, degrees from +x toward +y.
+        domain: Region (xmin, xmax, ymin, ymax) the flow is defined on; unbounded if None.
+    """
+
+    def __init__(self, speed_mps: float, toward_deg: float, domain: Domain | None = None) -> None:
+        self._vel = speed_mps * unit(toward_deg)
+        inf = math.inf
+        self._domain: Domain = domain if domain is not None else (-inf, inf, -inf, inf)
+        self.time_s = 0.0
+
+    @property
+    def domain(self) -> Domain:
+        """The region (xmin, xmax, ymin, ymax) covered."""
+        return self._domain
+
+    @property
+    def mean_velocity(self) -> NDArray[np.float64]:
+        """Mean (u, v) in m/s."""
+        return self._vel.copy()
+
+    def step(self, dt: float) -> None:
+        """Advance time; the field does not change."""
+        self.time_s += dt
+
+    def velocity_at(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Velocity at points ``xy`` (N, 2) → (N, 2)."""
+        return np.broadcast_to(self._vel, np.shape(xy)).copy()
+
+
+class MeanderingFlow:
+    """Spatially and temporally varying flow driven by coloured boundary noise (Farrell 2002).
+
+    Args:
+        params: Flow settings.
+        domain: Grid region (xmin, xmax, ymin, ymax), already including any margin.
+        rng: Generator for the boundary noise (the environment stream).
+    """
+
+    def __init__(self, params: FlowParams, domain: Domain, rng: np.random.Generator) -> None:
+        self.params = params
+        self._domain = domain
+        self._rng = rng
+        xmin, xmax, ymin, ymax = domain
+        lx, ly = xmax - xmin, ymax - ymin
+        if lx <= 0 or ly <= 0:
+            raise ValueError(f"empty flow domain {domain}")
+        step = max(lx, ly) / (params.grid_n - 1)
+        self.nx = max(3, round(lx / step) + 1)
+        self.ny = max(3, round(ly / step) + 1)
+        self.dx = lx / (self.nx - 1)
+        self.dy = ly / (self.ny - 1)
+        self.xs = np.linspace(xmin, xmax, self.nx)
+        self.ys = np.linspace(ymin, ymax, self.ny)
+        self._mean = params.mean_speed_mps * unit(params.mean_dir_deg)
+        # Fields indexed [iy, ix]; both components stacked: shape (2, ny, nx).
+        self._f = np.empty((2, self.ny, self.nx))
+        self._f[0] = self._mean[0]
+        self._f[1] = self._mean[1]
+        # Corner noise state (2 components × 4 corners: (x0,y0), (x1,y0), (x0,y1), (x1,y1)),
+        # started in its stationary distribution so no spin-up of the noise itself is needed.
+        sigma = params.noise_std_mps
+        self._noise = sigma * rng.standard_normal((2, 4))
+        k = params.diffusivity_m2ps
+        vmax = params.mean_speed_mps + 4.0 * sigma
+        rate = vmax / self.dx + vmax / self.dy + 2 * k / self.dx**2 + 2 * k / self.dy**2
+        self.substep_s = min(params.max_substep_s, 0.8 / rate)
+        self._phi = math.exp(-self.substep_s / params.noise_corr_time_s)
+        self._kick = sigma * math.sqrt(1.0 - self._phi**2)
+        self._rx = np.linspace(0.0, 1.0, self.nx)
+        self._ry = np.linspace(0.0, 1.0, self.ny)
+        self._pending_s = 0.0
+        self.time_s = 0.0
+        self._apply_boundary()
+        self._flat = self._f.reshape(2, -1)
+
+    @property
+    def domain(self) -> Domain:
+        """The grid region (xmin, xmax, ymin, ymax)."""
+        return self._domain
+
+    @property
+    def mean_velocity(self) -> NDArray[np.float64]:
+        """Long-run mean (u, v) in m/s (the noise has zero mean)."""
+        return self._mean.copy()
+
+    @property
+    def grid_velocity(self) -> NDArray[np.float64]:
+        """Current grid velocities, shape (2, ny, nx), indexed [component, iy, ix] (a copy)."""
+        return self._f.copy()
+
+    def step(self, dt: float) -> None:
+        """Advance the field by ``dt`` seconds in fixed internal sub-steps.
+
+        Time not yet covered by a whole sub-step is carried over to the next call, so the
+        result depends only on the total elapsed time, not on how it was sliced.
+        """
+        self.time_s += dt
+        self._pending_s += dt
+        h = self.substep_s
+        while self._pending_s >= h - 1e-12:
+            self._substep(h)
+            self._pending_s -= h
+
+    def _apply_boundary(self) -> None:
+        c = self._mean[:, None] + self._noise  # (2, 4)
+        rx, ry = self._rx, self._ry
+        f = self._f
+        for comp in range(2):
+            c00, c10, c01, c11 = c[comp]
+            f[comp, 0, :] = c00 + rx * (c10 - c00)
+            f[comp, -1, :] = c01 + rx * (c11 - c01)
+            f[comp, :, 0] = c00 + ry * (c01 - c00)
+            f[comp, :, -1] = c10 + ry * (c11 - c10)
+
+    def _substep(self, h: float) -> None:
+        self._noise *= self._phi
+        self._noise += self._kick * self._rng.standard_normal((2, 4))
+        self._apply_boundary()
+        f = self._f
+        c = f[:, 1:-1, 1:-1]
+        west, east = f[:, 1:-1, :-2], f[:, 1:-1, 2:]
+        south, north = f[:, :-2, 1:-1], f[:, 2:, 1:-1]
+        u = c[0]
+        v = c[1]
+        ddx = np.where(u > 0, c - west, east - c) / self.dx
+        ddy = np.where(v > 0, c - south, north - c) / self.dy
+        lap = (west - 2 * c + east) / self.dx**2 + (south - 2 * c + north) / self.dy**2
+        rhs = -u * ddx - v * ddy + self.params.diffusivity_m2ps * lap
+        c += h * rhs
+
+    def velocity_at(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Bilinear interpolation of the grid velocity at points ``xy`` (N, 2) → (N, 2).
+
+        Points outside the grid take the value at the nearest edge.
+        """
+        xy = np.asarray(xy, dtype=float)
+        fx = np.clip((xy[:, 0] - self.xs[0]) / self.dx, 0.0, self.nx - 1.000001)
+        fy = np.clip((xy[:, 1] - self.ys[0]) / self.dy, 0.0, self.ny - 1.000001)
+        ix = fx.astype(np.intp)
+        iy = fy.astype(np.intp)
+        wx = fx - ix
+        wy = fy - iy
+        i00 = iy * self.nx + ix
+        flat = self._flat
+        a = flat[:, i00]
+        b = flat[:, i00 + 1]
+        cc = flat[:, i00 + self.nx]
+        d = flat[:, i00 + self.nx + 1]
+        out = (a * (1 - wx) + b * wx) * (1 - wy) + (cc * (1 - wx) + d * wx) * wy
+        return out.T
+
+
+def expand(area: Domain, margin_m: float) -> Domain:
+    """The area (xmin, xmax, ymin, ymax) grown by ``margin_m`` on every side."""
+    xmin, xmax, ymin, ymax = area
+    return (xmin - margin_m, xmax + margin_m, ymin - margin_m, ymax + margin_m)
+
+
+def make_flow(
+    preset: str | FlowParams,
+    domain: Domain,
+    rng: np.random.Generator,
+    **overrides: Any,
+) -> UniformFlow | MeanderingFlow:
+    """Build a flow for an area of interest from a preset name or a ``FlowParams``.
+
+    Args:
+        preset: ``"uniform"``, ``"small_meander"``, ``"large_meander"``, ``"ocean"`` or params.
+        domain: Area of interest (xmin, xmax, ymin, ymax); the flow grid adds ``margin_m``.
+        rng: Environment generator driving the boundary noise.
+        **overrides: Field values replacing those of the preset.
+
+    Returns:
+        A ``UniformFlow`` when the noise is zero, otherwise a ``MeanderingFlow``.
+    """
+    if isinstance(preset, FlowParams):
+        params = preset.model_copy(update=overrides) if overrides else preset
+        params = FlowParams.model_validate(params.model_dump())
+    else:
+        params = FlowParams(preset=preset, **overrides)  # type: ignore[arg-type]
+    grid = expand(domain, params.margin_m)
+    if params.noise_std_mps == 0.0:
+        return UniformFlow(params.mean_speed_mps, params.mean_dir_deg, grid)
+    return MeanderingFlow(params, grid, rng)

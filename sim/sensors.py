@@ -1,0 +1,186 @@
+"""Vehicle sensors, vectorised over vehicles: fluorometer, ADCP and navigation.
+
+Every vehicle has its own random stream (a ``numpy.random.Generator`` per vehicle, spawned by the
+caller), so vehicle i's noise does not depend on how many vehicles share the world. To keep the
+hot path free of a Python loop over vehicles, each stream is drawn ahead in blocks
+(``NoiseBank``): one loop over vehicles per block of samples, then array slices per sample. Each
+sample always consumes the same numbers whatever features are enabled, so switching on, say,
+dropouts does not change the noise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class NoiseBank:
+    """Per-vehicle random streams served as (N, k) arrays per draw.
+
+    Args:
+        rngs: One generator per vehicle.
+        n_normal: Standard normals per vehicle and draw.
+        n_uniform: Uniforms on [0, 1) per vehicle and draw.
+        block: Draws generated ahead per refill.
+    """
+
+    def __init__(
+        self, rngs: Sequence[np.random.Generator], n_normal: int, n_uniform: int, block: int = 512
+    ) -> None:
+        self._rngs = list(rngs)
+        self._shape = (n_normal, n_uniform)
+        self._block = block
+        self._i = block
+        self._normal = np.empty((block, len(self._rngs), n_normal))
+        self._uniform = np.empty((block, len(self._rngs), n_uniform))
+
+    def draw(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Next (normals (N, n_normal), uniforms (N, n_uniform))."""
+        if self._i == self._block:
+            n_normal, n_uniform = self._shape
+            for j, rng in enumerate(self._rngs):  # once per block, not per sample
+                self._normal[:, j] = rng.standard_normal((self._block, n_normal))
+                self._uniform[:, j] = rng.random((self._block, n_uniform))
+            self._i = 0
+        i = self._i
+        self._i += 1
+        return self._normal[i], self._uniform[i]
+
+
+class FluorometerParams(BaseModel):
+    """Concentration sensor settings (TRO: 9 Hz; AB eqs. 1–2 filter and threshold)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    rate_hz: float = Field(9.0, gt=0.0, description="Sample rate, Hz.")
+    alpha_per_s: float | None = Field(
+        None, gt=0.0, description="AB low-pass bandwidth alpha, 1/s; None = raw concentration."
+    )
+    tau: float = Field(0.0, ge=0.0, description="Output threshold: c = rho if rho > tau else 0.")
+    noise_std: float = Field(0.0, ge=0.0, description="Additive Gaussian noise std.")
+    dropout_prob: float = Field(0.0, ge=0.0, le=1.0, description="Chance a sample is NaN.")
+    stuck_prob: float = Field(
+        0.0, ge=0.0, le=1.0, description="Chance per sample that the output freezes."
+    )
+    stuck_duration_s: float = Field(5.0, ge=0.0, description="How long a frozen output lasts, s.")
+
+
+class Fluorometer:
+    """Filtered, thresholded, noisy concentration samples with optional faults.
+
+    Args:
+        params: Sensor settings.
+        rngs: One generator per vehicle.
+    """
+
+    def __init__(self, params: FluorometerParams, rngs: Sequence[np.random.Generator]) -> None:
+        self.params = params
+        n = len(rngs)
+        self.period_s = 1.0 / params.rate_hz
+        self._bank = NoiseBank(rngs, n_normal=1, n_uniform=2)
+        self._rho = np.zeros(n)
+        self._last = np.zeros(n)
+        self._stuck_left = np.zeros(n, dtype=np.int64)
+        self._stuck_samples = round(params.stuck_duration_s * params.rate_hz)
+        a = params.alpha_per_s
+        self._gain = 1.0 if a is None else 1.0 - math.exp(-a * self.period_s)
+
+    def sample(self, true_conc: NDArray[np.float64]) -> NDArray[np.float64]:
+        """One sample per vehicle from the true concentration at the sensors (N,) → (N,).
+
+        The filter is advanced by one sample period with the input held (exact for a
+        piecewise-constant input).
+        """
+        p = self.params
+        normal, uniform = self._bank.draw()
+        self._rho += self._gain * (true_conc - self._rho)
+        meas = self._rho + p.noise_std * normal[:, 0]
+        out = np.where(meas > p.tau, meas, 0.0)
+        stuck = self._stuck_left > 0
+        out = np.where(stuck, self._last, out)
+        self._stuck_left = np.where(stuck, self._stuck_left - 1, self._stuck_left)
+        start = ~stuck & (uniform[:, 1] < p.stuck_prob)
+        self._stuck_left = np.where(start, self._stuck_samples, self._stuck_left)
+        self._last = out
+        return np.where(uniform[:, 0] < p.dropout_prob, np.nan, out)
+
+
+class ADCPParams(BaseModel):
+    """Flow sensor settings (TRO: 0.5 Hz, flow relative to earth)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    rate_hz: float = Field(0.5, gt=0.0, description="Sample rate, Hz.")
+    noise_std_mps: float = Field(0.02, ge=0.0, description="Gaussian noise std per axis, m/s.")
+
+
+class ADCP:
+    """Earth-relative flow at each vehicle plus Gaussian noise.
+
+    Args:
+        params: Sensor settings.
+        rngs: One generator per vehicle.
+    """
+
+    def __init__(self, params: ADCPParams, rngs: Sequence[np.random.Generator]) -> None:
+        self.params = params
+        self.period_s = 1.0 / params.rate_hz
+        self._bank = NoiseBank(rngs, n_normal=2, n_uniform=0)
+
+    def sample(self, true_flow: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Noisy flow (N, 2) from the true flow at the vehicles (N, 2)."""
+        normal, _ = self._bank.draw()
+        return true_flow + self.params.noise_std_mps * normal
+
+
+class NavigationParams(BaseModel):
+    """Position estimate settings: slow dead-reckoning drift reset by LBL fixes (TRO V)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    drift_std_m: float = Field(3.0, ge=0.0, description="Stationary std of the drift, per axis, m.")
+    drift_tau_s: float = Field(300.0, gt=0.0, description="Correlation time of the drift, s.")
+    fix_rate_per_s: float = Field(
+        1.0 / 120.0, ge=0.0, description="Mean rate of LBL fixes (Poisson), 1/s."
+    )
+    fix_std_m: float = Field(0.5, ge=0.0, description="Error just after a fix, per axis, m.")
+    heading_noise_std_deg: float = Field(0.0, ge=0.0, description="Heading estimate noise, deg.")
+
+
+class Navigation:
+    """Estimated position = true position + error; the error drifts and jumps at LBL fixes.
+
+    The error is a first-order Gauss–Markov process (std ``drift_std_m``, time constant
+    ``drift_tau_s``). At Poisson fix times it is reset to ``N(0, fix_std_m²)``, so the estimate
+    jumps by about the accumulated drift — the discontinuities TRO Figs. 11–12 show.
+
+    Args:
+        params: Navigation settings.
+        rngs: One generator per vehicle.
+    """
+
+    def __init__(self, params: NavigationParams, rngs: Sequence[np.random.Generator]) -> None:
+        self.params = params
+        n = len(rngs)
+        self._bank = NoiseBank(rngs, n_normal=5, n_uniform=1)
+        self.error = np.zeros((n, 2))
+        self.fixes = 0
+
+    def step(
+        self, dt: float, true_xy: NDArray[np.float64], true_heading_deg: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Advance the error by ``dt``; return (estimated xy (N, 2), estimated heading (N,))."""
+        p = self.params
+        normal, uniform = self._bank.draw()
+        phi = math.exp(-dt / p.drift_tau_s)
+        self.error = phi * self.error + p.drift_std_m * math.sqrt(1 - phi**2) * normal[:, 0:2]
+        fix = uniform[:, 0] < 1.0 - math.exp(-p.fix_rate_per_s * dt)
+        if fix.any():
+            self.error = np.where(fix[:, None], p.fix_std_m * normal[:, 2:4], self.error)
+            self.fixes += int(np.count_nonzero(fix))
+        heading = true_heading_deg + p.heading_noise_std_deg * normal[:, 4]
+        return true_xy + self.error, heading

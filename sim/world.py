@@ -1,0 +1,278 @@
+"""The simulated world: flow, plume, vehicles and sensors stepped together.
+
+The world knows nothing of the planner. An application layer loops::
+
+    out = world.step()            # sensor samples due this step
+    ...feed the planner...
+    world.set_commands(heading_deg, speed_mps)
+
+Random streams: the environment (flow + plume) draws from one generator; each vehicle's sensors
+draw from that vehicle's own generator (split into fluorometer / ADCP / navigation children), so
+vehicle i's noise is the same whether it is alone or one of a hundred. The plume is sampled at the
+true positions; the planner sees the navigation estimate.
+
+The flow and plume are stepped every ``plume_dt_s`` (rounded to a whole number of vehicle steps):
+puffs move ``U·plume_dt`` per plume step, small against the puff spacing and radius for the
+presets (ocean: 0.1 m per 1 s step; AB: 0.05 m per 0.05 s step), and the vehicle steps and
+sensor samples happen at ``dt_s`` in between.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from .flow import Domain, FlowParams, make_flow
+from .plume import PlumeParams, PuffPlume
+from .sensors import (
+    ADCP,
+    ADCPParams,
+    Fluorometer,
+    FluorometerParams,
+    Navigation,
+    NavigationParams,
+)
+from .vehicle import VehicleParams, Vehicles
+
+EnvPreset = Literal["tro_ocean", "ab_small_meander", "ab_large_meander"]
+
+
+class EnvironmentParams(BaseModel):
+    """Everything the simulator needs: the ``environment:`` section of a mission file.
+
+    Defaults are the TRO ocean setup (MSN007r2): a 254 × 112 m OpArea with x along its long axis
+    (compass 133°), the source at N 43 m, E -55 m → (-70, 6) in the planning frame, and a
+    ~0.1 m/s flow toward compass ~135° → +2° in the planning frame.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    area_m: tuple[float, float, float, float] = Field(
+        (-127.0, 127.0, -56.0, 56.0), description="Area of interest (xmin, xmax, ymin, ymax), m."
+    )
+    source_xy_m: tuple[float, float] = (-70.0, 6.0)
+    flow: FlowParams = FlowParams(preset="ocean")
+    plume: PlumeParams = PlumeParams(preset="ocean")
+    vehicle: VehicleParams = VehicleParams()
+    fluorometer: FluorometerParams = FluorometerParams()
+    adcp: ADCPParams = ADCPParams()
+    navigation: NavigationParams = NavigationParams()
+    dt_s: float = Field(1.0 / 9.0, gt=0.0, description="Vehicle step, s.")
+    plume_dt_s: float = Field(1.0, gt=0.0, description="Flow and plume step, s (≥ dt_s).")
+    warm_up_s: float | None = Field(
+        None, ge=0.0, description="Plume spin-up before t = 0, s; None = time to cross the domain."
+    )
+    seed: int | None = Field(0, description="Seed for all streams when none are passed in.")
+
+    @model_validator(mode="after")
+    def _check(self) -> EnvironmentParams:
+        xmin, xmax, ymin, ymax = self.area_m
+        if not (xmin < xmax and ymin < ymax):
+            raise ValueError(f"area_m must be (xmin, xmax, ymin, ymax), got {self.area_m}")
+        if self.plume_dt_s < self.dt_s:
+            raise ValueError("plume_dt_s must be at least dt_s")
+        if self.dt_s > 1.0 / self.fluorometer.rate_hz + 1e-12:
+            raise ValueError("dt_s must not exceed the fluorometer sample period")
+        return self
+
+    @classmethod
+    def preset(cls, name: EnvPreset, **overrides: Any) -> EnvironmentParams:
+        """Named setups: ``"tro_ocean"`` (the defaults) or AB's 100 × 100 m meander setups.
+
+        AB: area x 0–100, y -50–50 m, source (20, 0), flow 1 m/s toward +x, first-order heading
+        with a = 5, 20 Hz sampling; the speed is set by the planner's command.
+        """
+        if name == "tro_ocean":
+            base: dict[str, Any] = {}
+        else:
+            base = dict(
+                area_m=(0.0, 100.0, -50.0, 50.0),
+                source_xy_m=(20.0, 0.0),
+                flow=FlowParams(preset=name.removeprefix("ab_")),  # type: ignore[arg-type]
+                plume=PlumeParams(preset="ab"),
+                vehicle=VehicleParams(
+                    heading_mode="first_order",
+                    initial_speed_mps=1.0,
+                    min_speed_mps=0.0,
+                    max_speed_mps=5.0,
+                ),
+                fluorometer=FluorometerParams(rate_hz=20.0),
+                adcp=ADCPParams(rate_hz=20.0, noise_std_mps=0.05),
+                navigation=NavigationParams(drift_std_m=0.0, fix_rate_per_s=0.0, fix_std_m=0.0),
+                dt_s=0.05,
+                plume_dt_s=0.05,
+            )
+        return cls.model_validate({**base, **overrides})
+
+
+@dataclass(frozen=True)
+class StepOutput:
+    """What the vehicles' sensors report at the end of one step.
+
+    Attributes:
+        t_s: Mission time at the end of the step, s.
+        fluorometer: Concentration samples (N,) if a sample was due, else None.
+        adcp_flow: Earth-relative flow (N, 2) if a sample was due, else None.
+        nav_xy: Estimated positions (N, 2) (what the planner sees).
+        nav_heading_deg: Estimated headings (N,).
+        true_xy: True positions (N, 2) (for metrics, not for the planner).
+        true_heading_deg: True headings (N,).
+    """
+
+    t_s: float
+    fluorometer: NDArray[np.float64] | None
+    adcp_flow: NDArray[np.float64] | None
+    nav_xy: NDArray[np.float64]
+    nav_heading_deg: NDArray[np.float64]
+    true_xy: NDArray[np.float64]
+    true_heading_deg: NDArray[np.float64]
+
+
+class _Schedule:
+    """Sample instants k·period on the step grid: due when the step's end passes one."""
+
+    def __init__(self, period_s: float) -> None:
+        self.period_s = period_s
+        self.next_k = 1
+
+    def due(self, t_s: float) -> bool:
+        if t_s + 1e-9 >= self.next_k * self.period_s:
+            self.next_k = math.floor((t_s + 1e-9) / self.period_s) + 1
+            return True
+        return False
+
+
+def vehicle_rngs_from_seed(seed: int | None, n: int) -> list[np.random.Generator]:
+    """Per-vehicle generators; vehicle i's is the same for any ``n``."""
+    root = np.random.SeedSequence(seed).spawn(2)[1]
+    return [np.random.default_rng(s) for s in root.spawn(n)]
+
+
+def env_rng_from_seed(seed: int | None) -> np.random.Generator:
+    """The environment generator derived from ``seed``."""
+    return np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[0])
+
+
+class World:
+    """Flow, plume, N vehicles and their sensors.
+
+    Args:
+        params: Environment settings.
+        xy: Initial true vehicle positions (N, 2), m.
+        heading_deg: Initial headings (N,) or a scalar, degrees.
+        env_rng: Generator for flow and plume; from ``params.seed`` if None.
+        vehicle_rngs: One generator per vehicle; from ``params.seed`` if None.
+    """
+
+    def __init__(
+        self,
+        params: EnvironmentParams,
+        xy: NDArray[np.float64],
+        heading_deg: NDArray[np.float64] | float = 0.0,
+        env_rng: np.random.Generator | None = None,
+        vehicle_rngs: Sequence[np.random.Generator] | None = None,
+    ) -> None:
+        self.params = params
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        n = len(xy)
+        env_rng = env_rng if env_rng is not None else env_rng_from_seed(params.seed)
+        if vehicle_rngs is None:
+            vehicle_rngs = vehicle_rngs_from_seed(params.seed, n)
+        if len(vehicle_rngs) != n:
+            raise ValueError(f"{len(vehicle_rngs)} vehicle generators for {n} vehicles")
+        per_sensor = [g.spawn(3) for g in vehicle_rngs]  # loop at construction only
+        self.flow = make_flow(params.flow, params.area_m, env_rng)
+        self.plume = PuffPlume(params.plume, params.source_xy_m, self.flow, env_rng)
+        heading = np.broadcast_to(np.asarray(heading_deg, dtype=float), (n,))
+        self.vehicles = Vehicles(params.vehicle, xy, heading)
+        self.fluorometer = Fluorometer(params.fluorometer, [s[0] for s in per_sensor])
+        self.adcp = ADCP(params.adcp, [s[1] for s in per_sensor])
+        self.navigation = Navigation(params.navigation, [s[2] for s in per_sensor])
+        self._cmd_heading = self.vehicles.heading_deg.copy()
+        self._cmd_speed = self.vehicles.speed_mps.copy()
+        self._plume_stride = max(1, round(params.plume_dt_s / params.dt_s))
+        self._fluor_sched = _Schedule(self.fluorometer.period_s)
+        self._adcp_sched = _Schedule(self.adcp.period_s)
+        self.steps = 0
+
+    @property
+    def n(self) -> int:
+        """Number of vehicles."""
+        return self.vehicles.n
+
+    @property
+    def t_s(self) -> float:
+        """Mission time, s (0 after warm-up)."""
+        return self.steps * self.params.dt_s
+
+    @property
+    def domain(self) -> Domain:
+        """Region simulated by the flow and plume (the area plus the flow margin)."""
+        return self.flow.domain
+
+    def default_warm_up_s(self) -> float:
+        """Time for the mean flow to carry a puff across the simulated domain."""
+        xmin, xmax, ymin, ymax = self.domain
+        speed = max(float(np.hypot(*self.flow.mean_velocity)), 1e-3)
+        return math.hypot(xmax - xmin, ymax - ymin) / speed
+
+    def warm_up(self, seconds: float | None = None) -> None:
+        """Spin the flow and plume up (vehicles and sensors frozen, mission time unchanged).
+
+        Args:
+            seconds: Spin-up time; ``params.warm_up_s`` or ``default_warm_up_s()`` if None.
+        """
+        if seconds is None:
+            seconds = self.params.warm_up_s
+        if seconds is None:
+            seconds = self.default_warm_up_s()
+        h = self._plume_stride * self.params.dt_s
+        for _ in range(math.ceil(seconds / h)):
+            self.flow.step(h)
+            self.plume.step(h)
+
+    def set_commands(
+        self, heading_deg: NDArray[np.float64], speed_mps: NDArray[np.float64]
+    ) -> None:
+        """Commanded heading (N,) and speed (N,), held until changed; NaN = hold present value."""
+        self._cmd_heading = np.broadcast_to(np.asarray(heading_deg, dtype=float), (self.n,)).copy()
+        self._cmd_speed = np.broadcast_to(np.asarray(speed_mps, dtype=float), (self.n,)).copy()
+
+    def concentration_at(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """True instantaneous concentration at points (M, 2) (for plots and metrics)."""
+        return self.plume.concentration(xy)
+
+    def step(self) -> StepOutput:
+        """Advance everything by ``dt_s`` and return the samples due at the end of the step."""
+        dt = self.params.dt_s
+        if self.steps % self._plume_stride == 0:
+            h = self._plume_stride * dt
+            self.flow.step(h)
+            self.plume.step(h)
+        veh = self.vehicles
+        current = self.flow.velocity_at(veh.xy)
+        veh.step(dt, self._cmd_heading, self._cmd_speed, current)
+        self.steps += 1
+        t = self.t_s
+        fluor = None
+        if self._fluor_sched.due(t):
+            fluor = self.fluorometer.sample(self.plume.concentration(veh.xy))
+        adcp = None
+        if self._adcp_sched.due(t):
+            adcp = self.adcp.sample(self.flow.velocity_at(veh.xy))
+        nav_xy, nav_heading = self.navigation.step(dt, veh.xy, veh.heading_deg)
+        return StepOutput(
+            t_s=t,
+            fluorometer=fluor,
+            adcp_flow=adcp,
+            nav_xy=nav_xy,
+            nav_heading_deg=nav_heading,
+            true_xy=veh.xy.copy(),
+            true_heading_deg=veh.heading_deg.copy(),
+        )
