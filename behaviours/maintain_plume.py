@@ -1,0 +1,97 @@
+"""Maintain-plume: keep contact with the plume while moving up-flow (SPEC §5; TRO IV-B, OMAE).
+
+Every variant writes the sign of its last cross-flow offset to the blackboard key ``beta_sign``
+(int, ±1), which the cloverleaf reacquire reads to pick its first leaf. Every variant's
+parameters have a ``lambda_s``: the planner's perception declares contact lost after that long
+without a detection, which is what hands control to reacquire-plume.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import py_trees
+from py_trees.common import Access
+from pydantic import Field
+
+from cptbt.angles import bearing_deg, sign, wrap_deg
+from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.registry import BehaviourSpec
+from cptbt.types import Command, Percept
+
+
+class TrackParams(BehaviourParams):
+    """Parameters of TRO track-in / track-out (TRO Table I), shared by both leaves."""
+
+    lambda_s: float = Field(
+        default=8.5, gt=0, description="Contact is lost after this long without a detection, s"
+    )
+    beta_deg: float = Field(
+        default=10.0, ge=0, lt=90, description="|beta|: track-out offset from upflow, deg"
+    )
+
+
+class TrackIn(PlanBehaviour):
+    """Track-in of TRO IV-B: while detecting, head straight up-flow (``flow_dir + 180``)."""
+
+    family: ClassVar[str] = "maintain_plume"
+    variant: ClassVar[str] = "track_in"
+    Params: ClassVar[type[BehaviourParams]] = TrackParams
+
+    def decide(self, p: Percept) -> Command | None:
+        """Up-flow while this cycle is a detection."""
+        if not p.detected or p.flow is None:
+            return None
+        return self.command(p.flow.upflow_deg)
+
+
+class TrackOut(PlanBehaviour):
+    """Track-out of TRO IV-B: detected within λ but not now; head up-flow, bent toward the plume.
+
+    ``phi = atan2(y_last - y, x_last - x)``, ``dphi = wrap(flow_dir - phi)``,
+    ``beta = beta_mag*sign(dphi)``, ``theta = flow_dir + 180 + beta``: the offset turns the
+    vehicle toward the side of the flow axis through the last detection where it lies. Writes
+    ``sign(beta)`` to ``beta_sign`` on every output.
+    """
+
+    family: ClassVar[str] = "maintain_plume"
+    variant: ClassVar[str] = "track_out"
+    Params: ClassVar[type[BehaviourParams]] = TrackParams
+
+    def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
+        super().__init__(params, **kwargs)
+        self.bb.register_key("beta_sign", access=Access.WRITE)
+
+    def decide(self, p: Percept) -> Command | None:
+        """Up-flow plus ``beta`` toward the last detection's side, while in the plume."""
+        last = p.last_detection
+        if p.detected or not p.in_plume or last is None or p.flow is None:
+            return None
+        flow_dir = p.flow.toward_deg
+        phi = bearing_deg(last.x - p.pose.x, last.y - p.pose.y)
+        beta_sign = sign(wrap_deg(flow_dir - phi))
+        cmd = self.command(flow_dir + 180.0 + beta_sign * self.params.beta_deg)
+        if cmd is not None:
+            self.bb.beta_sign = beta_sign
+        return cmd
+
+
+def _build_track_in_out(params: BehaviourParams, namespace: str) -> py_trees.behaviour.Behaviour:
+    return py_trees.composites.Selector(
+        "maintain_plume",
+        memory=False,
+        children=[TrackIn(params, namespace=namespace), TrackOut(params, namespace=namespace)],
+    )
+
+
+BEHAVIOURS = [
+    BehaviourSpec(
+        family="maintain_plume",
+        variant="track_in_out",
+        params=TrackParams,
+        build=_build_track_in_out,
+        summary="Track-in / track-out of TRO IV-B: up-flow, bent toward the plume after it.",
+        behaviour_classes=(TrackIn, TrackOut),
+        default=True,
+    ),
+]
