@@ -8,8 +8,12 @@ AB §2.2: the velocity (u, v) lives on a coarse regular grid and obeys an advect
 
 whose Dirichlet boundary values are the mean flow plus coloured noise: one first-order
 Gauss–Markov (Ornstein–Uhlenbeck) process per grid corner and component, interpolated linearly
-along the edges. Advection uses first-order upwind differences so the explicit scheme is stable
-for any cell Péclet number; the step is sub-divided to respect the CFL/diffusion limit.
+along the edges. Optionally a spatially uniform coloured-noise velocity is added everywhere
+(``common_noise_std_mps``): large-scale (e.g. tidal) changes that reach the whole area at once,
+which the slow advective response of the grid cannot produce at ocean speeds.
+
+Advection uses first-order upwind differences so the explicit scheme is stable for any cell
+Péclet number; the step is sub-divided to respect the CFL/diffusion limit.
 
 Angles are in degrees from +x toward +y; ``toward`` is where the water goes.
 """
@@ -26,9 +30,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 Domain = tuple[float, float, float, float]
 FlowPreset = Literal["uniform", "small_meander", "large_meander", "ocean"]
 
-# Calibrated with benchmarks/../tests/sim/test_flow.py::test_meander_presets: the 90th percentile
-# of the plume centreline deviation 100 m downflow is ~6 m (small) and ~17 m (large) at 1 m/s;
-# the ocean preset gives a flow direction wandering by ±10–20° over ten minutes (TRO Table II).
+# Calibrated (tests/sim/test_flow.py): the 90th percentile of the plume centreline deviation
+# 100 m downflow is ~6–9 m (small) and ~17–21 m (large) at 1 m/s, AB §2.3; the ocean preset's
+# flow direction wanders by ~10–30° over ten minutes at 0.1 m/s (TRO Table II, MSN007r2).
 _PRESETS: dict[str, dict[str, Any]] = {
     "uniform": dict(
         mean_speed_mps=1.0,
@@ -65,6 +69,8 @@ _PRESETS: dict[str, dict[str, Any]] = {
         diffusivity_m2ps=2.0,
         grid_n=15,
         margin_m=40.0,
+        common_noise_std_mps=0.015,
+        common_corr_time_s=300.0,
     ),
 }
 
@@ -88,6 +94,12 @@ class FlowParams(BaseModel):
     diffusivity_m2ps: float = Field(gt=0.0, description="Eddy diffusivity K of the velocity, m²/s.")
     grid_n: int = Field(ge=3, le=101, description="Grid nodes along the domain's longer side.")
     margin_m: float = Field(ge=0.0, description="Grid extends this far beyond the area, m.")
+    common_noise_std_mps: float = Field(
+        0.0, ge=0.0, description="Std of a spatially uniform noise velocity per axis, m/s."
+    )
+    common_corr_time_s: float = Field(
+        300.0, gt=0.0, description="Correlation time of the uniform noise velocity, s."
+    )
     max_substep_s: float = Field(1.0, gt=0.0, description="Longest internal PDE step, s.")
 
     @model_validator(mode="before")
@@ -193,6 +205,10 @@ class MeanderingFlow:
         self.substep_s = min(params.max_substep_s, 0.8 / rate)
         self._phi = math.exp(-self.substep_s / params.noise_corr_time_s)
         self._kick = sigma * math.sqrt(1.0 - self._phi**2)
+        sig_c = params.common_noise_std_mps
+        self._common = sig_c * rng.standard_normal(2)
+        self._phi_c = math.exp(-self.substep_s / params.common_corr_time_s)
+        self._kick_c = sig_c * math.sqrt(1.0 - self._phi_c**2)
         self._rx = np.linspace(0.0, 1.0, self.nx)
         self._ry = np.linspace(0.0, 1.0, self.ny)
         self._pending_s = 0.0
@@ -213,7 +229,7 @@ class MeanderingFlow:
     @property
     def grid_velocity(self) -> NDArray[np.float64]:
         """Current grid velocities, shape (2, ny, nx), indexed [component, iy, ix] (a copy)."""
-        return self._f.copy()
+        return self._f + self._common[:, None, None]
 
     def step(self, dt: float) -> None:
         """Advance the field by ``dt`` seconds in fixed internal sub-steps.
@@ -241,7 +257,10 @@ class MeanderingFlow:
 
     def _substep(self, h: float) -> None:
         self._noise *= self._phi
-        self._noise += self._kick * self._rng.standard_normal((2, 4))
+        noise = self._rng.standard_normal(10)
+        self._noise += self._kick * noise[:8].reshape(2, 4)
+        self._common *= self._phi_c
+        self._common += self._kick_c * noise[8:]
         self._apply_boundary()
         f = self._f
         c = f[:, 1:-1, 1:-1]
@@ -274,7 +293,7 @@ class MeanderingFlow:
         cc = flat[:, i00 + self.nx]
         d = flat[:, i00 + self.nx + 1]
         out = (a * (1 - wx) + b * wx) * (1 - wy) + (cc * (1 - wx) + d * wx) * wy
-        return out.T
+        return out.T + self._common
 
 
 def expand(area: Domain, margin_m: float) -> Domain:
@@ -298,7 +317,7 @@ def make_flow(
         **overrides: Field values replacing those of the preset.
 
     Returns:
-        A ``UniformFlow`` when the noise is zero, otherwise a ``MeanderingFlow``.
+        A ``UniformFlow`` when both noises are zero, otherwise a ``MeanderingFlow``.
     """
     if isinstance(preset, FlowParams):
         params = preset.model_copy(update=overrides) if overrides else preset
@@ -306,6 +325,6 @@ def make_flow(
     else:
         params = FlowParams(preset=preset, **overrides)  # type: ignore[arg-type]
     grid = expand(domain, params.margin_m)
-    if params.noise_std_mps == 0.0:
+    if params.noise_std_mps == 0.0 and params.common_noise_std_mps == 0.0:
         return UniformFlow(params.mean_speed_mps, params.mean_dir_deg, grid)
     return MeanderingFlow(params, grid, rng)
