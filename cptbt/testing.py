@@ -284,7 +284,7 @@ def check_behaviour(
     node.stop(Status.INVALID)
     base = _base_attrs()
     fresh = spec.build(params, fresh_namespace())
-    TreeHarness(fresh, make_context(area))
+    TreeHarness(fresh, make_context(area, true_source=(20.0, 0.0)))
     for old, new in zip(_leaves(node), _leaves(fresh), strict=True):
         old.initialise()
         new.initialise()

@@ -1,0 +1,130 @@
+"""Commands that inspect missions and behaviours: validate, tree, behaviours, schema."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel
+
+from cptbt.loader import MissionError, load_mission
+from cptbt.mission import MissionBase, mission_model
+from cptbt.planner import Planner
+from cptbt.registry import default_registry
+from cptbt.tree import render_ascii, render_dot
+
+
+def environment_model() -> type[BaseModel] | None:
+    """The simulator's environment model, so mission files are checked in full."""
+    try:
+        from cptbt.sim.world import EnvironmentParams
+    except ImportError:  # the core alone is installed
+        return None
+    return EnvironmentParams  # type: ignore[no-any-return]
+
+
+def load(path: str) -> MissionBase:
+    """Load a mission with the installed behaviours and the simulator's environment model."""
+    return load_mission(path, default_registry(), environment_model())
+
+
+def add_parsers(sub: Any) -> None:
+    """Register the inspection commands."""
+    p = sub.add_parser("validate", help="check mission files", description=cmd_validate.__doc__)
+    p.add_argument("missions", nargs="+", metavar="MISSION", help="mission YAML files")
+    p.add_argument("--dump", action="store_true", help="print each mission as normalised YAML")
+    p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("tree", help="show a mission's behaviour tree", description=cmd_tree.__doc__)
+    p.add_argument("mission", metavar="MISSION")
+    p.add_argument("--dot", metavar="FILE", help="also write the tree as Graphviz dot")
+    p.set_defaults(func=cmd_tree)
+
+    p = sub.add_parser(
+        "behaviours", help="list behaviours, variants and parameters",
+        description=cmd_behaviours.__doc__,
+    )
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=cmd_behaviours)
+
+    p = sub.add_parser(
+        "schema", help="print the mission JSON Schema", description=cmd_schema.__doc__
+    )
+    p.set_defaults(func=cmd_schema)
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    """Validate mission files: every problem as FILE:LINE: path: message; exit 2 if any."""
+    from cptbt.loader import dump_mission
+
+    problems: list[str] = []
+    for path in args.missions:
+        try:
+            mission = load(path)
+        except MissionError as exc:
+            problems.extend(exc.problems)
+            continue
+        if args.dump:
+            print(dump_mission(mission), end="")
+        else:
+            names = ", ".join(f"{e.family}.{e.variant}" for e in mission.entries())
+            print(f"{path}: ok ({mission.name}: {names})")
+    if problems:
+        raise MissionError(problems)
+    return 0
+
+
+def cmd_tree(args: argparse.Namespace) -> int:
+    """Print the arbitration tree a mission builds (highest priority first)."""
+    mission = load(args.mission)
+    planner = Planner(mission)
+    try:
+        print(render_ascii(planner.root), end="")
+        if args.dot:
+            Path(args.dot).write_text(render_dot(planner.root), encoding="utf-8")
+            print(f"wrote {args.dot}")
+    finally:
+        planner.close()
+    return 0
+
+
+def _param_rows(model: type[BaseModel]) -> list[dict[str, Any]]:
+    rows = []
+    for name, field in model.model_fields.items():
+        default = field.get_default(call_default_factory=True)
+        rows.append({"name": name, "default": default, "description": field.description or ""})
+    return rows
+
+
+def cmd_behaviours(args: argparse.Namespace) -> int:
+    """List every behaviour family, its variants (default first) and their parameters."""
+    registry = default_registry()
+    if args.json:
+        out = [
+            {"family": s.family, "variant": s.variant, "default": s.default,
+             "summary": s.summary, "params": _param_rows(s.params)}
+            for s in registry.specs()
+        ]
+        print(json.dumps(out, indent=2, default=str))
+        return 0
+    for family in registry.families():
+        print(f"{family}")
+        for spec in registry.variants(family):
+            mark = " (default)" if spec.default else ""
+            print(f"  {spec.variant}{mark}: {spec.summary}")
+            for row in _param_rows(spec.params):
+                print(f"      {row['name']} = {row['default']!r}  {row['description']}")
+    return 0
+
+
+def cmd_schema(args: argparse.Namespace) -> int:
+    """Print the JSON Schema of mission files (for editor completion and validation)."""
+    model = mission_model(default_registry(), environment_model())
+    schema = model.model_json_schema()
+    schema["title"] = "cptbt mission"
+    json.dump(schema, sys.stdout, indent=2)
+    print()
+    return 0

@@ -1,0 +1,61 @@
+"""The import rules and packaging layout: core ← behaviours, core ← sim, nothing the other way."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from importlib.metadata import files
+from pathlib import Path
+
+import cptbt
+
+CORE = Path(cptbt.__file__).parent
+APP_LAYER = ("cli", "batch")  # may compose the simulator and the planner
+FORBIDDEN = ("cptbt.behaviours", "cptbt.sim")
+
+
+def _core_modules() -> list[Path]:
+    return [
+        p for p in CORE.rglob("*.py")
+        if not p.relative_to(CORE).parts[0].startswith(APP_LAYER) and p.name != "__main__.py"
+    ]
+
+
+def test_core_source_imports_neither_behaviours_nor_sim() -> None:
+    offenders = []
+    for path in _core_modules():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module]
+            offenders += [f"{path.name}: {n}" for n in names if n.startswith(FORBIDDEN)]
+    assert not offenders
+    assert len(_core_modules()) >= 10
+
+
+def test_importing_the_core_loads_neither_behaviours_nor_sim() -> None:
+    modules = sorted(
+        "cptbt." + ".".join(p.relative_to(CORE).with_suffix("").parts)
+        for p in _core_modules() if p.name != "__init__.py"
+    )
+    code = (
+        "import sys\n"
+        + "".join(f"import {m}\n" for m in modules)
+        + f"bad = [m for m in sys.modules if m.startswith({FORBIDDEN!r})]\n"
+        + "assert not bad, bad\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_behaviours_and_sim_install_under_cptbt_only() -> None:
+    import cptbt.behaviours
+    import cptbt.sim
+
+    assert Path(cptbt.behaviours.__file__).parent.name == "behaviours"
+    assert Path(cptbt.sim.__file__).parent.name == "sim"
+    installed = files("cptbt") or []
+    top = {f.parts[0] for f in installed}
+    assert "behaviours" not in top and "sim" not in top, sorted(top)

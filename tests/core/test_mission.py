@@ -1,0 +1,104 @@
+"""Mission files: loading, round-trip, and one-line errors with file, line and field (STYLE 7)."""
+
+from __future__ import annotations
+
+import pytest
+from conftest import scripted_registry
+
+from cptbt.loader import MissionError, dump_mission, load_mission, loads_mission
+
+REG = scripted_registry("safety", "maintain_plume", "find_plume", "move_to_field")
+
+GOOD = """\
+name: demo
+frame: planning
+op_area:
+  corners: [[0, -50], [100, -50], [100, 50], [0, 50]]
+home: [5, 0]
+start: [50, 10]
+speed_mps: 1.0
+cycle_hz: 10
+behaviours:
+  - safety: {}
+  - maintain_plume: {heading_deg: 180}
+  - find_plume: {variant: scripted, active_at: [1, 2]}
+  - move_to_field: {}
+"""
+
+
+def load(text: str):  # type: ignore[no-untyped-def]
+    return loads_mission(text, "m.yaml", REG)
+
+
+def test_good_mission_loads_with_defaults_and_priorities() -> None:
+    m = load(GOOD)
+    assert [e.family for e in m.entries()] == [
+        "safety", "maintain_plume", "find_plume", "move_to_field"
+    ]
+    assert m.entries()[2].params.active_at == (1.0, 2.0)
+    assert m.threshold == 0.2 and m.flow_window_s == 100
+    area = m.op_area_geometry()
+    assert (area.xmin, area.xmax, area.ymin, area.ymax) == (0, 100, -50, 50)
+
+
+def test_round_trip_dump_loads_back_equal() -> None:
+    m = load(GOOD)
+    again = load(dump_mission(m))
+    assert again == m
+    assert dump_mission(again) == dump_mission(m)
+
+
+def test_load_from_file_names_the_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    path = tmp_path / "bad.yaml"
+    path.write_text(GOOD.replace("speed_mps: 1.0", "speed_mps: fast"))
+    with pytest.raises(MissionError) as exc:
+        load_mission(path, REG)
+    assert exc.value.problems == [
+        f"{path}:7: speed_mps: Input should be a valid number, unable to parse string as a number"
+    ]
+
+
+def test_missing_file_is_one_line(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(MissionError) as exc:
+        load_mission(tmp_path / "nope.yaml", REG)
+    assert len(exc.value.problems) == 1 and "nope.yaml:0:" in exc.value.problems[0]
+
+
+BAD = [
+    # (what, edit, expected line prefix, expected fragment)
+    ("unknown top key", lambda s: s + "colour: red\n", "m.yaml:14: colour:", "unknown key"),
+    ("missing field", lambda s: s.replace("home: [5, 0]\n", ""), "m.yaml:1: home:", "required"),
+    ("bad number", lambda s: s.replace("[5, 0]", "[5, x]"), "m.yaml:5: home[1]:", "number"),
+    ("negative speed", lambda s: s.replace("1.0", "-1"), "m.yaml:7: speed_mps:", "greater than 0"),
+    ("three corners", lambda s: s.replace(", [0, 50]]", "]"), "m.yaml:4: op_area.corners:",
+     "at least 4"),
+    ("unknown behaviour", lambda s: s.replace("- safety: {}", "- safty: {}"),
+     "m.yaml:10: behaviours[0]:", "did you mean 'safety'"),
+    ("unknown variant", lambda s: s.replace("variant: scripted", "variant: scriptd"),
+     "m.yaml:12: behaviours[2]:", "did you mean 'scripted'"),
+    ("unknown param", lambda s: s.replace("{heading_deg: 180}", "{headin_deg: 180}"),
+     "m.yaml:11: behaviours[1].maintain_plume.headin_deg:", "unknown key"),
+    ("bad param type", lambda s: s.replace("active_at: [1, 2]", "active_at: soon"),
+     "m.yaml:12: behaviours[2].find_plume.active_at:", "valid tuple"),
+    ("behaviour twice", lambda s: s + "  - safety: {}\n", "m.yaml:1: (top):", "listed twice"),
+    ("entry not a mapping", lambda s: s.replace("- safety: {}", "- safety"),
+     "m.yaml:10: behaviours[0]:", "one mapping"),
+    ("duplicate key", lambda s: s.replace("cycle_hz: 10", "cycle_hz: 10\ncycle_hz: 5"),
+     "m.yaml:9: cycle_hz:", "duplicate key"),
+    ("broken yaml", lambda s: s.replace("[5, 0]", "[5, 0"), "m.yaml:", "(yaml)"),
+    ("unsafe tag", lambda s: s.replace("name: demo", "name: !!python/object/apply:os.getcwd []"),
+     "m.yaml:1: (yaml):", "could not determine a constructor"),
+    ("not a mapping", lambda s: "- just\n- a list\n", "m.yaml:1: (top):", "mapping"),
+    ("empty file", lambda s: "", "m.yaml:1: (top):", "empty"),
+    ("planning area not aligned", lambda s: s.replace("[100, 50]", "[101, 50]"),
+     "m.yaml:1: (top):", "axis-aligned"),
+]
+
+
+@pytest.mark.parametrize(("what", "edit", "where", "fragment"), BAD, ids=[b[0] for b in BAD])
+def test_bad_files_give_one_precise_line(what, edit, where, fragment) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(MissionError) as exc:
+        load(edit(GOOD))
+    problems = exc.value.problems
+    assert any(p.startswith(where) and fragment in p for p in problems), problems
+    assert all("\n" not in p for p in problems)

@@ -1,0 +1,92 @@
+"""Perception of SPEC §2, cycle by cycle."""
+
+import math
+
+import pytest
+
+from cptbt.frames import OpArea
+from cptbt.perception import Perception
+from cptbt.types import Pose
+
+AREA = OpArea(0, 100, -50, 50)
+
+
+def make(lambda_s: float = 2.0) -> Perception:
+    return Perception(AREA, threshold=0.2, lambda_s=lambda_s, flow_window_s=100.0)
+
+
+def test_cycle_takes_the_max_of_its_samples_and_thresholds() -> None:
+    p = make()
+    p.set_pose(Pose(50, 0))
+    for c in (0.05, 0.3, 0.1):
+        p.add_sample(0.0, c)
+    per = p.cycle(1.0)
+    assert per.concentration == 0.3 and per.detected
+    per = p.cycle(2.0)  # no samples: NaN, not a detection
+    assert math.isnan(per.concentration) and not per.detected
+
+
+def test_faulty_samples_are_ignored() -> None:
+    p = make()
+    p.set_pose(Pose(50, 0))
+    p.add_sample(0.0, math.nan)
+    p.add_sample(0.0, math.inf)
+    p.add_sample(0.0, 0.1)
+    per = p.cycle(1.0)
+    assert per.concentration == 0.1 and not per.detected
+
+
+def test_detections_outside_the_oparea_are_ignored() -> None:
+    p = make()
+    p.set_pose(Pose(150, 0))
+    p.add_sample(0.0, 5.0)
+    per = p.cycle(1.0)
+    assert not per.detected and per.last_detection is None and not per.in_op_area
+
+
+def test_contacts_first_detection_and_lost_contacts() -> None:
+    p = make(lambda_s=2.0)
+    script = [  # (t, x, conc)
+        (1, 10, 0.5),   # contact 1 starts: T_first = 1
+        (2, 11, 0.0),
+        (3, 12, 0.5),   # still contact 1 (within λ): last detection at x=12
+        (4, 13, 0.0),
+        (5, 14, 0.0),   # 5 - 3 = 2 <= λ: still in plume
+        (6, 15, 0.0),   # 6 - 3 = 3 > λ: lost, (12, 0) appended
+        (7, 16, 0.5),   # contact 2: T_first = 7
+    ]
+    out = []
+    for t, x, c in script:
+        p.set_pose(Pose(x, 0))
+        p.add_sample(t, c)
+        out.append(p.cycle(t))
+    assert [q.in_plume for q in out] == [True, True, True, True, True, False, True]
+    assert [q.contact_count for q in out] == [1, 1, 1, 1, 1, 1, 2]
+    assert out[3].first_detection_t == 1 and out[6].first_detection_t == 7
+    assert out[5].lost_contacts == ((12.0, 0.0),) or [(q.x, q.y) for q in out[5].lost_contacts] == [
+        (12.0, 0.0)
+    ]
+    assert out[6].last_detection is not None and out[6].last_detection.x == 16
+
+
+def test_flow_is_a_vector_average_over_the_window() -> None:
+    p = make()
+    p.set_pose(Pose(50, 0))
+    # Flow toward +179° and -179°: the angle average would say 0°, the vector average 180°.
+    p.add_flow(0.0, math.cos(math.radians(179)), math.sin(math.radians(179)))
+    p.add_flow(1.0, math.cos(math.radians(-179)), math.sin(math.radians(-179)))
+    per = p.cycle(2.0)
+    assert per.flow is not None and abs(per.flow.toward_deg) == pytest.approx(180)
+    # After 100 s the old samples leave the window.
+    p.add_flow(150.0, 0.0, 0.5)
+    per = p.cycle(150.0)
+    assert per.flow is not None and per.flow.toward_deg == pytest.approx(90)
+    assert per.flow.speed_mps == pytest.approx(0.5)
+
+
+def test_navigation_fault_keeps_last_good_pose() -> None:
+    p = make()
+    p.set_pose(Pose(10, 5, 30))
+    p.set_pose(Pose(math.nan, 0, 0))
+    per = p.cycle(1.0)
+    assert (per.pose.x, per.pose.y, per.pose.heading_deg) == (10, 5, 30)
