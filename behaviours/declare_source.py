@@ -151,4 +151,152 @@ class UpflowClusterDeclare(SourceDeclaration):
         return Point(0.5 * (xmin + xmax), 0.5 * (ymin + ymax))
 
 
-BEHAVIOURS = [BehaviourSpec.of(UpflowClusterDeclare, default=True)]
+class RecentBoxParams(DeclareParams):
+    """Parameters of the first OMAE rule (OMAE "Source Declaration Behavior", v1)."""
+
+    points: int = Field(default=3, ge=1, description="N: most recent lost-contact points used")
+    max_side_m: float = Field(
+        default=4.0, gt=0, description="Declare when the box's length and width are both below, m"
+    )
+
+
+class RecentBoxDeclare(SourceDeclaration):
+    """Declare when the last few lost-contact points fit in a small box (OMAE, first version).
+
+    The box of the last ``points`` lost-contact points (axis-aligned in the planning frame) must
+    have length and width both strictly below ``max_side_m``; the source is declared at its
+    centre.
+
+    Reading chosen: OMAE gives no declared location for this rule; the box centre is TRO's. The
+    rule waits for ``points`` points. It does not need the flow. OMAE reports that it never
+    declared in the field (the box stays long along the flow); it is kept for comparison.
+    """
+
+    variant: ClassVar[str] = "recent_box"
+    Params: ClassVar[type[BehaviourParams]] = RecentBoxParams
+
+    def estimate(self, p: Percept) -> Point | None:
+        """Box centre of the last points when both sides are short enough."""
+        n = self.params.points
+        if len(p.lost_contacts) < n:
+            return None
+        xmin, xmax, ymin, ymax = bounding_box(p.lost_contacts[-n:])
+        limit = self.params.max_side_m
+        if xmax - xmin >= limit or ymax - ymin >= limit:
+            return None
+        return Point(0.5 * (xmin + xmax), 0.5 * (ymin + ymax))
+
+
+class UpflowSpreadParams(DeclareParams):
+    """Parameters of the revised OMAE rule (OMAE "Source Declaration Behavior", v2)."""
+
+    recent_points: int = Field(default=6, ge=1, description="N: lost-contact points considered")
+    cluster_points: int = Field(
+        default=3, ge=1, description="How many of the most up-flow of them must agree"
+    )
+    max_spread_m: float = Field(
+        default=5.0, gt=0, description="Declare when they lie within this along the flow, m"
+    )
+
+    @model_validator(mode="after")
+    def _cluster_fits(self) -> UpflowSpreadParams:
+        if self.cluster_points > self.recent_points:
+            raise ValueError("cluster_points must not exceed recent_points")
+        return self
+
+
+class UpflowSpreadDeclare(SourceDeclaration):
+    """Declare when the most up-flow recent points agree along the flow (OMAE, revised version).
+
+    The last ``recent_points`` lost-contact points are sorted up-flow; when the first
+    ``cluster_points`` lie within ``max_spread_m`` of each other along the flow (the range of their
+    projections on the upflow unit vector), the source is declared.
+
+    Reading chosen: the declared location is the centroid of those points (OMAE does not say);
+    only their along-flow spread is tested, as OMAE writes, so their cross-flow spread may be
+    large. "Within" is inclusive. The rule waits for a full window and needs a flow estimate.
+    """
+
+    variant: ClassVar[str] = "upflow_spread"
+    Params: ClassVar[type[BehaviourParams]] = UpflowSpreadParams
+
+    def estimate(self, p: Percept) -> Point | None:
+        """Centroid of the most up-flow recent points when their along-flow spread is small."""
+        m, k = self.params.recent_points, self.params.cluster_points
+        if p.flow is None or len(p.lost_contacts) < m:
+            return None
+        upflow = p.flow.upflow_deg
+        top = most_upflow_first(p.lost_contacts[-m:], upflow)[:k]
+        ux, uy = unit(upflow)
+        along = [q.x * ux + q.y * uy for q in top]
+        if max(along) - min(along) > self.params.max_spread_m:
+            return None
+        return Point(sum(q.x for q in top) / k, sum(q.y for q in top) / k)
+
+
+class OracleParams(BehaviourParams):
+    """Parameters of the simulation-only oracle declaration (AB appendix)."""
+
+    radius_m: float = Field(
+        default=1.0, gt=0, description="Success when the vehicle is this close to the source, m"
+    )
+
+
+class OracleUnavailableError(RuntimeError):
+    """The oracle was set up without a true source: it only exists inside the simulator."""
+
+
+class OracleDeclare(SourceDeclaration):
+    """Success when the vehicle reaches the true source (AB appendix; simulation benchmarks only).
+
+    When the vehicle (``p.pose``) is within ``radius_m`` of ``context.true_source``, the true
+    source is declared and ``mission_done`` is written at once: the run ends, there is no drive
+    home. :meth:`setup` refuses a context without a true source, so the oracle can never run on a
+    vehicle.
+
+    Reading chosen: after success it keeps heading for the source (it is still the highest plume
+    behaviour) for the cycles the application layer may run before it stops.
+    """
+
+    variant: ClassVar[str] = "oracle"
+    Params: ClassVar[type[BehaviourParams]] = OracleParams
+
+    def setup(self, **kwargs: Any) -> None:
+        """Bind the context; raise unless it carries the simulator's true source.
+
+        Raises:
+            OracleUnavailableError: ``context.true_source`` is None (not a simulation).
+        """
+        super().setup(**kwargs)
+        assert self.context is not None
+        if self.context.true_source is None:
+            raise OracleUnavailableError(
+                f"{self.name} needs the simulator's true source (MissionContext.true_source); "
+                "it is a simulation benchmark and cannot run on a vehicle"
+            )
+
+    def estimate(self, p: Percept) -> Point | None:
+        """The true source once the vehicle is within ``radius_m`` of it."""
+        assert self.context is not None and self.context.true_source is not None
+        source = self.context.true_source
+        return source if p.pose.point.distance_to(source) <= self.params.radius_m else None
+
+    def watch(self, p: Percept) -> None:
+        """Check the success criterion; on success the mission is done at once."""
+        super().watch(p)
+        if self.declared is not None:
+            self.bb.mission_done = True
+
+    def decide(self, p: Percept) -> Command | None:
+        """No output until success; then hold course for the source."""
+        if self.declared is None:
+            return None
+        return self.command(p.pose.point.bearing_to(self.declared))
+
+
+BEHAVIOURS = [
+    BehaviourSpec.of(UpflowClusterDeclare, default=True),
+    BehaviourSpec.of(RecentBoxDeclare),
+    BehaviourSpec.of(UpflowSpreadDeclare),
+    BehaviourSpec.of(OracleDeclare),
+]
