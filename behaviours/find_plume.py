@@ -62,25 +62,18 @@ class _Billiard(PlanBehaviour):
     """Shared bounce mechanics; subclasses give the offsets.
 
     State (kept across pre-emption on purpose, see ``persistent_state``): the cross-flow side to
-    head for (``+1`` toward +y), the offset magnitude, whether the vehicle is currently beyond an
-    x or a y wall (so one excursion is one reflection), and the contact count at the last
-    (re)start.
+    head for (``+1`` toward +y), the offset magnitude, and the contact count at the last
+    (re)start. A reflection sets the state from which wall the vehicle is beyond, not by
+    toggling it, so ticks spent beyond a wall repeat the same reflection: one excursion can
+    never flip the heading back and forth.
     """
 
-    persistent_state: ClassVar[tuple[str, ...]] = (
-        "toward_y",
-        "offset_deg",
-        "beyond_x",
-        "beyond_y",
-        "started_at_contact",
-    )
+    persistent_state: ClassVar[tuple[str, ...]] = ("toward_y", "offset_deg", "started_at_contact")
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
         super().__init__(params, **kwargs)
         self.toward_y = 1
         self.offset_deg = math.nan
-        self.beyond_x = False
-        self.beyond_y = False
         self.started_at_contact: int | None = None
 
     def start_offset_deg(self, x: float, area: OpArea, flow: FlowEstimate) -> float:
@@ -98,20 +91,17 @@ class _Billiard(PlanBehaviour):
             return None
         area = self.context.op_area
         x, y = p.pose.x, p.pose.y
-        beyond_x = x < area.xmin or x > area.xmax
-        beyond_y = y < area.ymin or y > area.ymax
         if self.started_at_contact != p.contact_count:
             # (Re)start: first activation, or find-plume again after a plume contact.
             self.started_at_contact = p.contact_count
             self.toward_y = sign(area.centre.y - y)
             self.offset_deg = self.start_offset_deg(x, area, p.flow)
         else:
-            if beyond_y and not self.beyond_y:
+            if y < area.ymin or y > area.ymax:
                 self.toward_y = sign(area.centre.y - y)
-            if beyond_x and not self.beyond_x:
+            if x < area.xmin or x > area.xmax:
                 upflow_wall = (x < area.xmin) == (sign(p.flow.vx) > 0)
                 self.offset_deg = self.offset_after_x_exit_deg(upflow_wall)
-        self.beyond_x, self.beyond_y = beyond_x, beyond_y
         return self.command(self._heading(p.flow.toward_deg))
 
     def _heading(self, flow_dir: float) -> float:
@@ -139,7 +129,7 @@ class BilliardFindPlume(_Billiard):
     part is the larger y side times the larger x side, so s heads for the larger y side (which
     is sign(eta)) and ``dtheta`` is ``dtheta_down`` when the down-flow side is strictly larger,
     else ``dtheta_up`` (OMAE: toward the farthest corner). "Leaving through a wall" is the
-    estimated position being beyond it; one excursion beyond a wall is one reflection. s itself
+    estimated position being beyond it. s itself
     is recomputed every tick from the current flow, so a turning flow keeps the cross-flow
     motion pointed at the chosen side.
     """
