@@ -8,6 +8,7 @@ without a detection, which is what hands control to reacquire-plume.
 
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import py_trees
@@ -76,6 +77,68 @@ class TrackOut(PlanBehaviour):
         return cmd
 
 
+class CounterTurnParams(BehaviourParams):
+    """Parameters of the OMAE counter-turning tracker.
+
+    OMAE gives no values; the defaults borrow TRO Table I's (the same team's planner a year on):
+    ``L = λ = 8.5 s``, ``B = β = 10°``, and ``T_w = 2L`` so that after its reversal the vehicle
+    has as long to cross back as it had to cross out.
+    """
+
+    hold_s: float = Field(
+        default=8.5, gt=0, description="L: the offset's sign reverses every L s without detection"
+    )
+    beta_deg: float = Field(default=10.0, ge=0, lt=90, description="|B|: offset from upflow, deg")
+    lambda_s: float = Field(
+        default=17.0,
+        gt=0,
+        description="T_w: contact is lost (reacquire takes over) after this long without a "
+        "detection, s",
+    )
+
+
+class CounterTurnTrack(PlanBehaviour):
+    """Counter-turning plume tracker of OMAE "Plume Tracking" (SPEC §5b).
+
+    Heads ``F + 180 + s·B``. For L s after a detection s holds; each further L s without a
+    detection reverses it (the counter-turn); after ``T_w`` (``lambda_s``) s without a detection
+    contact is lost and the behaviour has no output. Writes s to ``beta_sign``.
+
+    Reading chosen: "the sign selected to cause the vehicle to cross the plume" keeps the
+    cross-flow direction the vehicle was moving in at the detection,
+    ``s = sign(wrap(psi - upflow))`` with ``psi`` its heading on the first tick this behaviour
+    sees that detection. The sign belongs to the detection, not to the activation, so it is
+    kept across pre-emption (``persistent_state``).
+    """
+
+    family: ClassVar[str] = "maintain_plume"
+    variant: ClassVar[str] = "counter_turn"
+    Params: ClassVar[type[BehaviourParams]] = CounterTurnParams
+    persistent_state: ClassVar[tuple[str, ...]] = ("crossing_sign", "signed_detection_t")
+
+    def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
+        super().__init__(params, **kwargs)
+        self.bb.register_key("beta_sign", access=Access.WRITE)
+        self.crossing_sign = 1
+        self.signed_detection_t: float | None = None
+
+    def decide(self, p: Percept) -> Command | None:
+        """``upflow + s·B`` while in contact, s reversing every ``hold_s`` without detection."""
+        last = p.last_detection
+        if not p.in_plume or last is None or p.flow is None:
+            return None
+        upflow = p.flow.upflow_deg
+        if self.signed_detection_t != last.t:
+            self.signed_detection_t = last.t
+            self.crossing_sign = sign(wrap_deg(p.pose.heading_deg - upflow))
+        reversals = math.floor(p.since_detection() / self.params.hold_s)
+        beta_sign = -self.crossing_sign if reversals % 2 else self.crossing_sign
+        cmd = self.command(upflow + beta_sign * self.params.beta_deg)
+        if cmd is not None:
+            self.bb.beta_sign = beta_sign
+        return cmd
+
+
 def _build_track_in_out(params: BehaviourParams, namespace: str) -> py_trees.behaviour.Behaviour:
     return py_trees.composites.Selector(
         "maintain_plume",
@@ -94,4 +157,5 @@ BEHAVIOURS = [
         behaviour_classes=(TrackIn, TrackOut),
         default=True,
     ),
+    BehaviourSpec.of(CounterTurnTrack),
 ]
