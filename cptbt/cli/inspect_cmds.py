@@ -10,7 +10,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from cptbt.loader import MissionError, load_mission
+from cptbt.loader import MissionError, format_errors, load_mission, parse_yaml
 from cptbt.mission import MissionBase, mission_model
 from cptbt.planner import Planner
 from cptbt.registry import default_registry
@@ -20,15 +20,29 @@ from cptbt.tree import render_ascii, render_dot
 def environment_model() -> type[BaseModel] | None:
     """The simulator's environment model, so mission files are checked in full."""
     try:
-        from cptbt.sim.world import EnvironmentParams
+        from cptbt.batch.scenario import Environment
     except ImportError:  # the core alone is installed
         return None
-    return EnvironmentParams  # type: ignore[no-any-return]
+    return Environment
 
 
 def load(path: str) -> MissionBase:
-    """Load a mission with the installed behaviours and the simulator's environment model."""
-    return load_mission(path, default_registry(), environment_model())
+    """Load a mission with the installed behaviours and check its simulator settings too.
+
+    Raises:
+        MissionError: one ``FILE:LINE: path: message`` line per problem.
+    """
+    env = environment_model()
+    mission = load_mission(path, default_registry(), env)
+    if env is not None:
+        from cptbt.batch.scenario import check
+
+        error = check(mission)
+        if error is not None:
+            data, lines = parse_yaml(Path(path).read_text(encoding="utf-8"), path)
+            section = data.get("environment") or {}
+            raise MissionError(format_errors(error, section, lines, path, ("environment",)))
+    return mission
 
 
 def add_parsers(sub: Any) -> None:

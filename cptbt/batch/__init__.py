@@ -1,0 +1,1 @@
+"""The application layer that composes the simulator with planners: single runs and studies."""

@@ -1,0 +1,123 @@
+"""The ``environment:`` section of a mission file, and its conversion to simulator settings.
+
+The section is written in the mission's own frame (N-E metres and compass degrees for ``frame:
+ne``; planning metres and degrees for ``frame: planning``); the simulator works in the planning
+frame. Any simulator setting can be overridden by name under ``flow``, ``plume``, ``vehicle``,
+``fluorometer``, ``adcp`` and ``navigation``; unset ones come from the preset.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from cptbt.mission import Coord, MissionBase
+from cptbt.sim.world import EnvironmentParams, EnvPreset
+
+Overrides = dict[str, Any]
+
+
+class Environment(BaseModel):
+    """A simulated environment for a mission."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    preset: EnvPreset = Field(
+        default="tro_ocean",
+        description="Base setup: 'tro_ocean' (REMUS scale, ~0.1 m/s) or AB's 'ab_small_meander' "
+        "/ 'ab_large_meander' (1 m/s, 100 x 100 m)",
+    )
+    source: Coord | None = Field(
+        default=None, description="True source position in the mission frame (default: preset's)"
+    )
+    flow_toward_deg: float | None = Field(
+        default=None,
+        description="Mean flow direction (toward), compass degrees for frame 'ne', planning "
+        "degrees for frame 'planning' (default: preset's)",
+    )
+    flow_speed_mps: float | None = Field(default=None, ge=0, description="Mean flow speed, m/s")
+    launch: Coord | None = Field(
+        default=None, description="Vehicle position at t = 0 (default: the mission start, else home)"
+    )
+    launch_heading_deg: float = Field(
+        default=0.0, description="Vehicle heading at t = 0 (mission-frame convention)"
+    )
+    seed: int = Field(default=0, description="Seed of every random draw of a run")
+    dt_s: float | None = Field(default=None, gt=0, description="Vehicle step, s")
+    plume_dt_s: float | None = Field(default=None, gt=0, description="Flow and plume step, s")
+    warm_up_s: float | None = Field(default=None, ge=0, description="Plume spin-up, s")
+    flow: Overrides = Field(default_factory=dict, description="Flow model overrides")
+    plume: Overrides = Field(default_factory=dict, description="Plume model overrides")
+    vehicle: Overrides = Field(default_factory=dict, description="Vehicle model overrides")
+    fluorometer: Overrides = Field(default_factory=dict, description="Fluorometer overrides")
+    adcp: Overrides = Field(default_factory=dict, description="ADCP overrides")
+    navigation: Overrides = Field(default_factory=dict, description="Navigation error overrides")
+
+
+def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+def environment_of(mission: MissionBase) -> Environment:
+    """The mission's environment section (defaults when it has none)."""
+    env = mission.environment
+    return env if isinstance(env, Environment) else Environment.model_validate(env or {})
+
+
+def to_sim_params(mission: MissionBase, seed: int | None = None) -> EnvironmentParams:
+    """Simulator settings for a mission, in the planning frame.
+
+    Raises:
+        pydantic.ValidationError: an override does not fit the simulator's models (locations are
+            relative to the ``environment`` section).
+    """
+    env = environment_of(mission)
+    area = mission.op_area_geometry()
+    base = EnvironmentParams.preset(env.preset).model_dump()
+    over: dict[str, Any] = {
+        "area_m": (area.xmin, area.xmax, area.ymin, area.ymax),
+        "seed": env.seed if seed is None else seed,
+    }
+    if env.source is not None:
+        src = mission.to_xy(env.source)
+        over["source_xy_m"] = (src.x, src.y)
+    flow: dict[str, Any] = dict(env.flow)
+    if env.flow_toward_deg is not None:
+        flow["mean_dir_deg"] = planning_angle(mission, env.flow_toward_deg)
+    if env.flow_speed_mps is not None:
+        flow["mean_speed_mps"] = env.flow_speed_mps
+    for key in ("dt_s", "plume_dt_s", "warm_up_s"):
+        if getattr(env, key) is not None:
+            over[key] = getattr(env, key)
+    for key in ("plume", "vehicle", "fluorometer", "adcp", "navigation"):
+        over[key] = getattr(env, key)
+    over["flow"] = flow
+    return EnvironmentParams.model_validate(_merge(base, over))
+
+
+def planning_angle(mission: MissionBase, angle_deg: float) -> float:
+    """A mission-frame angle (compass for 'ne') as a planning angle."""
+    if mission.frame == "ne":
+        return mission.op_area_geometry().frame.planning_deg(angle_deg)
+    return angle_deg
+
+
+def launch_pose(mission: MissionBase) -> tuple[float, float, float]:
+    """True planning-frame (x, y, heading) of the vehicle at t = 0."""
+    env = environment_of(mission)
+    where = env.launch or mission.start or mission.home
+    p = mission.to_xy(where)
+    return p.x, p.y, planning_angle(mission, env.launch_heading_deg)
+
+
+def check(mission: MissionBase) -> ValidationError | None:
+    """Validate the simulator settings a mission implies; the error, or None."""
+    try:
+        to_sim_params(mission)
+    except ValidationError as exc:
+        return exc
+    return None
