@@ -38,7 +38,7 @@ class Environment(BaseModel):
     )
     flow_speed_mps: float | None = Field(default=None, ge=0, description="Mean flow speed, m/s")
     launch: Coord | None = Field(
-        default=None, description="Vehicle position at t = 0 (default: the mission start, else home)"
+        default=None, description="Vehicle position at t = 0 (default: mission start, else home)"
     )
     launch_heading_deg: float = Field(
         default=0.0, description="Vehicle heading at t = 0 (mission-frame convention)"
