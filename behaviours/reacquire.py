@@ -15,7 +15,7 @@ from typing import ClassVar
 from py_trees.common import Access
 from pydantic import Field
 
-from cptbt.angles import unit, wrap_deg
+from cptbt.angles import unit
 from cptbt.node import BehaviourParams, PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, FlowEstimate, Percept, Point
@@ -28,6 +28,7 @@ class _WaypointTour(PlanBehaviour):
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
         super().__init__(params, **kwargs)
+        self.bb.register_key("beta_sign", access=Access.READ)
         self.finished_detection_t: float | None = None
         self.waypoints: tuple[Point, ...] = ()
         self.next_index = 0
@@ -41,6 +42,30 @@ class _WaypointTour(PlanBehaviour):
         """The waypoints of one whole tour around ``centre``."""
         raise NotImplementedError
 
+    def triangle(self, centre: Point, flow: FlowEstimate, radius_m: float) -> tuple[Point, ...]:
+        """Three points 120° apart at ``radius_m`` from ``centre``, in visiting order.
+
+        First the up-flow point at ``upflow + 60°·beta_sign`` (blackboard ``beta_sign`` from
+        maintain-plume, +1 when absent), then the other up-flow point at ``upflow - 60°·beta_sign``,
+        then the down-flow point along ``flow_dir``. A point beyond the OpArea is moved to the
+        nearest point of it, so the tour never drives safety to take over again and again.
+        """
+        assert self.context is not None
+        a = self.context.op_area
+        beta_sign = -1 if self.bb.exists("beta_sign") and self.bb.get("beta_sign") == -1 else 1
+        bearings = (
+            flow.upflow_deg + 60.0 * beta_sign,
+            flow.upflow_deg - 60.0 * beta_sign,
+            flow.toward_deg,
+        )
+        return tuple(
+            Point(
+                min(max(centre.x + radius_m * ux, a.xmin), a.xmax),
+                min(max(centre.y + radius_m * uy, a.ymin), a.ymax),
+            )
+            for ux, uy in map(unit, bearings)
+        )
+
     def decide(self, p: Percept) -> Command | None:
         """Steer for the current waypoint while contact is lost and the tour is unfinished."""
         last = p.last_detection
@@ -48,7 +73,6 @@ class _WaypointTour(PlanBehaviour):
             return None
         if not self.waypoints:
             self.waypoints = self.lay_out(last.point, p.flow)
-            self.next_index = 0
         here = p.pose.point
         while (
             self.next_index < len(self.waypoints)
@@ -79,9 +103,8 @@ class CloverleafReacquire(_WaypointTour):
     """Cloverleaf reacquire of TRO IV-C (SPEC §6a), flown ``repeats`` times.
 
     Centre C = the last detection when the behaviour activates. Tips at ``d_leaf`` from C: leaves
-    1 and 2 up-flow at ``upflow ± 60°``, leaf 3 down-flow along ``flow_dir``. The first leaf is
-    the up-flow one at ``upflow + 60°·beta_sign`` (blackboard ``beta_sign`` from maintain-plume,
-    +1 when absent), then the other up-flow leaf, then leaf 3.
+    1 and 2 up-flow at ``upflow ± 60°``, leaf 3 down-flow along ``flow_dir``; the up-flow leaf on
+    the side of the last track-out offset goes first (see :meth:`_WaypointTour.triangle`).
 
     Reading chosen: a leaf is C → tip → C, so the tour starts by returning to C and consecutive
     leaves share C: ``C, a, C, b, C, c, C`` and so on, ending at C. The tips are fixed by the
@@ -94,25 +117,50 @@ class CloverleafReacquire(_WaypointTour):
     variant: ClassVar[str] = "cloverleaf"
     Params: ClassVar[type[BehaviourParams]] = CloverleafParams
 
-    def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
-        super().__init__(params, **kwargs)
-        self.bb.register_key("beta_sign", access=Access.READ)
-
     def lay_out(self, centre: Point, flow: FlowEstimate) -> tuple[Point, ...]:
         """``C`` then ``repeats`` × (tip a, C, tip b, C, tip c, C)."""
-        beta_sign = self.bb.get("beta_sign") if self.bb.exists("beta_sign") else 1
-        side = -1 if beta_sign == -1 else 1
-        d = self.params.d_leaf_m
-        bearings = (
-            wrap_deg(flow.upflow_deg + 60.0 * side),
-            wrap_deg(flow.upflow_deg - 60.0 * side),
-            flow.toward_deg,
-        )
-        leaf: list[Point] = []
-        for b in bearings:
-            ux, uy = unit(b)
-            leaf += [Point(centre.x + d * ux, centre.y + d * uy), centre]
-        return (centre, *leaf * self.params.repeats)
+        tips = self.triangle(centre, flow, self.params.d_leaf_m)
+        leaves = tuple(p for tip in tips for p in (tip, centre))
+        return (centre, *leaves * self.params.repeats)
 
 
-BEHAVIOURS = [BehaviourSpec.of(CloverleafReacquire, default=True)]
+class ThreePointParams(BehaviourParams):
+    """Parameters of the OMAE three-point reacquire (OMAE "Plume Reacquisition")."""
+
+    radius_m: float = Field(
+        default=15.0, gt=0, description="Radius of the circle through P1, P2, P3 about C, m"
+    )
+    visits: int = Field(
+        default=10, ge=1, description="Points visited in turn, P1 P2 P3 P1 ... (OMAE: 10)"
+    )
+    arrive_radius_m: float = Field(
+        default=3.0, gt=0, description="A point counts as reached within this distance, m"
+    )
+
+
+class ThreePointReacquire(_WaypointTour):
+    """Three-point reacquire of OMAE (SPEC §6b): P1 P2 P3 P1 P2 P3 P1 P2 P3 P1, then find-plume.
+
+    P1, P2, P3 lie 120° apart on a circle of ``radius_m`` about the last detection C.
+
+    Reading chosen: OMAE's Fig. 3 is lost from the text; the points are placed like the
+    cloverleaf's tips (SPEC §6a notes the two patterns share their 120° spacing): P1 up-flow at
+    ``upflow + 60°·beta_sign`` (+1 when no maintain variant wrote ``beta_sign``), P2 at
+    ``upflow - 60°·beta_sign``, P3 straight down-flow. The tour goes point to point without
+    returning to C, fixed by the flow estimate at activation.
+    """
+
+    family: ClassVar[str] = "reacquire_plume"
+    variant: ClassVar[str] = "three_point"
+    Params: ClassVar[type[BehaviourParams]] = ThreePointParams
+
+    def lay_out(self, centre: Point, flow: FlowEstimate) -> tuple[Point, ...]:
+        """``visits`` points cycling through P1, P2, P3."""
+        points = self.triangle(centre, flow, self.params.radius_m)
+        return tuple(points[i % 3] for i in range(self.params.visits))
+
+
+BEHAVIOURS = [
+    BehaviourSpec.of(CloverleafReacquire, default=True),
+    BehaviourSpec.of(ThreePointReacquire),
+]
