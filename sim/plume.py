@@ -191,9 +191,10 @@ class PuffPlume:
     def concentration(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
         """Concentration at points ``xy`` (M, 2) → (M,).
 
-        Puffs outside the query points' bounding box grown by ``cutoff_sigmas`` × the largest
-        puff radius are culled first; the rest are summed over all points at once (in chunks of
-        points, to bound memory).
+        A puff contributes only within ``cutoff_sigmas`` × its radius (at most e^{-8} of its peak
+        is lost for the default 4). Puffs outside the query points' bounding box grown by that
+        reach for the largest puff are culled first; the rest are summed over all points at once
+        (in chunks of points, to bound memory).
         """
         q = np.asarray(xy, dtype=float).reshape(-1, 2)
         out = np.zeros(len(q))
@@ -215,11 +216,13 @@ class PuffPlume:
         r2 = self._r2[idx]
         weight = self.params.puff_mass / (2.0 * math.pi * r2)
         inv = -0.5 / r2
+        # Per-puff cut-off too, so a point's value does not depend on the other query points.
+        floor = -0.5 * self.params.cutoff_sigmas**2
         chunk = max(1, 2_000_000 // idx.size)
         for start in range(0, len(q), chunk):
             qs = q[start : start + chunk]
-            d2 = (qs[:, 0:1] - px) ** 2 + (qs[:, 1:2] - py) ** 2
-            out[start : start + chunk] = np.exp(d2 * inv) @ weight
+            expo = ((qs[:, 0:1] - px) ** 2 + (qs[:, 1:2] - py) ** 2) * inv
+            out[start : start + chunk] = np.where(expo > floor, np.exp(expo), 0.0) @ weight
         return out
 
     def snapshot_grid(
