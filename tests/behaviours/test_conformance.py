@@ -1,0 +1,48 @@
+"""Every registered behaviour keeps the rules of ``cptbt.testing.check_behaviour``."""
+
+from __future__ import annotations
+
+import pytest
+
+from cptbt.registry import FAMILIES, default_registry
+from cptbt.testing import check_behaviour
+
+SPECS = default_registry().specs()
+
+
+@pytest.mark.parametrize("spec", SPECS, ids=[s.key for s in SPECS])
+def test_registered_behaviour_conforms(spec) -> None:  # type: ignore[no-untyped-def]
+    check_behaviour(spec)
+
+
+def test_every_tro_family_has_exactly_one_default() -> None:
+    reg = default_registry()
+    for family in FAMILIES:
+        defaults = [s.variant for s in reg.variants(family) if s.default]
+        assert len(defaults) == 1, (family, defaults)
+
+
+def test_registry_holds_every_variant_of_the_papers() -> None:
+    keys = {s.key for s in SPECS}
+    expected = {
+        "safety.oparea",
+        "move_to_field.go_to",
+        "return_home.go_to",
+        "find_plume.billiard",
+        "find_plume.billiard_ab",
+        "maintain_plume.track_in_out",
+        "maintain_plume.counter_turn",
+        "maintain_plume.strategy_1",
+        "maintain_plume.strategy_2",
+        "maintain_plume.strategy_3",
+        "reacquire_plume.cloverleaf",
+        "reacquire_plume.three_point",
+        "reacquire_plume.strategy_1",
+        "reacquire_plume.strategy_2",
+        "reacquire_plume.strategy_3",
+        "declare_source.upflow_cluster",
+        "declare_source.recent_box",
+        "declare_source.upflow_spread",
+        "declare_source.oracle",
+    }
+    assert expected <= keys, sorted(expected - keys)

@@ -1,0 +1,114 @@
+"""The command line as a new user meets it: the shipped missions, bad input, and the README."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+MISSIONS = sorted((ROOT / "missions").glob("*.yaml"))
+
+
+SCRIPT = Path(sys.executable).parent / "cptbt"
+
+
+def cptbt(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
+    """Run the installed console script, as a user would (not ``python -m``, which would put the
+    source folder, without its package-dir mapping, first on ``sys.path``)."""
+    return subprocess.run([str(SCRIPT), *args], cwd=cwd, text=True, capture_output=True,
+                          timeout=300)
+
+
+def test_every_command_has_help() -> None:
+    for cmd in ("validate", "tree", "behaviours", "schema", "run"):
+        res = cptbt(cmd, "--help")
+        assert res.returncode == 0 and "usage: cptbt" in res.stdout, (cmd, res.stderr)
+
+
+@pytest.mark.parametrize("mission", MISSIONS, ids=[m.name for m in MISSIONS])
+def test_shipped_missions_validate(mission: Path) -> None:
+    res = cptbt("validate", str(mission))
+    assert res.returncode == 0, res.stderr
+    assert ": ok (" in res.stdout
+
+
+def test_tree_prints_the_subsumption_order_and_writes_dot(tmp_path: Path) -> None:
+    dot = tmp_path / "amp.dot"
+    res = cptbt("tree", "missions/tro2006_msn007.yaml", "--dot", str(dot))
+    assert res.returncode == 0, res.stderr
+    body = res.stdout.split("subsumption", 1)[1]  # after the watchers
+    order = [n for n in ("safety.oparea", "declare_source.upflow_cluster", "track_in",
+                         "track_out", "reacquire_plume.cloverleaf", "find_plume.billiard",
+                         "move_to_field.go_to") if n in body]
+    assert len(order) == 7
+    positions = [body.index(n) for n in order]
+    assert positions == sorted(positions)
+    assert dot.read_text().startswith("digraph amp {")
+
+
+def test_behaviours_lists_parameters_with_defaults() -> None:
+    res = cptbt("behaviours")
+    assert res.returncode == 0, res.stderr
+    assert re.search(r"lambda_s = 8\.5", res.stdout)
+    assert "cloverleaf (default)" in res.stdout
+    listing = json.loads(cptbt("behaviours", "--json").stdout)
+    assert {"family", "variant", "params"} <= listing[0].keys()
+
+
+def test_schema_is_json_schema_naming_every_family() -> None:
+    res = cptbt("schema")
+    schema = json.loads(res.stdout)
+    text = json.dumps(schema)
+    for family in ("find_plume", "maintain_plume", "reacquire_plume", "declare_source"):
+        assert family in text
+    assert schema["title"] == "cptbt mission"
+
+
+def test_bad_mission_is_one_line_per_problem_exit_2_no_traceback(tmp_path: Path) -> None:
+    text = (ROOT / "missions/tro2006_msn007.yaml").read_text()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace("lambda_s: 8.5", "lambda_s: -1").replace(
+        "flow_speed_mps: 0.1", "flow_speed_mps: 0.1\n  flow: {noise_std_mps: -3}"))
+    for cmd in (("validate", str(bad)), ("tree", str(bad)), ("run", str(bad))):
+        res = cptbt(*cmd)
+        assert res.returncode == 2, (cmd, res.stderr)
+        assert "Traceback" not in res.stderr
+        lines = res.stderr.strip().splitlines()
+        assert lines and all(line.startswith(f"{bad}:") for line in lines), lines
+    res = cptbt("validate", str(bad))
+    assert any("maintain_plume.lambda_s" in line for line in res.stderr.splitlines())
+
+
+def test_environment_override_error_names_its_line(tmp_path: Path) -> None:
+    text = (ROOT / "missions/tro2006_msn007.yaml").read_text()
+    bad = tmp_path / "env.yaml"
+    bad.write_text(text.replace("  seed: 7", "  seed: 7\n  plume: {max_puffs: 0}"))
+    res = cptbt("validate", str(bad))
+    assert res.returncode == 2
+    line = text.count("\n", 0, text.index("  seed: 7")) + 2
+    assert f"{bad}:{line}: environment.plume.max_puffs:" in res.stderr, res.stderr
+
+
+def test_missing_mission_file_is_exit_2() -> None:
+    res = cptbt("validate", "no/such/file.yaml")
+    assert res.returncode == 2 and "no/such/file.yaml:0:" in res.stderr
+
+
+def test_readme_snippet_runs() -> None:
+    readme = (ROOT / "README.md").read_text()
+    code = readme.split("```python\n", 1)[1].split("```", 1)[0]
+    exec(compile(code, "README.md", "exec"), {})
+
+
+def test_readme_has_the_two_setup_commands_and_ci_runs_the_test_one() -> None:
+    readme = (ROOT / "README.md").read_text()
+    commands = re.findall(r"```bash\n(python3 -m venv[^\n]*)\n```", readme)
+    assert len(commands) == 2
+    assert "cptbt run missions/" in commands[0]
+    test_cmd = commands[1].split("&& ", 2)[-1]
+    assert test_cmd in (ROOT / ".ci/run").read_text()
