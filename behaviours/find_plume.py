@@ -137,6 +137,7 @@ class BilliardFindPlume(_Billiard):
     family: ClassVar[str] = "find_plume"
     variant: ClassVar[str] = "billiard"
     Params: ClassVar[type[BehaviourParams]] = BilliardParams
+    params: BilliardParams
 
     def start_offset_deg(self, x: float, area: OpArea, flow: FlowEstimate) -> float:
         """``dtheta_down`` if the down-flow part of the OpArea is the larger, else ``dtheta_up``."""
@@ -166,6 +167,7 @@ class AppendixBilliardFindPlume(_Billiard):
     family: ClassVar[str] = "find_plume"
     variant: ClassVar[str] = "billiard_ab"
     Params: ClassVar[type[BehaviourParams]] = AppendixBilliardParams
+    params: AppendixBilliardParams
 
     def start_offset_deg(self, x: float, area: OpArea, flow: FlowEstimate) -> float:
         """``|theta_0|``, whatever the position."""

@@ -58,6 +58,7 @@ class TrackOut(PlanBehaviour):
     family: ClassVar[str] = "maintain_plume"
     variant: ClassVar[str] = "track_out"
     Params: ClassVar[type[BehaviourParams]] = TrackParams
+    params: TrackParams
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
         super().__init__(params, **kwargs)
@@ -114,6 +115,7 @@ class CounterTurnTrack(PlanBehaviour):
     family: ClassVar[str] = "maintain_plume"
     variant: ClassVar[str] = "counter_turn"
     Params: ClassVar[type[BehaviourParams]] = CounterTurnParams
+    params: CounterTurnParams
     persistent_state: ClassVar[tuple[str, ...]] = ("crossing_sign", "signed_detection_t")
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:

@@ -21,10 +21,19 @@ from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, FlowEstimate, Percept, Point
 
 
+class TourParams(BehaviourParams):
+    """Parameters every waypoint tour has."""
+
+    arrive_radius_m: float = Field(
+        default=3.0, gt=0, description="A waypoint counts as reached within this distance, m"
+    )
+
+
 class _WaypointTour(PlanBehaviour):
     """A tour of waypoints laid out on activation around the last detection point."""
 
     persistent_state: ClassVar[tuple[str, ...]] = ("finished_detection_t",)
+    params: TourParams
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
         super().__init__(params, **kwargs)
@@ -85,7 +94,7 @@ class _WaypointTour(PlanBehaviour):
         return self.command(here.bearing_to(self.waypoints[self.next_index]))
 
 
-class CloverleafParams(BehaviourParams):
+class CloverleafParams(TourParams):
     """Parameters of the TRO cloverleaf (TRO Table I)."""
 
     d_leaf_m: float = Field(
@@ -94,9 +103,6 @@ class CloverleafParams(BehaviourParams):
         description="Distance from the centre to each leaf tip; must exceed the turning radius, m",
     )
     repeats: int = Field(default=3, ge=1, description="N_re: times the cloverleaf is flown")
-    arrive_radius_m: float = Field(
-        default=3.0, gt=0, description="A waypoint counts as reached within this distance, m"
-    )
 
 
 class CloverleafReacquire(_WaypointTour):
@@ -116,6 +122,7 @@ class CloverleafReacquire(_WaypointTour):
     family: ClassVar[str] = "reacquire_plume"
     variant: ClassVar[str] = "cloverleaf"
     Params: ClassVar[type[BehaviourParams]] = CloverleafParams
+    params: CloverleafParams
 
     def lay_out(self, centre: Point, flow: FlowEstimate) -> tuple[Point, ...]:
         """``C`` then ``repeats`` × (tip a, C, tip b, C, tip c, C)."""
@@ -124,7 +131,7 @@ class CloverleafReacquire(_WaypointTour):
         return (centre, *leaves * self.params.repeats)
 
 
-class ThreePointParams(BehaviourParams):
+class ThreePointParams(TourParams):
     """Parameters of the OMAE three-point reacquire (OMAE "Plume Reacquisition")."""
 
     radius_m: float = Field(
@@ -132,9 +139,6 @@ class ThreePointParams(BehaviourParams):
     )
     visits: int = Field(
         default=10, ge=1, description="Points visited in turn, P1 P2 P3 P1 ... (OMAE: 10)"
-    )
-    arrive_radius_m: float = Field(
-        default=3.0, gt=0, description="A point counts as reached within this distance, m"
     )
 
 
@@ -153,6 +157,7 @@ class ThreePointReacquire(_WaypointTour):
     family: ClassVar[str] = "reacquire_plume"
     variant: ClassVar[str] = "three_point"
     Params: ClassVar[type[BehaviourParams]] = ThreePointParams
+    params: ThreePointParams
 
     def lay_out(self, centre: Point, flow: FlowEstimate) -> tuple[Point, ...]:
         """``visits`` points cycling through P1, P2, P3."""

@@ -8,6 +8,7 @@ wall = xmax). Expected headings are worked out by hand in the comments.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
 import pytest
 from cptbt.behaviours.find_plume import (
@@ -34,7 +35,7 @@ MINUS_X = (-1.0, 0.0)
 
 
 def percepts(
-    path: list[tuple[float, float]], flow: tuple[float, float], hit_at: tuple[int, ...] = ()
+    path: Sequence[tuple[float, float]], flow: tuple[float, float], hit_at: tuple[int, ...] = ()
 ) -> list[Percept]:
     """One percept per point of ``path``, one second apart; a detection at ``hit_at`` ticks."""
     script = ScriptedPerception(square_area(100), flow=flow, lambda_s=1.0)
