@@ -281,8 +281,9 @@ class MeanderingFlow:
         Points outside the grid take the value at the nearest edge.
         """
         xy = np.asarray(xy, dtype=float)
-        fx = np.clip((xy[:, 0] - self.xs[0]) / self.dx, 0.0, self.nx - 1.000001)
-        fy = np.clip((xy[:, 1] - self.ys[0]) / self.dy, 0.0, self.ny - 1.000001)
+        # np.minimum/np.maximum: np.clip's wrapper costs more than the work for a few points.
+        fx = np.minimum(np.maximum((xy[:, 0] - self.xs[0]) / self.dx, 0.0), self.nx - 1.000001)
+        fy = np.minimum(np.maximum((xy[:, 1] - self.ys[0]) / self.dy, 0.0), self.ny - 1.000001)
         ix = fx.astype(np.intp)
         iy = fy.astype(np.intp)
         wx = fx - ix

@@ -98,15 +98,18 @@ class Fluorometer:
         p = self.params
         normal, uniform = self._bank.draw()
         self._rho += self._gain * (true_conc - self._rho)
-        meas = self._rho + p.noise_std * normal[:, 0]
+        meas = self._rho + p.noise_std * normal[:, 0] if p.noise_std else self._rho.copy()
         out = np.where(meas > p.tau, meas, 0.0)
-        stuck = self._stuck_left > 0
-        out = np.where(stuck, self._last, out)
-        self._stuck_left = np.where(stuck, self._stuck_left - 1, self._stuck_left)
-        start = ~stuck & (uniform[:, 1] < p.stuck_prob)
-        self._stuck_left = np.where(start, self._stuck_samples, self._stuck_left)
-        self._last = out
-        return np.where(uniform[:, 0] < p.dropout_prob, np.nan, out)
+        if p.stuck_prob > 0.0:
+            stuck = self._stuck_left > 0
+            out = np.where(stuck, self._last, out)
+            self._stuck_left = np.where(stuck, self._stuck_left - 1, self._stuck_left)
+            start = ~stuck & (uniform[:, 1] < p.stuck_prob)
+            self._stuck_left = np.where(start, self._stuck_samples, self._stuck_left)
+            self._last = out
+        if p.dropout_prob > 0.0:
+            out = np.where(uniform[:, 0] < p.dropout_prob, np.nan, out)
+        return out
 
 
 class ADCPParams(BaseModel):

@@ -98,13 +98,12 @@ class Vehicles:
         cmd_h = np.asarray(cmd_heading_deg, dtype=float)
         cmd_s = np.asarray(cmd_speed_mps, dtype=float)
         cmd_s = np.where(np.isnan(cmd_s), self.speed_mps, cmd_s)
-        self.speed_mps = np.clip(cmd_s, p.min_speed_mps, p.max_speed_mps)
+        self.speed_mps = np.minimum(np.maximum(cmd_s, p.min_speed_mps), p.max_speed_mps)
         err = wrap_deg(np.where(np.isnan(cmd_h), self.heading_deg, cmd_h) - self.heading_deg)
-        if p.heading_mode == "first_order":
-            turn = (1.0 - math.exp(-p.heading_gain_per_s * dt)) * err
-        else:
-            max_turn = np.degrees(self.speed_mps * dt / p.turning_radius_m)
-            turn = np.clip((1.0 - math.exp(-p.heading_gain_per_s * dt)) * err, -max_turn, max_turn)
+        turn = (1.0 - math.exp(-p.heading_gain_per_s * dt)) * err
+        if p.heading_mode == "turn_radius":
+            max_turn = self.speed_mps * (math.degrees(dt) / p.turning_radius_m)
+            turn = np.minimum(np.maximum(turn, -max_turn), max_turn)
         self.heading_deg = wrap_deg(self.heading_deg + turn)
         rad = np.radians(self.heading_deg)
         vx = self.speed_mps * np.cos(rad) + current[:, 0]

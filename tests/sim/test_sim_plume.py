@@ -76,6 +76,8 @@ def test_culled_concentration_matches_the_brute_force_sum() -> None:
     assert np.allclose(plume.concentration(q), brute, rtol=0.0, atol=2e-3)
     assert not np.allclose(plume.concentration(q), 0.5 * brute, rtol=0.0, atol=2e-3)
     assert brute.max() > THRESHOLD  # the comparison covered plume, not empty water
+    # Few points take the bounding-box path, many the cell-bucket path: same values.
+    assert np.allclose(plume.concentration(q[:3]), plume.concentration(q)[:3], rtol=1e-12)
     xs, ys = np.linspace(0, 20, 7), np.linspace(-20, 0, 5)
     gx, gy = np.meshgrid(xs, ys)
     pts = np.column_stack([gx.ravel(), gy.ravel()])
