@@ -3,7 +3,7 @@
 Every variant keeps checking the lost-contact list every cycle in :meth:`watch` (the tree runs it
 even while a higher behaviour such as safety drives) and has no output until it declares; from
 then on it is the highest plume behaviour. The variants differ only in the declaration rule
-(:meth:`SourceDeclaration.estimate`); the go-to-source-then-home action is shared (TRO IV-D).
+(``estimate``); the go-to-source-then-home action is shared (TRO IV-D).
 """
 
 from __future__ import annotations
@@ -48,29 +48,21 @@ def bounding_box(points: Sequence[Point]) -> tuple[float, float, float, float]:
     return min(xs), max(xs), min(ys), max(ys)
 
 
-class SourceDeclaration(PlanBehaviour):
-    """Base of the declaration rules: declare once, then go to the source and on home (TRO IV-D).
+class _Declaration(PlanBehaviour):
+    """Checks a declaration rule every cycle (in :meth:`watch`) until it declares, once.
 
-    After the declaration the heading is ``theta = atan2(y_t - y, x_t - x)``, the target being the
-    declared source until the vehicle is within ``source_radius_m`` of it, then home. Within
-    ``home_radius_m`` of home it writes ``mission_done = True`` and keeps heading home.
-
-    Reading chosen: the switch from source to home is latched (once within ``source_radius_m``,
-    the target stays home even if the vehicle is carried away again), otherwise heading home from
-    inside the 10-m circle would immediately re-target the source. The declaration and the latch
-    are kept across pre-emption (``persistent_state``): a declaration is made once per mission.
+    The declaration is kept across pre-emption (``persistent_state``): it is made once per
+    mission. On declaring it writes ``declared_source`` to the blackboard.
     """
 
     family: ClassVar[str] = "declare_source"
-    Params: ClassVar[type[BehaviourParams]] = DeclareParams
-    persistent_state: ClassVar[tuple[str, ...]] = ("declared", "heading_home")
+    persistent_state: ClassVar[tuple[str, ...]] = ("declared",)
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
         super().__init__(params, **kwargs)
         self.bb.register_key("declared_source", access=Access.WRITE)
         self.bb.register_key("mission_done", access=Access.WRITE)
         self.declared: Point | None = None
-        self.heading_home = False
 
     def initialise(self) -> None:
         """A new activation: nothing to reset, every piece of state is persistent on purpose."""
@@ -88,6 +80,28 @@ class SourceDeclaration(PlanBehaviour):
             self.declared = source
             self.bb.declared_source = source
 
+
+class SourceDeclaration(_Declaration):
+    """Base of the declaration rules: declare once, then go to the source and on home (TRO IV-D).
+
+    After the declaration the heading is ``theta = atan2(y_t - y, x_t - x)``, the target being the
+    declared source until the vehicle is within ``source_radius_m`` of it, then home. Within
+    ``home_radius_m`` of home it writes ``mission_done = True`` and keeps heading home.
+
+    Reading chosen: the switch from source to home is latched (once within ``source_radius_m``,
+    the target stays home even if the vehicle is carried away again), otherwise heading home from
+    inside the 10-m circle would immediately re-target the source. The declaration and the latch
+    are kept across pre-emption (``persistent_state``).
+    """
+
+    Params: ClassVar[type[BehaviourParams]] = DeclareParams
+    params: DeclareParams
+    persistent_state: ClassVar[tuple[str, ...]] = ("declared", "heading_home")
+
+    def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
+        super().__init__(params, **kwargs)
+        self.heading_home = False
+
     def decide(self, p: Percept) -> Command | None:
         """No output until declared; then head for the source, and from within reach, home."""
         assert self.context is not None
@@ -104,22 +118,27 @@ class SourceDeclaration(PlanBehaviour):
         return self.command(here.bearing_to(home))
 
 
-class UpflowClusterParams(DeclareParams):
-    """Parameters of the TRO up-flow cluster rule (TRO IV-D, Table I)."""
+class _UpflowWindowParams(DeclareParams):
+    """Parameters shared by the rules that test the most up-flow of the recent points."""
 
     recent_points: int = Field(default=6, ge=1, description="M: lost-contact points considered")
     cluster_points: int = Field(
-        default=3, ge=1, description="How many of the most up-flow of them form the box"
-    )
-    epsilon_m: float = Field(
-        default=4.0, gt=0, description="Declare when the box diagonal R is at most this, m"
+        default=3, ge=1, description="How many of the most up-flow of them are tested"
     )
 
     @model_validator(mode="after")
-    def _cluster_fits(self) -> UpflowClusterParams:
+    def _cluster_fits(self) -> _UpflowWindowParams:
         if self.cluster_points > self.recent_points:
             raise ValueError("cluster_points must not exceed recent_points")
         return self
+
+
+class UpflowClusterParams(_UpflowWindowParams):
+    """Parameters of the TRO up-flow cluster rule (TRO IV-D, Table I)."""
+
+    epsilon_m: float = Field(
+        default=4.0, gt=0, description="Declare when the box diagonal R is at most this, m"
+    )
 
 
 class UpflowClusterDeclare(SourceDeclaration):
@@ -138,6 +157,7 @@ class UpflowClusterDeclare(SourceDeclaration):
 
     variant: ClassVar[str] = "upflow_cluster"
     Params: ClassVar[type[BehaviourParams]] = UpflowClusterParams
+    params: UpflowClusterParams
 
     def estimate(self, p: Percept) -> Point | None:
         """Box centre of the most up-flow recent points when the box is small enough."""
@@ -174,6 +194,7 @@ class RecentBoxDeclare(SourceDeclaration):
 
     variant: ClassVar[str] = "recent_box"
     Params: ClassVar[type[BehaviourParams]] = RecentBoxParams
+    params: RecentBoxParams
 
     def estimate(self, p: Percept) -> Point | None:
         """Box centre of the last points when both sides are short enough."""
@@ -187,22 +208,12 @@ class RecentBoxDeclare(SourceDeclaration):
         return Point(0.5 * (xmin + xmax), 0.5 * (ymin + ymax))
 
 
-class UpflowSpreadParams(DeclareParams):
+class UpflowSpreadParams(_UpflowWindowParams):
     """Parameters of the revised OMAE rule (OMAE "Source Declaration Behavior", v2)."""
 
-    recent_points: int = Field(default=6, ge=1, description="N: lost-contact points considered")
-    cluster_points: int = Field(
-        default=3, ge=1, description="How many of the most up-flow of them must agree"
-    )
     max_spread_m: float = Field(
         default=5.0, gt=0, description="Declare when they lie within this along the flow, m"
     )
-
-    @model_validator(mode="after")
-    def _cluster_fits(self) -> UpflowSpreadParams:
-        if self.cluster_points > self.recent_points:
-            raise ValueError("cluster_points must not exceed recent_points")
-        return self
 
 
 class UpflowSpreadDeclare(SourceDeclaration):
@@ -219,6 +230,7 @@ class UpflowSpreadDeclare(SourceDeclaration):
 
     variant: ClassVar[str] = "upflow_spread"
     Params: ClassVar[type[BehaviourParams]] = UpflowSpreadParams
+    params: UpflowSpreadParams
 
     def estimate(self, p: Percept) -> Point | None:
         """Centroid of the most up-flow recent points when their along-flow spread is small."""
@@ -246,7 +258,7 @@ class OracleUnavailableError(RuntimeError):
     """The oracle was set up without a true source: it only exists inside the simulator."""
 
 
-class OracleDeclare(SourceDeclaration):
+class OracleDeclare(_Declaration):
     """Success when the vehicle reaches the true source (AB appendix; simulation benchmarks only).
 
     When the vehicle (``p.pose``) is within ``radius_m`` of ``context.true_source``, the true
@@ -260,6 +272,7 @@ class OracleDeclare(SourceDeclaration):
 
     variant: ClassVar[str] = "oracle"
     Params: ClassVar[type[BehaviourParams]] = OracleParams
+    params: OracleParams
 
     def setup(self, **kwargs: Any) -> None:
         """Bind the context; raise unless it carries the simulator's true source.

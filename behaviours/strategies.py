@@ -96,6 +96,7 @@ class StrategyIMaintain(_StrategyMaintain):
 
     variant: ClassVar[str] = "strategy_1"
     Params: ClassVar[type[BehaviourParams]] = StrategyIParams
+    params: StrategyIParams
 
     def steer(self, p: Percept, psi_u: float) -> tuple[float, int]:
         """No offset; the cast sign from the heading's lag behind upflow."""
@@ -158,6 +159,7 @@ class StrategyIIMaintain(_CounterturningMaintain):
 
     variant: ClassVar[str] = "strategy_2"
     Params: ClassVar[type[BehaviourParams]] = StrategyIIParams
+    params: StrategyIIParams
 
     def beta_magnitude(self, p: Percept) -> float:
         """Zero while detecting this cycle, else ``beta_deg``."""
@@ -200,6 +202,7 @@ class StrategyIIIMaintain(_CounterturningMaintain):
 
     variant: ClassVar[str] = "strategy_3"
     Params: ClassVar[type[BehaviourParams]] = StrategyIIIParams
+    params: StrategyIIIParams
 
     def beta_magnitude(self, p: Percept) -> float:
         """``|beta(t)|`` by the schedule on the time since the contact's first detection."""
@@ -234,6 +237,7 @@ class _CrosswindCast(PlanBehaviour):
 
     family: ClassVar[str] = "reacquire_plume"
     Params: ClassVar[type[BehaviourParams]] = CastParams
+    params: CastParams
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
         super().__init__(params, **kwargs)
