@@ -14,6 +14,8 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator, model_validator
 
 from cptbt.frames import OpArea, PlanningFrame
+from cptbt.geodesy import GeoPoint, LocalFrame
+from cptbt.mission_a import MissionASpec
 from cptbt.node import BehaviourParams
 from cptbt.registry import BehaviourSpec, Registry, UnknownBehaviourError
 from cptbt.types import Point
@@ -32,7 +34,13 @@ class OpAreaSpec(BaseModel):
     x_axis_bearing_deg: float | None = Field(
         default=None,
         description="Compass bearing of the planning +x axis (default: along the long side, "
-        "bearing in [0, 180)); only for frame 'ne'",
+        "bearing in [0, 180)); only for frames 'ne' and 'geodetic'",
+    )
+    geodetic_centre_deg: Coord | None = Field(
+        default=None,
+        description="[latitude, longitude] (decimal degrees, WGS-84) of the N-E origin, the "
+        "OpArea centre. Frame 'geodetic': default is the corners' centre; frame 'ne': optional, "
+        "lets outputs report latitude/longitude",
     )
 
 
@@ -43,10 +51,11 @@ class MissionBase(BaseModel):
 
     name: str = Field(min_length=1, description="Mission identifier")
     description: str = ""
-    frame: Literal["ne", "planning"] = Field(
+    frame: Literal["ne", "planning", "geodetic"] = Field(
         default="ne",
         description="Frame of every coordinate in this file: 'ne' = [north, east] metres; "
-        "'planning' = [x, y] metres of an OpArea aligned with x = north",
+        "'planning' = [x, y] metres of an OpArea aligned with x = north; 'geodetic' = "
+        "[latitude, longitude] decimal degrees (WGS-84)",
     )
     op_area: OpAreaSpec
     home: Coord = Field(description="Where the vehicle goes after declaring, in the mission frame")
@@ -60,6 +69,11 @@ class MissionBase(BaseModel):
     time_limit_s: float = Field(default=3600.0, gt=0, description="AMP time limit, s")
     behaviours: list[Any] = Field(min_length=1, description="Behaviours, highest priority first")
     environment: Any = Field(default=None, description="Simulated environment (simulator only)")
+    mission_a: MissionASpec | None = Field(
+        default=None,
+        description="The vehicle's own pre-programmed mission and when the AMP takes over "
+        "(SPEC §9); without it the AMP drives from t = 0",
+    )
 
     @field_validator("op_area")
     @classmethod
@@ -80,21 +94,52 @@ class MissionBase(BaseModel):
     def op_area_geometry(self) -> OpArea:
         """The OpArea in the planning frame."""
         corners = [tuple(c) for c in self.op_area.corners]
+        if self.frame == "geodetic":
+            local = self.local_frame()
+            assert local is not None
+            ne = [local.to_ne(c[0], c[1]) for c in corners]
+            return OpArea.from_ne_corners(ne, self.op_area.x_axis_bearing_deg)
         if self.frame == "ne":
             return OpArea.from_ne_corners(corners, self.op_area.x_axis_bearing_deg)  # type: ignore[arg-type]
-        if self.op_area.x_axis_bearing_deg is not None:
-            raise ValueError("op_area.x_axis_bearing_deg applies to frame 'ne' only")
+        if self.op_area.x_axis_bearing_deg is not None or self.op_area.geodetic_centre_deg:
+            raise ValueError(
+                "op_area.x_axis_bearing_deg and geodetic_centre_deg apply to frames 'ne' and "
+                "'geodetic' only"
+            )
         xs = sorted({c[0] for c in corners})
         ys = sorted({c[1] for c in corners})
         if len(xs) != 2 or len(ys) != 2:
             raise ValueError("in frame 'planning' the OpArea corners must form an axis-aligned box")
         return OpArea(xs[0], xs[1], ys[0], ys[1], PlanningFrame())
 
+    def local_frame(self) -> LocalFrame | None:
+        """The geodetic anchor of the N-E frame, if the mission has one."""
+        centre = self.op_area.geodetic_centre_deg
+        if centre is not None:
+            return LocalFrame(GeoPoint(*centre))
+        if self.frame == "geodetic":
+            return LocalFrame.centred_on([tuple(c) for c in self.op_area.corners])  # type: ignore[misc]
+        return None
+
     def to_xy(self, coord: Coord) -> Point:
         """A coordinate of this file in the planning frame."""
         if self.frame == "planning":
             return Point(float(coord[0]), float(coord[1]))
+        if self.frame == "geodetic":
+            local = self.local_frame()
+            assert local is not None
+            n, e = local.to_ne(coord[0], coord[1])
+            return self.op_area_geometry().frame.ne_to_xy(n, e)
         return self.op_area_geometry().frame.ne_to_xy(coord[0], coord[1])
+
+    def to_ne(self, p: Point) -> tuple[float, float]:
+        """A planning-frame point as North-East metres about the OpArea centre."""
+        return self.op_area_geometry().frame.xy_to_ne(p.x, p.y)
+
+    def to_geodetic(self, p: Point) -> GeoPoint | None:
+        """A planning-frame point as latitude/longitude, or None without a geodetic anchor."""
+        local = self.local_frame()
+        return None if local is None else local.to_geodetic(*self.to_ne(p))
 
     def entries(self) -> list[BehaviourEntry]:
         """The behaviour list, highest priority first."""

@@ -33,7 +33,8 @@ class Environment(BaseModel):
     )
     flow_toward_deg: float | None = Field(
         default=None,
-        description="Mean flow direction (toward), compass degrees for frame 'ne', planning "
+        description="Mean flow direction (toward), compass degrees for frames 'ne' and "
+        "'geodetic', planning "
         "degrees for frame 'planning' (default: preset's)",
     )
     flow_speed_mps: float | None = Field(default=None, ge=0, description="Mean flow speed, m/s")
@@ -100,8 +101,8 @@ def to_sim_params(mission: MissionBase, seed: int | None = None) -> EnvironmentP
 
 
 def planning_angle(mission: MissionBase, angle_deg: float) -> float:
-    """A mission-frame angle (compass for 'ne') as a planning angle."""
-    if mission.frame == "ne":
+    """A mission-frame angle (compass for 'ne' and 'geodetic') as a planning angle."""
+    if mission.frame != "planning":
         return mission.op_area_geometry().frame.planning_deg(angle_deg)
     return angle_deg
 

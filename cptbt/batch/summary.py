@@ -19,23 +19,33 @@ def _path_length(points: list[tuple[float, float]]) -> float:
 
 
 def _where(mission: MissionBase, p: Point | None) -> dict[str, float] | None:
+    """A planning point in planning, N-E and (when the mission has a geodetic anchor) lat/lon."""
     if p is None:
         return None
-    n, e = mission.op_area_geometry().frame.xy_to_ne(p.x, p.y)
-    return {"x": p.x, "y": p.y, "north": n, "east": e}
+    n, e = mission.to_ne(p)
+    out = {"x": p.x, "y": p.y, "north": n, "east": e}
+    geo = mission.to_geodetic(p)
+    if geo is not None:
+        out |= {"lat": geo.lat_deg, "lon": geo.lon_deg}
+    return out
 
 
 def summarise(
-    run: VehicleRun, mission: MissionBase, source: Point, seed: int | None, wall_time_s: float
+    run: VehicleRun,
+    mission: MissionBase,
+    source: Point,
+    seed: int | None,
+    wall_time_s: float,
+    t0: float = 0.0,
 ) -> dict[str, Any]:
     """One run's summary: outcome, times t0–t3, T_F T_T T_D, path lengths D0–D3, errors.
 
     Readings chosen where SPEC is silent: times and D0 use the navigation estimate, as the AMP
     saw it (the declared source is in that frame); path lengths D1–D3 use the true track, so LBL
     jumps do not count as distance travelled; ``error_m`` is the declared source against the true
-    source (for the oracle, the vehicle's distance to the source when it stopped).
+    source (for the oracle, the vehicle's distance to the source when it stopped). ``t0`` is the
+    start of Mission B (the AMP take-over; 0 when the AMP drives from launch).
     """
-    t0 = 0.0
     t1, t3 = run.t1, run.t3
     declared = run.declared
     t2 = None
@@ -79,7 +89,7 @@ def summarise(
         "error_m": error,
         "t0": t0, "t1": t1, "t2": t2, "t3": t3,
         "T_F": span(t0, t1), "T_T": span(t1, t2), "T_D": span(t2, t3),
-        "T_total": span(t0, t3) if t3 is not None else run.t_end,
+        "T_total": span(t0, t3) if t3 is not None else span(t0, run.t_end),
         "D0": d0, "D1": d1, "D2": d2,
         "D3": None if d1 is None or d2 is None else d1 + d2,
         "D1_over_D0": None if not d0 or d1 is None else d1 / d0,

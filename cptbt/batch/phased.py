@@ -1,0 +1,208 @@
+"""A phased single-vehicle run: Mission A, the AMP override, the give-back and the resumed
+Mission A (SPEC §9; TRO Fig. 1), the AMP talking to the simulator only through the vehicle link.
+
+The AMP portion is recorded as a :class:`cptbt.batch.engine.VehicleRun` (times are the mission
+clock; ``t0`` is the take-over), so :func:`cptbt.batch.summary.summarise` and the figures work on
+it unchanged; the whole run's trace carries a ``phase`` column.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from cptbt.batch.engine import TRACE_COLUMNS, VehicleRun
+from cptbt.batch.scenario import environment_of, planning_angle
+from cptbt.batch.sim_link import LinkFaults, SimVehicleLink
+from cptbt.mission import MissionBase
+from cptbt.phases import GIVE_BACK_TRIGGERS, PhaseChange
+from cptbt.planner import Planner
+from cptbt.session import AmpSession
+from cptbt.sim.world import EnvironmentParams, World
+from cptbt.types import Point
+
+PHASED_TRACE_COLUMNS = (*TRACE_COLUMNS, "phase")
+
+_OUTCOME = {
+    "declared_home": "declared",
+    "amp_time_limit": "timeout",
+    "outside_op_area": "relinquished",
+    "watchdog_timeout": "watchdog",
+}
+
+
+@dataclass
+class PhasedRun:
+    """A whole phased run.
+
+    Attributes:
+        amp: the AMP portion (for the TRO measures).
+        timeline: the phase changes.
+        t_amp_start: take-over time (None if the AMP never took over).
+        break_off: where the vehicle was when the override began (planning, navigation frame).
+        resumed_at: where the vehicle was when it resumed Mission A (None if it never did).
+        end_phase: the phase when the run stopped.
+        t_end: the mission clock when the run stopped.
+        refusals: commands the vehicle refused.
+        waypoints: Mission A's waypoints, planning frame.
+        time_in_phase_s: time spent in each phase.
+    """
+
+    amp: VehicleRun
+    timeline: list[PhaseChange]
+    t_amp_start: float | None
+    break_off: tuple[float, float] | None
+    resumed_at: tuple[float, float] | None
+    end_phase: str
+    t_end: float
+    refusals: int
+    waypoints: list[Point]
+    time_in_phase_s: dict[str, float] = field(default_factory=dict)
+
+    def triggers(self) -> list[str]:
+        """The timeline's triggers in order."""
+        return [c.trigger for c in self.timeline]
+
+
+def launch_pose_phased(mission: MissionBase) -> tuple[float, float, float]:
+    """Where a phased run starts: ``environment.launch``, else home (the boat), planning frame."""
+    env = environment_of(mission)
+    p = mission.to_xy(env.launch or mission.home)
+    return p.x, p.y, planning_angle(mission, env.launch_heading_deg)
+
+
+def simulate_phased(
+    mission: MissionBase,
+    params: EnvironmentParams,
+    *,
+    faults: LinkFaults | None = None,
+    trace: bool = False,
+    max_time_s: float | None = None,
+) -> tuple[PhasedRun, World, float]:
+    """Fly a mission with a ``mission_a`` section until post-mission (or ``max_time_s``).
+
+    Returns:
+        The run, the world at the end and the wall time spent.
+    """
+    spec = mission.mission_a
+    if spec is None:
+        raise ValueError(f"mission {mission.name!r} has no mission_a section")
+    wall0 = time.perf_counter()
+    x0, y0, h0 = launch_pose_phased(mission)
+    world = World(params, [[x0, y0]], h0)
+    world.warm_up()
+    source = Point(*params.source_xy_m)
+    waypoints = [mission.to_xy(w) for w in spec.waypoints]
+    link = SimVehicleLink(world, spec, waypoints, faults)
+    planner = Planner(mission, true_source=source)
+    session = AmpSession(mission, planner, link)
+    oracle = any(e.family == "declare_source" and e.variant == "oracle" for e in mission.entries())
+    run = VehicleRun(planner, (x0, y0))
+    rows: dict[str, list[Any]] | None = (
+        {c: [] for c in PHASED_TRACE_COLUMNS} if trace else None
+    )
+    cap = spec.duration_limit_s if max_time_s is None else min(max_time_s, spec.duration_limit_s)
+    period = 1.0 / mission.cycle_hz
+    phase_time: dict[str, float] = {}
+    next_row = 0.0
+    resumed_at = None
+    session.update()
+    while True:
+        phase_before = session.phases.state
+        out = link.step()
+        session.update()
+        t = out.t_s
+        tx, ty = float(out.true_xy[0, 0]), float(out.true_xy[0, 1])
+        ex, ey = float(out.nav_xy[0, 0]), float(out.nav_xy[0, 1])
+        phase_time[phase_before] = phase_time.get(phase_before, 0.0) + world.params.dt_s
+        ticked = session.ticked
+        if session.t_amp_start is not None and run.outcome is None and ticked:
+            _record_amp(run, planner, t, (tx, ty), (ex, ey))
+        if run.outcome is None and session.phases.timeline:
+            last = session.phases.timeline[-1]
+            if last.trigger in GIVE_BACK_TRIGGERS or (
+                session.t_amp_start is not None and last.trigger == "mission_a_complete"
+            ):
+                outcome = _OUTCOME.get(last.trigger, "mission_ended")
+                if outcome == "declared" and oracle:
+                    outcome = "found"
+                if outcome == "timeout" and planner.declared_source is not None:
+                    outcome = "declared"
+                run.outcome, run.t_end = outcome, last.t_s
+                run.error_at_end_m = math.hypot(tx - source.x, ty - source.y)
+                run.declared = planner.declared_source
+                run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
+        if resumed_at is None and session.phases.state == "mission_a.resumed":
+            resumed_at = (ex, ey)
+        if rows is not None and (ticked or t + 1e-9 >= next_row):
+            if t + 1e-9 >= next_row:
+                next_row += period * max(1, math.floor((t + 1e-9 - next_row) / period) + 1)
+            _record_row(rows, out, planner if ticked else None, session.phases.state)
+        if session.phases.state == "post_mission" or t + 1e-9 >= cap:
+            break
+    if run.outcome is None:
+        run.outcome = "amp_not_enabled" if session.t_amp_start is None else "amp_running"
+        run.t_end = session.t
+        run.declared = planner.declared_source
+    run.trace = rows
+    if run.path_true:
+        run.start = run.path_true[0]
+    planner.close()
+    result = PhasedRun(
+        amp=run,
+        timeline=list(session.phases.timeline),
+        t_amp_start=session.t_amp_start,
+        break_off=link.break_off,
+        resumed_at=resumed_at,
+        end_phase=session.phases.state,
+        t_end=session.t,
+        refusals=session.refusals,
+        waypoints=waypoints,
+        time_in_phase_s=phase_time,
+    )
+    return result, world, time.perf_counter() - wall0
+
+
+def _record_amp(
+    run: VehicleRun,
+    planner: Planner,
+    t: float,
+    true_xy: tuple[float, float],
+    est_xy: tuple[float, float],
+) -> None:
+    p = planner.percept
+    assert p is not None
+    name = planner.active or "none"
+    run.time_in[name] = run.time_in.get(name, 0.0) + 1.0 / planner.mission.cycle_hz
+    run.path_t.append(t)
+    run.path_true.append(true_xy)
+    run.path_est.append(est_xy)
+    if p.detected:
+        run.detections.append(est_xy)
+        if run.t1 is None:
+            run.t1 = t
+    if run.t3 is None and planner.declared_source is not None:
+        run.t3 = t
+
+
+def _record_row(
+    rows: dict[str, list[Any]], out: Any, planner: Planner | None, phase: str
+) -> None:
+    p = planner.percept if planner is not None else None
+    cmd = planner.command if planner is not None else None
+    flow = p.flow if p is not None else None
+    row = (
+        out.t_s, float(out.true_xy[0, 0]), float(out.true_xy[0, 1]),
+        float(out.true_heading_deg[0]), float(out.nav_xy[0, 0]), float(out.nav_xy[0, 1]),
+        float(out.nav_heading_deg[0]),
+        p.concentration if p is not None else math.nan,
+        bool(p.detected) if p is not None else False,
+        flow.vx if flow else math.nan, flow.vy if flow else math.nan,
+        (planner.active or "") if planner is not None else "",
+        cmd.heading_deg if cmd else math.nan, cmd.speed_mps if cmd else math.nan,
+        phase,
+    )
+    for col, value in zip(PHASED_TRACE_COLUMNS, row, strict=True):
+        rows[col].append(value)

@@ -1,0 +1,170 @@
+"""The AMP as a guest on the vehicle: phases, planner and vehicle link in one loop.
+
+:class:`AmpSession` is the AMP computer's main loop (OMAE "AMP-REMUS protocols"): it reads what
+the vehicle reports through a :class:`cptbt.link.VehicleLink`, fires the phase triggers of
+:mod:`cptbt.phases` on the vehicle's clock, feeds and ticks the :class:`cptbt.planner.Planner`
+while the AMP has the override, and sends its commands back through the link. It never touches
+the vehicle (or a simulator) any other way.
+
+Readings chosen: flow samples reach the planner in every phase (the AMP hears the vehicle's sensors
+at all times, so its 100 s flow average is ready at the take-over); concentration samples reach it
+only under override, so the first AMP cycle does not condense Mission A samples. The AMP's time
+limit (the mission's ``time_limit_s``) and the 30 m rule are checked by the AMP, the watchdog and
+command limits by the vehicle.
+"""
+
+from __future__ import annotations
+
+import math
+
+from cptbt.link import (
+    CommandRefused,
+    ConcentrationSample,
+    FlowSample,
+    HeadingSpeedCommand,
+    OverrideEnded,
+    OverrideRelease,
+    OverrideRequest,
+    VehicleLink,
+    VehicleState,
+)
+from cptbt.mission import MissionBase
+from cptbt.mission_a import MissionASpec
+from cptbt.phases import MissionPhases
+from cptbt.planner import Planner
+from cptbt.types import Command
+
+RELINQUISH_OUTSIDE_M = 30.0
+"""TRO II: the AMP gives control back when the vehicle is this far outside the OpArea."""
+
+
+class AmpSession:
+    """One AMP run on one vehicle.
+
+    Args:
+        mission: a validated mission with a ``mission_a`` section.
+        planner: the planner the AMP runs while it has the override.
+        link: the connection to the vehicle.
+
+    Attributes:
+        phases: the phase machine and its timeline.
+        state: the latest vehicle state (None before the first).
+        t_amp_start: vehicle time of the take-over (None before it).
+        command: the planner's command this update (None if none or no tick).
+        ticked: whether the planner ticked this update.
+        refusals: how many commands the vehicle refused.
+    """
+
+    def __init__(self, mission: MissionBase, planner: Planner, link: VehicleLink) -> None:
+        if mission.mission_a is None:
+            raise ValueError("an AMP session needs a mission with a mission_a section")
+        self.spec: MissionASpec = mission.mission_a
+        self.mission = mission
+        self.planner = planner
+        self.link = link
+        self.phases = MissionPhases()
+        self.state: VehicleState | None = None
+        self.t_amp_start: float | None = None
+        self.command: Command | None = None
+        self.ticked = False
+        self.refusals = 0
+        self._last_refusal = ""
+        self._period = 1.0 / mission.cycle_hz
+        self._next_tick = math.inf
+
+    @property
+    def t(self) -> float:
+        """The vehicle's clock at its latest report (0 before any)."""
+        return self.state.t_s if self.state is not None else 0.0
+
+    @property
+    def in_override(self) -> bool:
+        """Whether the AMP is driving."""
+        return self.phases.state == "amp.override"
+
+    def update(self) -> None:
+        """Handle every message from the vehicle, fire the triggers due, tick if a cycle is due."""
+        self.command = None
+        self.ticked = False
+        for msg in self.link.receive():
+            self._handle(msg)
+        if self.state is None:
+            return
+        t = self.t
+        if self.phases.state == "mission_a.waypoints" and self._enable_due():
+            self.link.send(OverrideRequest())
+            self.phases.fire("amp_enable", t)
+            self.t_amp_start = t
+            self._next_tick = t
+        if self.in_override and not self._give_back_due() and t + 1e-9 >= self._next_tick:
+            self._next_tick += self._period
+            self._tick(t)
+            self._give_back_due()
+
+    # -- internals --------------------------------------------------------------------------
+    def _handle(self, msg: object) -> None:
+        if isinstance(msg, VehicleState):
+            self.state = msg
+            self._follow_vehicle_mode(msg)
+        elif isinstance(msg, FlowSample):
+            self.planner.add_flow(msg.t_s, msg.vx_mps, msg.vy_mps)
+        elif isinstance(msg, ConcentrationSample):
+            if self.in_override:
+                self.planner.add_sample(msg.t_s, msg.value)
+        elif isinstance(msg, CommandRefused):
+            self.refusals += 1
+            if self.in_override and msg.reason != self._last_refusal:
+                self._last_refusal = msg.reason
+                self.phases.fire("command_refused", msg.t_s, msg.reason)
+        elif isinstance(msg, OverrideEnded) and msg.reason == "watchdog" and self.in_override:
+            self.phases.fire("watchdog_timeout", msg.t_s,
+                             f"no accepted command for {self.spec.watchdog_s:g} s")
+
+    def _follow_vehicle_mode(self, s: VehicleState) -> None:
+        ph = self.phases
+        if ph.state == "pre_launch" and s.mode != "pre_launch":
+            ph.fire("launch", s.t_s)
+        if s.mode == "post_mission" and ph.state != "post_mission":
+            ph.fire("mission_a_complete", s.t_s)
+            return
+        if ph.state == "amp.give_back" and s.mode in ("returning", "mission"):
+            ph.fire("vehicle_returning", s.t_s)
+        if ph.state == "return_to_break_off" and s.mode == "mission":
+            ph.fire("break_off_reached", s.t_s, f"at ({s.x_m:.1f}, {s.y_m:.1f})")
+
+    def _enable_due(self) -> bool:
+        assert self.state is not None
+        if self.spec.amp_enable_s is not None:
+            return self.state.t_s + 1e-9 >= self.spec.amp_enable_s
+        assert self.spec.amp_enable_waypoint is not None
+        return self.state.waypoints_reached > self.spec.amp_enable_waypoint
+
+    def _give_back_due(self) -> bool:
+        """Fire a give-back trigger if one is due; whether the AMP has given back."""
+        if not self.in_override:
+            return True
+        assert self.state is not None and self.t_amp_start is not None
+        t = self.state.t_s
+        trigger, detail = None, ""
+        outside = self.planner.op_area.distance_outside(self.state.x_m, self.state.y_m)
+        if self.planner.done:
+            trigger = "declared_home"
+        elif t - self.t_amp_start + 1e-9 >= self.mission.time_limit_s:
+            trigger, detail = "amp_time_limit", f"{self.mission.time_limit_s:g} s"
+        elif outside > RELINQUISH_OUTSIDE_M:
+            trigger, detail = "outside_op_area", f"{outside:.1f} m outside"
+        if trigger is None:
+            return False
+        self.link.send(OverrideRelease())
+        self.phases.fire(trigger, t, detail)
+        return True
+
+    def _tick(self, t: float) -> None:
+        assert self.state is not None
+        s = self.state
+        self.planner.set_pose(s.x_m, s.y_m, s.heading_deg)
+        cmd = self.planner.tick(t)
+        self.command, self.ticked = cmd, True
+        if cmd is not None:
+            self.link.send(HeadingSpeedCommand(cmd.heading_deg, cmd.speed_mps,
+                                               self.spec.amp_depth_m))
