@@ -32,9 +32,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _optional_command_modules() -> list:  # type: ignore[type-arg]
     """Command groups that need the simulator (present in a full install)."""
-    from cptbt.cli import run_cmd
+    from cptbt.cli import batch_cmd, run_cmd
 
-    return [run_cmd]
+    return [run_cmd, batch_cmd]
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1,0 +1,178 @@
+"""Monte Carlo studies: a mission plus a sweep, split into groups that share a plume.
+
+A study is the product of *configurations* (sweep values), *replicates* (plume realisations) and
+*starts*. A group is one configuration × one replicate: all its starts fly together in one
+vectorised world, as AB's searchers shared one plume. Replicate ``r`` uses the same plume in every
+configuration (common random numbers make variant comparisons paired), and every seed is spawned
+from one root ``SeedSequence`` by position, so results do not depend on the number of workers or
+the order in which groups finish.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import yaml
+
+from cptbt.loader import dump_mission, loads_mission
+from cptbt.mission import MissionBase, mission_to_data
+from cptbt.registry import default_registry
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """One swept setting: mission paths (joined by '+' on the command line) and their values.
+
+    A path is a top-level mission field (``speed_mps``), ``environment.<field>``, or
+    ``<family>.<param>`` of a behaviour. Setting ``<family>.variant`` replaces that behaviour's
+    parameters with the new variant's defaults.
+    """
+
+    paths: tuple[str, ...]
+    values: tuple[Any, ...]
+
+    @classmethod
+    def parse(cls, text: str) -> Sweep:
+        """From ``path[+path...]=v1,v2,...`` (values read as YAML scalars)."""
+        if "=" not in text:
+            raise ValueError(f"--sweep {text!r}: expected PATH=V1,V2,...")
+        left, right = text.split("=", 1)
+        values = tuple(yaml.safe_load(v) for v in right.split(",") if v.strip())
+        if not values:
+            raise ValueError(f"--sweep {text!r}: no values")
+        return cls(tuple(p.strip() for p in left.split("+")), values)
+
+    @property
+    def name(self) -> str:
+        """Column name of this sweep in the results."""
+        return "+".join(self.paths)
+
+
+def apply_setting(data: dict[str, Any], path: str, value: Any) -> None:
+    """Set one path of mission data in place.
+
+    Raises:
+        ValueError: the path names nothing in the mission.
+    """
+    head, _, rest = path.partition(".")
+    if not rest:
+        if head not in data and head not in ("start", "environment"):
+            raise ValueError(f"sweep path {path!r}: no such mission field")
+        data[head] = value
+        return
+    if head == "environment":
+        env = data.setdefault("environment", {}) or {}
+        data["environment"] = env
+        node = env
+        *parents, leaf = rest.split(".")
+        for p in parents:
+            node = node.setdefault(p, {})
+        node[leaf] = value
+        return
+    for entry in data["behaviours"]:
+        if head in entry:
+            body = entry[head]
+            entry[head] = {"variant": value} if rest == "variant" else {**body, rest: value}
+            return
+    raise ValueError(f"sweep path {path!r}: the mission has no {head!r} behaviour")
+
+
+@dataclass(frozen=True)
+class Config:
+    """One point of the sweep: its coordinates and the mission (as validated YAML text)."""
+
+    index: int
+    coords: dict[str, Any]
+    mission_yaml: str
+
+
+def configurations(mission: MissionBase, sweeps: list[Sweep], source: str) -> list[Config]:
+    """Every sweep combination, validated now so a bad value fails before any run."""
+    out = []
+    combos = itertools.product(*(s.values for s in sweeps)) if sweeps else [()]
+    for i, combo in enumerate(combos):
+        data = mission_to_data(mission)
+        coords = {}
+        for sweep, value in zip(sweeps, combo, strict=True):
+            for path in sweep.paths:
+                apply_setting(data, path, value)
+            coords[sweep.name] = value
+        text = yaml.safe_dump(data, sort_keys=False)
+        env = type(mission.environment) if mission.environment is not None else None
+        validated = loads_mission(text, f"{source} [{coords}]", default_registry(), env)
+        out.append(Config(i, coords, dump_mission(validated)))
+    return out
+
+
+def grid_starts(mission: MissionBase, nx: int, ny: int) -> list[tuple[float, float]]:
+    """Cell centres of an ``nx × ny`` grid over the OpArea (planning frame), row by row."""
+    a = mission.op_area_geometry()
+    xs = a.xmin + (np.arange(nx) + 0.5) * (a.xmax - a.xmin) / nx
+    ys = a.ymin + (np.arange(ny) + 0.5) * (a.ymax - a.ymin) / ny
+    return [(float(x), float(y)) for y in ys for x in xs]
+
+
+def line_starts(spec: str, y: float = 0.0) -> list[tuple[float, float]]:
+    """Starts ``(x, y)`` for x from ``X0:X1:STEP`` inclusive (AB Fig. 10: 0:100:1)."""
+    x0, x1, step = (float(v) for v in spec.split(":"))
+    n = math.floor((x1 - x0) / step + 1e-9) + 1
+    return [(x0 + i * step, y) for i in range(n)]
+
+
+@dataclass(frozen=True)
+class GroupTask:
+    """Everything a worker needs to fly one group; picklable, self-contained."""
+
+    config: int
+    replicate: int
+    mission_yaml: str
+    starts: tuple[tuple[float, float], ...]
+    root_seed: int
+    heading_deg: float
+    time_limit_s: float | None = None
+    coords: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def key(self) -> str:
+        """File-name-safe identity of the group."""
+        return f"c{self.config:03d}-r{self.replicate:05d}"
+
+
+@dataclass(frozen=True)
+class Study:
+    """The whole plan of a study."""
+
+    configs: list[Config]
+    starts: list[tuple[float, float]]
+    runs_per_start: int
+    root_seed: int
+    heading_deg: float
+    time_limit_s: float | None
+
+    def tasks(self) -> list[GroupTask]:
+        """One task per configuration × replicate."""
+        return [
+            GroupTask(c.index, r, c.mission_yaml, tuple(self.starts), self.root_seed,
+                      self.heading_deg, self.time_limit_s, c.coords)
+            for c in self.configs for r in range(self.runs_per_start)
+        ]
+
+    @property
+    def total_runs(self) -> int:
+        """Number of missions in the study."""
+        return len(self.configs) * self.runs_per_start * len(self.starts)
+
+
+def group_seeds(root_seed: int, replicate: int, n: int) -> tuple[np.random.Generator,
+                                                                 list[np.random.Generator]]:
+    """The environment generator of a replicate and one generator per start, by position."""
+    env = np.random.default_rng(np.random.SeedSequence(root_seed, spawn_key=(replicate, 0)))
+    vehicles = [
+        np.random.default_rng(np.random.SeedSequence(root_seed, spawn_key=(replicate, 1, i)))
+        for i in range(n)
+    ]
+    return env, vehicles
