@@ -43,6 +43,7 @@ _PRESETS: dict[str, dict[str, Any]] = {
         diffusivity_m2ps=1.0,
         grid_n=11,
         margin_m=20.0,
+        common_noise_std_mps=0.0,
     ),
     "small_meander": dict(
         mean_speed_mps=1.0,
@@ -52,6 +53,7 @@ _PRESETS: dict[str, dict[str, Any]] = {
         diffusivity_m2ps=5.0,
         grid_n=21,
         margin_m=20.0,
+        common_noise_std_mps=0.0,
     ),
     "large_meander": dict(
         mean_speed_mps=1.0,
@@ -61,6 +63,7 @@ _PRESETS: dict[str, dict[str, Any]] = {
         diffusivity_m2ps=5.0,
         grid_n=21,
         margin_m=20.0,
+        common_noise_std_mps=0.0,
     ),
     "ocean": dict(
         mean_speed_mps=0.1,
@@ -77,7 +80,7 @@ _PRESETS: dict[str, dict[str, Any]] = {
 
 
 class FlowParams(BaseModel):
-    """Flow-model settings; unset fields take the values of ``preset``.
+    """Flow-model settings; unset fields take the values of ``preset`` (defaults: ``"ocean"``).
 
     ``FlowParams(preset="large_meander", noise_std_mps=0.4)`` is the large-meander preset with a
     stronger boundary noise.
@@ -86,22 +89,36 @@ class FlowParams(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     preset: FlowPreset = "ocean"
-    mean_speed_mps: float = Field(ge=0.0, description="Mean flow speed, m/s.")
-    mean_dir_deg: float = Field(description="Mean direction the water moves toward, deg from +x.")
-    noise_std_mps: float = Field(
-        ge=0.0, description="Stationary std of each boundary-corner velocity component, m/s."
+    mean_speed_mps: float = Field(default=0.1, ge=0.0, description="Mean flow speed, m/s.")
+    mean_dir_deg: float = Field(
+        default=2.0, description="Mean direction the water moves toward, deg from +x."
     )
-    noise_corr_time_s: float = Field(gt=0.0, description="Correlation time of that noise, s.")
-    diffusivity_m2ps: float = Field(gt=0.0, description="Eddy diffusivity K of the velocity, m²/s.")
-    grid_n: int = Field(ge=3, le=101, description="Grid nodes along the domain's longer side.")
-    margin_m: float = Field(ge=0.0, description="Grid extends this far beyond the area, m.")
+    noise_std_mps: float = Field(
+        default=0.03,
+        ge=0.0,
+        description="Stationary std of each boundary-corner velocity component, m/s.",
+    )
+    noise_corr_time_s: float = Field(
+        default=300.0, gt=0.0, description="Correlation time of that noise, s."
+    )
+    diffusivity_m2ps: float = Field(
+        default=2.0, gt=0.0, description="Eddy diffusivity K of the velocity, m²/s."
+    )
+    grid_n: int = Field(
+        default=15, ge=3, le=101, description="Grid nodes along the domain's longer side."
+    )
+    margin_m: float = Field(
+        default=40.0, ge=0.0, description="Grid extends this far beyond the area, m."
+    )
     common_noise_std_mps: float = Field(
-        0.0, ge=0.0, description="Std of a spatially uniform noise velocity per axis, m/s."
+        default=0.015,
+        ge=0.0,
+        description="Std of a spatially uniform noise velocity per axis, m/s.",
     )
     common_corr_time_s: float = Field(
-        300.0, gt=0.0, description="Correlation time of the uniform noise velocity, s."
+        default=300.0, gt=0.0, description="Correlation time of the uniform noise velocity, s."
     )
-    max_substep_s: float = Field(1.0, gt=0.0, description="Longest internal PDE step, s.")
+    max_substep_s: float = Field(default=1.0, gt=0.0, description="Longest internal PDE step, s.")
 
     @model_validator(mode="before")
     @classmethod

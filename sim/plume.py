@@ -62,20 +62,33 @@ _PRESETS: dict[str, dict[str, Any]] = {
 
 
 class PlumeParams(BaseModel):
-    """Puff-plume settings; unset fields take the values of ``preset``. The source is separate."""
+    """Puff-plume settings; unset fields take the values of ``preset`` (defaults: ``"ocean"``).
+
+    The source position is given separately.
+    """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     preset: PlumePreset = "ocean"
-    release_rate_hz: float = Field(gt=0.0, description="Mean puff release rate (Poisson), 1/s.")
-    puff_mass: float = Field(gt=0.0, description="Mass per puff, concentration units × m².")
-    initial_radius_m: float = Field(gt=0.0, description="Puff radius r0 at release, m.")
-    spread_rate_m2ps: float = Field(ge=0.0, description="Growth rate of r², m²/s.")
-    centre_rel_diffusivity_m2ps: float = Field(
-        ge=0.0, description="Centre-relative random-walk diffusivity K_c, m²/s."
+    release_rate_hz: float = Field(
+        default=0.5, gt=0.0, description="Mean puff release rate (Poisson), 1/s."
     )
-    max_puffs: int = Field(gt=0, description="Capacity; releases are skipped when full.")
-    cutoff_sigmas: float = Field(4.0, gt=0.0, description="Puffs beyond this many r are ignored.")
+    puff_mass: float = Field(
+        default=0.8, gt=0.0, description="Mass per puff, concentration units × m²."
+    )
+    initial_radius_m: float = Field(
+        default=0.2, gt=0.0, description="Puff radius r0 at release, m."
+    )
+    spread_rate_m2ps: float = Field(default=0.0003, ge=0.0, description="Growth rate of r², m²/s.")
+    centre_rel_diffusivity_m2ps: float = Field(
+        default=0.03, ge=0.0, description="Centre-relative random-walk diffusivity K_c, m²/s."
+    )
+    max_puffs: int = Field(
+        default=8000, gt=0, description="Capacity; releases are skipped when full."
+    )
+    cutoff_sigmas: float = Field(
+        default=4.0, gt=0.0, description="Puffs beyond this many r are ignored."
+    )
 
     @model_validator(mode="before")
     @classmethod
@@ -95,9 +108,10 @@ class PuffPlume:
     Args:
         params: Plume settings.
         source_xy: Source position (x, y), m.
-        flow: Flow advecting the puffs; its ``domain`` bounds the plume (puffs leaving it are
-            dropped).
+        flow: Flow advecting the puffs.
         rng: Environment generator (release times and random walk).
+        domain: Region (xmin, xmax, ymin, ymax) puffs are dropped outside of; the flow's
+            domain if None.
     """
 
     def __init__(
@@ -106,12 +120,13 @@ class PuffPlume:
         source_xy: tuple[float, float],
         flow: FlowField,
         rng: np.random.Generator,
+        domain: Domain | None = None,
     ) -> None:
         self.params = params
         self.source = np.asarray(source_xy, dtype=float)
         self.flow = flow
         self._rng = rng
-        self.domain: Domain = flow.domain
+        self.domain: Domain = flow.domain if domain is None else domain
         cap = params.max_puffs
         self._xy = np.empty((cap, 2))
         self._r2 = np.empty(cap)
@@ -268,7 +283,7 @@ class PuffPlume:
         contrib = np.where(expo > floor, np.exp(expo), 0.0) * (
             self.params.puff_mass / (2.0 * math.pi) / r2
         )
-        return np.bincount(point, weights=contrib, minlength=len(q))
+        return np.bincount(point, weights=contrib, minlength=len(q)).astype(float)
 
     def snapshot_grid(
         self, xs: NDArray[np.float64], ys: NDArray[np.float64]

@@ -56,17 +56,23 @@ class FluorometerParams(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    rate_hz: float = Field(9.0, gt=0.0, description="Sample rate, Hz.")
+    rate_hz: float = Field(default=9.0, gt=0.0, description="Sample rate, Hz.")
     alpha_per_s: float | None = Field(
-        None, gt=0.0, description="AB low-pass bandwidth alpha, 1/s; None = raw concentration."
+        default=None,
+        gt=0.0,
+        description="AB low-pass bandwidth alpha, 1/s; None = raw concentration.",
     )
-    tau: float = Field(0.0, ge=0.0, description="Output threshold: c = rho if rho > tau else 0.")
-    noise_std: float = Field(0.0, ge=0.0, description="Additive Gaussian noise std.")
-    dropout_prob: float = Field(0.0, ge=0.0, le=1.0, description="Chance a sample is NaN.")
+    tau: float = Field(
+        default=0.0, ge=0.0, description="Output threshold: c = rho if rho > tau else 0."
+    )
+    noise_std: float = Field(default=0.0, ge=0.0, description="Additive Gaussian noise std.")
+    dropout_prob: float = Field(default=0.0, ge=0.0, le=1.0, description="Chance a sample is NaN.")
     stuck_prob: float = Field(
-        0.0, ge=0.0, le=1.0, description="Chance per sample that the output freezes."
+        default=0.0, ge=0.0, le=1.0, description="Chance per sample that the output freezes."
     )
-    stuck_duration_s: float = Field(5.0, ge=0.0, description="How long a frozen output lasts, s.")
+    stuck_duration_s: float = Field(
+        default=5.0, ge=0.0, description="How long a frozen output lasts, s."
+    )
 
 
 class Fluorometer:
@@ -117,8 +123,10 @@ class ADCPParams(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    rate_hz: float = Field(0.5, gt=0.0, description="Sample rate, Hz.")
-    noise_std_mps: float = Field(0.02, ge=0.0, description="Gaussian noise std per axis, m/s.")
+    rate_hz: float = Field(default=0.5, gt=0.0, description="Sample rate, Hz.")
+    noise_std_mps: float = Field(
+        default=0.02, ge=0.0, description="Gaussian noise std per axis, m/s."
+    )
 
 
 class ADCP:
@@ -145,13 +153,21 @@ class NavigationParams(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    drift_std_m: float = Field(3.0, ge=0.0, description="Stationary std of the drift, per axis, m.")
-    drift_tau_s: float = Field(300.0, gt=0.0, description="Correlation time of the drift, s.")
-    fix_rate_per_s: float = Field(
-        1.0 / 120.0, ge=0.0, description="Mean rate of LBL fixes (Poisson), 1/s."
+    drift_std_m: float = Field(
+        default=3.0, ge=0.0, description="Stationary std of the drift, per axis, m."
     )
-    fix_std_m: float = Field(0.5, ge=0.0, description="Error just after a fix, per axis, m.")
-    heading_noise_std_deg: float = Field(0.0, ge=0.0, description="Heading estimate noise, deg.")
+    drift_tau_s: float = Field(
+        default=300.0, gt=0.0, description="Correlation time of the drift, s."
+    )
+    fix_rate_per_s: float = Field(
+        default=1.0 / 120.0, ge=0.0, description="Mean rate of LBL fixes (Poisson), 1/s."
+    )
+    fix_std_m: float = Field(
+        default=0.5, ge=0.0, description="Error just after a fix, per axis, m."
+    )
+    heading_noise_std_deg: float = Field(
+        default=0.0, ge=0.0, description="Heading estimate noise, deg."
+    )
 
 
 class Navigation:

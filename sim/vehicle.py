@@ -33,11 +33,21 @@ class VehicleParams(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     heading_mode: Literal["first_order", "turn_radius"] = "turn_radius"
-    heading_gain_per_s: float = Field(5.0, gt=0.0, description="Heading gain a, 1/s (AB: 5).")
-    turning_radius_m: float = Field(7.5, gt=0.0, description="Tightest turn, m (REMUS 5–10).")
-    min_speed_mps: float = Field(0.25, ge=0.0, description="Slowest through-water speed, m/s.")
-    max_speed_mps: float = Field(2.8, gt=0.0, description="Fastest through-water speed, m/s.")
-    initial_speed_mps: float = Field(1.5, ge=0.0, description="Speed before any command, m/s.")
+    heading_gain_per_s: float = Field(
+        default=5.0, gt=0.0, description="Heading gain a, 1/s (AB: 5)."
+    )
+    turning_radius_m: float = Field(
+        default=7.5, gt=0.0, description="Tightest turn, m (REMUS 5–10)."
+    )
+    min_speed_mps: float = Field(
+        default=0.25, ge=0.0, description="Slowest through-water speed, m/s."
+    )
+    max_speed_mps: float = Field(
+        default=2.8, gt=0.0, description="Fastest through-water speed, m/s."
+    )
+    initial_speed_mps: float = Field(
+        default=1.5, ge=0.0, description="Speed before any command, m/s."
+    )
 
     @model_validator(mode="after")
     def _check_speeds(self) -> VehicleParams:

@@ -54,7 +54,8 @@ class EnvironmentParams(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     area_m: tuple[float, float, float, float] = Field(
-        (-127.0, 127.0, -56.0, 56.0), description="Area of interest (xmin, xmax, ymin, ymax), m."
+        default=(-127.0, 127.0, -56.0, 56.0),
+        description="Area of interest (xmin, xmax, ymin, ymax), m.",
     )
     source_xy_m: tuple[float, float] = (-70.0, 6.0)
     flow: FlowParams = FlowParams(preset="ocean")
@@ -63,12 +64,14 @@ class EnvironmentParams(BaseModel):
     fluorometer: FluorometerParams = FluorometerParams()
     adcp: ADCPParams = ADCPParams()
     navigation: NavigationParams = NavigationParams()
-    dt_s: float = Field(1.0 / 9.0, gt=0.0, description="Vehicle step, s.")
-    plume_dt_s: float = Field(1.0, gt=0.0, description="Flow and plume step, s (≥ dt_s).")
+    dt_s: float = Field(default=1.0 / 9.0, gt=0.0, description="Vehicle step, s.")
+    plume_dt_s: float = Field(default=1.0, gt=0.0, description="Flow and plume step, s (≥ dt_s).")
     warm_up_s: float | None = Field(
-        None, ge=0.0, description="Plume spin-up before t = 0, s; None = time to cross the domain."
+        default=None,
+        ge=0.0,
+        description="Plume spin-up before t = 0, s; None = time to cross the domain.",
     )
-    seed: int | None = Field(0, description="Seed for all streams when none are passed in.")
+    seed: int | None = Field(default=0, description="Seed for all streams when none are passed in.")
 
     @model_validator(mode="after")
     def _check(self) -> EnvironmentParams:

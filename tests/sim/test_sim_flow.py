@@ -27,6 +27,8 @@ def test_presets_fill_unset_fields_and_overrides_win() -> None:
     assert stronger.noise_corr_time_s == large.noise_corr_time_s
     assert FlowParams().preset == "ocean" and FlowParams().mean_speed_mps == pytest.approx(0.1)
     assert FlowParams.model_validate(large.model_dump()) == large
+    # Field defaults (what the schema documents) are the default "ocean" preset.
+    assert FlowParams.model_construct() == FlowParams(preset="ocean")
     with pytest.raises(ValidationError):
         FlowParams(preset="large_meander", typo_speed=1.0)  # type: ignore[call-arg]
     with pytest.raises(ValidationError):
