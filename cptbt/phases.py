@@ -162,9 +162,10 @@ def describe() -> str:
             lines.append(f"  {s['name']} (enters {s['name']}.{s['initial']})")
             lines += [f"    {s['name']}.{c}" for c in s["children"]]
     lines.append("transitions:")
+    initial = {s["name"]: f"{s['name']}.{s['initial']}" for s in STATES if isinstance(s, dict)}
     for t in TRANSITIONS:
         sources = t["source"] if isinstance(t["source"], list) else [t["source"]]
-        dest = t["dest"] or "(internal)"
+        dest = initial.get(t["dest"], t["dest"]) if t["dest"] else "(internal)"
         src = sources[0] if len(sources) == 1 else "any live phase"
         lines.append(f"  {src} --{t['trigger']}--> {dest}")
         lines.append(f"      {t['doc']}")

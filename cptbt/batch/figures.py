@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,20 @@ BEHAVIOUR_COLOURS = {
     "return_home": "#8c564b",
     "none": "#bbbbbb",
 }
+
+
+PHASE_STYLES = {
+    "mission_a": ("#555555", "--", "Mission A (vehicle)"),
+    "return_to_break_off": ("#8c564b", ":", "return to break-off"),
+    "amp.give_back": ("#8c564b", ":", "return to break-off"),
+    "pre_launch": ("#555555", "--", "Mission A (vehicle)"),
+    "post_mission": ("#555555", "--", "Mission A (vehicle)"),
+}
+"""How the phases outside the AMP override are drawn (trace column ``phase``)."""
+
+
+def _phase_style(phase: str) -> tuple[str, str, str] | None:
+    return PHASE_STYLES.get(phase) or PHASE_STYLES.get(phase.split(".")[0])
 
 
 def _colour(active: str) -> str:
@@ -51,8 +66,15 @@ def trajectory_figure(
     source: Point,
     plume: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
     title: str,
+    *,
+    waypoints: Sequence[Point] | None = None,
 ) -> None:
-    """The run in the planning frame, drawn as TRO Figs. 10–12 (y positive down)."""
+    """The run in the planning frame, drawn as TRO Figs. 10–12 (y positive down).
+
+    With a ``phase`` column in the trace (a phased run), the parts of the track outside the AMP
+    override are drawn dashed (Mission A) or dotted (return to the break-off point), and the
+    planned Mission A ``waypoints`` as a light dashed line (TRO Fig. 1).
+    """
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(10, 5.2), constrained_layout=True)
     if plume is not None:
@@ -64,16 +86,25 @@ def trajectory_figure(
     trace = run.trace or {}
     xs_true = np.asarray(trace.get("x", [p[0] for p in run.path_true]))
     ys_true = np.asarray(trace.get("y", [p[1] for p in run.path_true]))
-    actives = trace.get("active", ["none"] * len(xs_true))
+    actives = list(trace.get("active", ["none"] * len(xs_true)))
+    phases = trace.get("phase")
+    if phases is not None:
+        actives = [f"phase:{ph}" if _phase_style(ph) else a for a, ph in zip(actives, phases,
+                                                                            strict=True)]
+    if waypoints:
+        ax.plot([w.x for w in waypoints], [w.y for w in waypoints], "--", color="#aaaaaa", lw=0.8,
+                marker=".", label="Mission A plan")
     seen: set[str] = set()
     start = 0
     for i in range(1, len(xs_true) + 1):
         if i == len(xs_true) or actives[i] != actives[start]:
             name = actives[start] or "none"
-            label = None if name in seen else name
-            seen.add(name)
+            style = _phase_style(name.removeprefix("phase:")) if name.startswith("phase:") else None
+            colour, ls, shown = style if style else (_colour(name), "-", name)
+            label = None if shown in seen else shown
+            seen.add(shown)
             seg = slice(start, min(i + 1, len(xs_true)))
-            ax.plot(xs_true[seg], ys_true[seg], color=_colour(name), lw=1.6, label=label)
+            ax.plot(xs_true[seg], ys_true[seg], color=colour, ls=ls, lw=1.6, label=label)
             start = i
     if run.detections:
         d = np.asarray(run.detections)

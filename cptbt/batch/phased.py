@@ -136,9 +136,11 @@ def simulate_phased(
                 run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
         if resumed_at is None and session.phases.state == "mission_a.resumed":
             resumed_at = (ex, ey)
-        if rows is not None and (ticked or t + 1e-9 >= next_row):
-            if t + 1e-9 >= next_row:
-                next_row += period * max(1, math.floor((t + 1e-9 - next_row) / period) + 1)
+        grid_due = t + 1e-9 >= next_row
+        if grid_due:
+            next_row += period * max(1, math.floor((t + 1e-9 - next_row) / period) + 1)
+        if rows is not None and (ticked or (grid_due and not session.in_override)):
+            # under override a row per planner tick; otherwise one per cycle period
             _record_row(rows, out, planner if ticked else None, session.phases.state)
         if session.phases.state == "post_mission" or t + 1e-9 >= cap:
             break
@@ -206,3 +208,29 @@ def _record_row(
     )
     for col, value in zip(PHASED_TRACE_COLUMNS, row, strict=True):
         rows[col].append(value)
+
+
+def phase_summary(result: PhasedRun, mission: MissionBase) -> dict[str, Any]:
+    """The ``phases`` section of summary.json: the timeline and where the hand-overs happened."""
+
+    def where(p: tuple[float, float] | None) -> dict[str, float] | None:
+        if p is None:
+            return None
+        pt = Point(*p)
+        n, e = mission.to_ne(pt)
+        out = {"x": pt.x, "y": pt.y, "north": n, "east": e}
+        geo = mission.to_geodetic(pt)
+        if geo is not None:
+            out |= {"lat": geo.lat_deg, "lon": geo.lon_deg}
+        return out
+
+    return {
+        "timeline": [c.to_data() for c in result.timeline],
+        "end_phase": result.end_phase,
+        "run_time_s": result.t_end,
+        "t_amp_start": result.t_amp_start,
+        "break_off": where(result.break_off),
+        "resumed_at": where(result.resumed_at),
+        "command_refusals": result.refusals,
+        "time_in_phase_s": dict(sorted(result.time_in_phase_s.items())),
+    }

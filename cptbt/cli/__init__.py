@@ -10,7 +10,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from cptbt.cli import inspect_cmds
+from cptbt.cli import inspect_cmds, phases_cmd
 from cptbt.loader import MissionError
 from cptbt.registry import RegistryError
 
@@ -25,6 +25,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     inspect_cmds.add_parsers(sub)
+    phases_cmd.add_parsers(sub)
     for module in _optional_command_modules():
         module.add_parsers(sub)
     return parser

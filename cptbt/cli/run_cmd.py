@@ -12,6 +12,7 @@ import numpy as np
 
 from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.figures import trajectory_figure
+from cptbt.batch.phased import phase_summary, simulate_phased
 from cptbt.batch.scenario import launch_pose, to_sim_params
 from cptbt.batch.summary import summarise
 from cptbt.cli.inspect_cmds import load
@@ -60,9 +61,16 @@ def cmd_run(args: argparse.Namespace) -> int:
     seed = params.seed
     out = Path(args.out or f"runs/{mission.name}-seed{seed}")
     out.mkdir(parents=True, exist_ok=True)
-    (run,), world, wall = simulate(mission, params, [launch_pose(mission)], trace=True)
     source = Point(*params.source_xy_m)
-    summary = summarise(run, mission, source, seed, wall)
+    waypoints = None
+    if mission.mission_a is not None:  # the AMP as a guest inside the vehicle's Mission A
+        phased, world, wall = simulate_phased(mission, params, trace=True)
+        run, waypoints = phased.amp, phased.waypoints
+        summary = summarise(run, mission, source, seed, wall, t0=phased.t_amp_start or 0.0)
+        summary["phases"] = phase_summary(phased, mission)
+    else:
+        (run,), world, wall = simulate(mission, params, [launch_pose(mission)], trace=True)
+        summary = summarise(run, mission, source, seed, wall)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     trace_path = write_trace(run, out)
     figure = None
@@ -74,7 +82,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         conc = world.concentration_at(np.column_stack([gx.ravel(), gy.ravel()])).reshape(gx.shape)
         figure = out / "trajectory.png"
         trajectory_figure(figure, run, area, source, (xs, ys, conc),
-                          f"{mission.name} (seed {seed}): {summary['outcome']}")
+                          f"{mission.name} (seed {seed}): {summary['outcome']}",
+                          waypoints=waypoints)
     if not args.quiet:
         s = summary
         print(f"{mission.name}, seed {seed}: {s['outcome']} after {_fmt(s['sim_time_s'], ' s')} "
@@ -85,6 +94,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                   f"error {_fmt(s['error_m'], ' m')}")
         print(f"  T_F {_fmt(s['T_F'], ' s')}  T_T {_fmt(s['T_T'], ' s')}  "
               f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}")
+        for c in s.get("phases", {}).get("timeline", []):
+            print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})")
         share = ", ".join(f"{k} {v:.0%}" for k, v in s["time_share"].items())
         print(f"  time in behaviours: {share}")
         print(f"  wrote {out / 'summary.json'}, {trace_path}" + (f", {figure}" if figure else ""))

@@ -1,0 +1,47 @@
+"""``cptbt phases``: print a mission's phase machine and (optionally) write it as Graphviz dot."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from cptbt.cli.inspect_cmds import load
+from cptbt.phases import describe, to_dot
+
+
+def add_parsers(sub: Any) -> None:
+    """Register ``phases``."""
+    p = sub.add_parser("phases", help="show a mission's phase machine",
+                       description=cmd_phases.__doc__)
+    p.add_argument("mission", metavar="MISSION", help="mission YAML file")
+    p.add_argument("--dot", metavar="FILE", help="also write the machine as Graphviz dot")
+    p.set_defaults(func=cmd_phases)
+
+
+def cmd_phases(args: argparse.Namespace) -> int:
+    """Print the mission phases (states, transitions, triggers) and this mission's settings."""
+    mission = load(args.mission)
+    spec = mission.mission_a
+    print(f"{mission.name}: mission phases (SPEC §9)")
+    print(describe())
+    print("settings:")
+    if spec is None:
+        print("  no mission_a section: the AMP drives from launch (cptbt run uses no phases)")
+    else:
+        enable = (f"at t = {spec.amp_enable_s:g} s" if spec.amp_enable_s is not None
+                  else f"on reaching waypoint {spec.amp_enable_waypoint}")
+        ending = "loops" if spec.loop else "ends at the last waypoint"
+        lim = spec.limits
+        print(f"  Mission A: {len(spec.waypoints)} waypoints at {spec.speed_mps:g} m/s, {ending}"
+              f" (or at {spec.duration_limit_s:g} s)")
+        print(f"  amp_enable: {enable}")
+        print(f"  amp_time_limit: {mission.time_limit_s:g} s after the take-over")
+        print("  outside_op_area: more than 30 m outside the OpArea")
+        print(f"  watchdog_timeout: no accepted command for {spec.watchdog_s:g} s")
+        print(f"  command_refused: speed outside [{lim.min_speed_mps:g}, {lim.max_speed_mps:g}]"
+              f" m/s or depth beyond {lim.max_depth_m:g} m")
+    if args.dot:
+        Path(args.dot).write_text(to_dot(), encoding="utf-8")
+        print(f"wrote {args.dot}")
+    return 0
