@@ -48,6 +48,11 @@ class VehicleParams(BaseModel):
     initial_speed_mps: float = Field(
         default=1.5, ge=0.0, description="Speed before any command, m/s."
     )
+    advected: bool = Field(
+        default=True,
+        description="The current carries the vehicle (an AUV); False for a searcher whose "
+        "speed is over ground (AB's 1 m/s searcher in a 1 m/s mean flow).",
+    )
 
     @model_validator(mode="after")
     def _check_speeds(self) -> VehicleParams:

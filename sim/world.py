@@ -104,6 +104,7 @@ class EnvironmentParams(BaseModel):
                     initial_speed_mps=1.0,
                     min_speed_mps=0.0,
                     max_speed_mps=5.0,
+                    advected=False,
                 ),
                 fluorometer=FluorometerParams(rate_hz=20.0),
                 adcp=ADCPParams(rate_hz=20.0, noise_std_mps=0.05),
@@ -263,6 +264,8 @@ class World:
             # The current is looked up once per plume step: the flow changes no faster, and the
             # vehicle moves ≤ 2.8 m per 1 s step against a flow grid of ~20 m.
             self._current = self.flow.velocity_at(veh.xy)
+            if not self.params.vehicle.advected:
+                self._current = np.zeros_like(self._current)
         veh.step(dt, self._cmd_heading, self._cmd_speed, self._current)
         self.steps += 1
         t = self.t_s
