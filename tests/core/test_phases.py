@@ -1,0 +1,233 @@
+"""The phase machine and the AMP session, driven message by message through a fake vehicle link.
+
+Each give-back trigger is scripted on the vehicle's clock and must lead to ``amp.give_back``; the
+vehicle's own reports then lead to ``return_to_break_off``, ``mission_a.resumed`` and
+``post_mission``. No simulator: the link is a scripted double, the planner a stub.
+"""
+
+from __future__ import annotations
+
+import pytest
+from conftest import scripted_registry
+from transitions import MachineError
+
+from cptbt.frames import OpArea
+from cptbt.link import (
+    CommandRefused,
+    ConcentrationSample,
+    FlowSample,
+    HeadingSpeedCommand,
+    OverrideEnded,
+    OverrideRelease,
+    OverrideRequest,
+    VehicleLink,
+    VehicleState,
+)
+from cptbt.loader import loads_mission
+from cptbt.mission import MissionBase
+from cptbt.mission_a import MissionASpec, VehicleLimits
+from cptbt.phases import MissionPhases, describe, leaf_states, to_dot
+from cptbt.session import AmpSession
+from cptbt.types import Command, Point
+
+REG = scripted_registry("safety")
+
+
+def mission(**mission_a: object) -> MissionBase:
+    body = {"waypoints": [[10, 0], [50, 0], [90, 0]], "amp_enable_s": 100, "watchdog_s": 20}
+    body.update(mission_a)
+    lines = "\n".join(f"  {k}: {'null' if v is None else v}" for k, v in body.items())
+    text = (
+        "name: phased\nframe: planning\nop_area:\n  corners: [[0, -50], [100, -50], [100, 50], "
+        "[0, 50]]\nhome: [5, 0]\ntime_limit_s: 300\nbehaviours:\n  - safety: {}\n"
+        f"mission_a:\n{lines}\n"
+    )
+    return loads_mission(text, "phased.yaml", REG)
+
+
+class FakeLink:
+    """A scripted vehicle: queue what it reports, read what the AMP sent."""
+
+    def __init__(self) -> None:
+        self.inbox: list[object] = []
+        self.sent: list[object] = []
+
+    def receive(self) -> list[object]:
+        out, self.inbox = self.inbox, []
+        return out
+
+    def send(self, message: object) -> None:
+        self.sent.append(message)
+
+
+class StubPlanner:
+    """Just enough of the planner for the session: a command every tick, a settable ``done``."""
+
+    def __init__(self) -> None:
+        self.op_area = OpArea(0, 100, -50, 50)
+        self.done = False
+        self.declared_source: Point | None = None
+        self.samples: list[float] = []
+        self.flows = 0
+        self.ticks: list[float] = []
+        self.speed = 1.5
+
+    def add_sample(self, t: float, c: float) -> None:
+        self.samples.append(c)
+
+    def add_flow(self, t: float, vx: float, vy: float) -> None:
+        self.flows += 1
+
+    def set_pose(self, x: float, y: float, heading_deg: float) -> None:
+        pass
+
+    def tick(self, t: float) -> Command:
+        self.ticks.append(t)
+        return Command(30.0, self.speed)
+
+
+def state(t: float, mode: str = "mission", x: float = 50, y: float = 0, reached: int = 0
+          ) -> VehicleState:
+    return VehicleState(t, x, y, 0.0, 1.5, 3.0, mode, reached)  # type: ignore[arg-type]
+
+
+def session(**mission_a: object) -> tuple[AmpSession, FakeLink, StubPlanner]:
+    link, planner = FakeLink(), StubPlanner()
+    s = AmpSession(mission(**mission_a), planner, link)  # type: ignore[arg-type]
+    return s, link, planner
+
+
+def step(s: AmpSession, link: FakeLink, *msgs: object) -> str:
+    link.inbox.extend(msgs)
+    s.update()
+    return s.phases.state
+
+
+def into_override(s: AmpSession, link: FakeLink) -> None:
+    assert step(s, link, state(0.0, "pre_launch")) == "pre_launch"
+    assert step(s, link, state(0.1)) == "mission_a.waypoints"
+    assert step(s, link, state(99.9)) == "mission_a.waypoints"
+    assert step(s, link, state(100.0)) == "amp.override"
+
+
+def test_the_machine_uses_dotted_names_and_snake_case_states() -> None:
+    assert "return_to_break_off" in leaf_states()
+    assert "amp.give_back" in leaf_states()
+    m = MissionPhases()
+    with pytest.raises(MachineError):
+        m.fire("amp_enable", 0.0)  # not from pre_launch
+    m.fire("launch", 0.0)
+    assert m.state == "mission_a.waypoints"
+    assert "pre_launch --launch--> mission_a.waypoints" in describe()
+    assert '"amp.give_back" -> "return_to_break_off" [label="vehicle_returning"]' in to_dot()
+
+
+def test_amp_enable_after_a_set_time_sends_an_override_request_then_commands() -> None:
+    s, link, planner = session()
+    into_override(s, link)
+    assert isinstance(link.sent[0], OverrideRequest)
+    assert link.sent[1] == HeadingSpeedCommand(30.0, 1.5, None)
+    assert planner.ticks == [100.0]
+    step(s, link, state(100.5, "override"))
+    step(s, link, state(101.0, "override"))
+    assert planner.ticks == [100.0, 101.0]  # 1 Hz on the vehicle's clock
+
+
+def test_amp_enable_at_a_waypoint() -> None:
+    s, link, _ = session(amp_enable_s=None, amp_enable_waypoint=1)
+    step(s, link, state(0.1))
+    assert step(s, link, state(500.0, reached=1)) == "mission_a.waypoints"  # at waypoint 0 only
+    assert step(s, link, state(501.0, reached=2)) == "amp.override"
+
+
+def test_concentration_only_under_override_flow_always() -> None:
+    s, link, planner = session()
+    step(s, link, state(0.0, "pre_launch"))
+    step(s, link, state(0.1), ConcentrationSample(0.1, 5.0), FlowSample(0.1, 0.1, 0.0))
+    assert planner.samples == [] and planner.flows == 1
+    assert step(s, link, state(100.0)) == "amp.override"
+    step(s, link, ConcentrationSample(100.1, 0.7), state(100.1, "override"))
+    assert planner.samples == [0.7]
+
+
+@pytest.mark.parametrize(
+    "setup, trigger",
+    [
+        (lambda p, t: setattr(p, "done", True), "declared_home"),
+        (lambda p, t: None, "amp_time_limit"),
+        (lambda p, t: None, "outside_op_area"),
+    ],
+)
+def test_each_amp_give_back_trigger_releases_the_override(setup, trigger) -> None:  # type: ignore[no-untyped-def]
+    s, link, planner = session()
+    into_override(s, link)
+    t = 150.0
+    where = {"x": 50.0, "y": 0.0}
+    if trigger == "amp_time_limit":
+        t = 100.0 + 300.0  # time_limit_s after the take-over
+    if trigger == "outside_op_area":
+        where = {"x": 50.0, "y": 50.0 + 30.5}  # 30.5 m beyond ymax
+    else:
+        step(s, link, state(t - 1.0, "override", x=50, y=50 + 29.0))  # 29 m out: not yet
+        assert s.phases.state == "amp.override"
+    setup(planner, t)
+    assert step(s, link, state(t, "override", **where)) == "amp.give_back"  # type: ignore[arg-type]
+    assert s.phases.timeline[-1].trigger == trigger
+    assert isinstance(link.sent[-1], OverrideRelease)
+    n_ticks = len(planner.ticks)
+    assert step(s, link, state(t + 0.1, "returning")) == "return_to_break_off"
+    assert len(planner.ticks) == n_ticks  # the planner no longer runs
+
+
+def test_watchdog_timeout_reported_by_the_vehicle_leads_to_give_back() -> None:
+    s, link, _ = session()
+    into_override(s, link)
+    ended = OverrideEnded(121.0, "watchdog", (50.0, 0.0))
+    assert step(s, link, ended, state(121.0, "returning")) == "return_to_break_off"
+    triggers = [c.trigger for c in s.phases.timeline]
+    assert triggers[-2:] == ["watchdog_timeout", "vehicle_returning"]
+    assert not any(isinstance(m, OverrideRelease) for m in link.sent)  # the vehicle took it
+
+
+def test_refused_command_is_recorded_and_the_amp_keeps_control() -> None:
+    s, link, _ = session()
+    into_override(s, link)
+    bad = HeadingSpeedCommand(30.0, 3.5)
+    why = VehicleLimits().refusal(3.5, None)
+    assert why is not None and "3.5" in why
+    assert step(s, link, CommandRefused(100.2, bad, why), state(100.2, "override")) == (
+        "amp.override"
+    )
+    step(s, link, CommandRefused(101.2, bad, why), state(101.2, "override"))
+    refusals = [c for c in s.phases.timeline if c.trigger == "command_refused"]
+    assert len(refusals) == 1 and refusals[0].detail == why  # a streak is logged once
+    assert s.refusals == 2
+
+
+def test_resume_and_post_mission_follow_the_vehicle() -> None:
+    s, link, _ = session()
+    into_override(s, link)
+    step(s, link, OverrideEnded(130.0, "watchdog", (50.0, 0.0)), state(130.0, "returning"))
+    assert step(s, link, state(140.0, "returning")) == "return_to_break_off"
+    assert step(s, link, state(150.0, "mission", x=51, y=1)) == "mission_a.resumed"
+    assert step(s, link, state(151.0, "mission")) == "mission_a.resumed"  # no second AMP run
+    assert step(s, link, state(300.0, "post_mission")) == "post_mission"
+    assert [c.dest for c in s.phases.timeline] == [
+        "mission_a.waypoints", "amp.override", "amp.give_back", "return_to_break_off",
+        "mission_a.resumed", "post_mission",
+    ]
+
+
+def test_limits_and_spec_validation() -> None:
+    lim = VehicleLimits(max_speed_mps=2.8, max_depth_m=50)
+    assert lim.refusal(2.8, 50) is None
+    assert lim.refusal(0.1, None) is not None
+    assert lim.refusal(1.0, 50.5) is not None
+    with pytest.raises(ValueError):
+        MissionASpec(waypoints=[(0, 0)], amp_enable_s=1, amp_enable_waypoint=0)
+    with pytest.raises(ValueError):
+        MissionASpec(waypoints=[(0, 0)], amp_enable_waypoint=1)
+
+
+def test_fake_link_satisfies_the_protocol() -> None:
+    assert isinstance(FakeLink(), VehicleLink)
