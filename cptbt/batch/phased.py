@@ -120,20 +120,17 @@ def simulate_phased(
         ticked = session.ticked
         if session.t_amp_start is not None and run.outcome is None and ticked:
             _record_amp(run, planner, t, (tx, ty), (ex, ey))
-        if run.outcome is None and session.phases.timeline:
-            last = session.phases.timeline[-1]
-            if last.trigger in GIVE_BACK_TRIGGERS or (
-                session.t_amp_start is not None and last.trigger == "mission_a_complete"
-            ):
-                outcome = _OUTCOME.get(last.trigger, "mission_ended")
-                if outcome == "declared" and oracle:
-                    outcome = "found"
-                if outcome == "timeout" and planner.declared_source is not None:
-                    outcome = "declared"
-                run.outcome, run.t_end = outcome, last.t_s
-                run.error_at_end_m = math.hypot(tx - source.x, ty - source.y)
-                run.declared = planner.declared_source
-                run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
+        ended = _amp_end(session.phases.timeline) if run.outcome is None else None
+        if ended is not None:
+            outcome = _OUTCOME.get(ended.trigger, "mission_ended")
+            if outcome == "declared" and oracle:
+                outcome = "found"
+            if outcome == "timeout" and planner.declared_source is not None:
+                outcome = "declared"
+            run.outcome, run.t_end = outcome, ended.t_s
+            run.error_at_end_m = math.hypot(tx - source.x, ty - source.y)
+            run.declared = planner.declared_source
+            run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
         if resumed_at is None and session.phases.state == "mission_a.resumed":
             resumed_at = (ex, ey)
         grid_due = t + 1e-9 >= next_row
@@ -165,6 +162,16 @@ def simulate_phased(
         time_in_phase_s=phase_time,
     )
     return result, world, time.perf_counter() - wall0
+
+
+def _amp_end(timeline: list[PhaseChange]) -> PhaseChange | None:
+    """The change that ended the override (a give-back, or the vehicle's mission ending)."""
+    for c in timeline:
+        if c.trigger in GIVE_BACK_TRIGGERS or (
+            c.trigger == "mission_a_complete" and c.source.startswith("amp.")
+        ):
+            return c
+    return None
 
 
 def _record_amp(
