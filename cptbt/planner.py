@@ -13,6 +13,7 @@ import math
 import py_trees
 from py_trees.common import Access, Status
 
+from cptbt import ticking
 from cptbt.mission import MissionBase
 from cptbt.node import MissionContext
 from cptbt.perception import Perception
@@ -79,6 +80,12 @@ class Planner:
         self.bb.mission_done = False
         for node in self.root.iterate():
             node.setup(context=self.context)
+        self._direct = ticking.supports(self.root)
+        # The keys were declared above with their access; the hot path reads and writes the
+        # storage directly, skipping the client's per-access bookkeeping.
+        self._storage = py_trees.blackboard.Blackboard.storage
+        self._key = {k: f"{self.namespace}/{k}" for k in ("command", "declared_source",
+                                                         "mission_done")}
         self.command: Command | None = None
         self.active: str | None = None
         self.percept: Percept | None = None
@@ -104,9 +111,13 @@ class Planner:
     def tick(self, t: float) -> Command | None:
         """Run one planning cycle at time ``t``; returns the command, or None (no output)."""
         self.percept = self.context.percept = self.perception.cycle(t)
-        self.bb.command = None
-        self.root.tick_once()
-        cmd = self.bb.command if self.root.status == Status.RUNNING else None
+        storage = self._storage
+        storage[self._key["command"]] = None
+        if self._direct:
+            ticking.tick(self.root)
+        else:
+            self.root.tick_once()
+        cmd = storage[self._key["command"]] if self.root.status == Status.RUNNING else None
         self.command = cmd
         tip = self.root.tip() if cmd is not None else None
         self.active = tip.name if tip is not None else None
@@ -116,12 +127,12 @@ class Planner:
     @property
     def declared_source(self) -> Point | None:
         """The declared source (planning frame), once declared."""
-        return self.bb.declared_source  # type: ignore[no-any-return]
+        return self._storage[self._key["declared_source"]]  # type: ignore[no-any-return]
 
     @property
     def done(self) -> bool:
         """Declared and home: the AMP has finished its job."""
-        return bool(self.bb.mission_done)
+        return bool(self._storage[self._key["mission_done"]])
 
     def close(self) -> None:
         """Release this planner's blackboard keys (long batches create many planners)."""

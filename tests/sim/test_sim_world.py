@@ -128,4 +128,7 @@ def test_sim_imports_neither_behaviours_nor_the_core() -> None:
         text = path.read_text(encoding="utf-8")
         assert "cptbt.behaviours" not in text and "from cptbt" not in text, path.name
     code = "import sys, cptbt.sim; assert 'cptbt.behaviours' not in sys.modules"
-    subprocess.run([sys.executable, "-c", code], check=True)
+    # Run away from the source folder, whose cptbt/ (without the package-dir mapping) would
+    # otherwise shadow the installed package when the install is not editable.
+    away = Path(cptbt.sim.__file__).parents[2]
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=away)
