@@ -7,7 +7,8 @@ same tree with the same rules — those of ``Behaviour.tick``, ``Selector.tick``
 ``terminate`` are called, which lower-priority children are invalidated, what ``current_child``
 becomes — and calls the nodes' own ``terminate()`` (composites: ``stop()``).
 ``tests/core/test_ticking.py`` checks, on random trees and random scripts, that every node sees
-the same calls and ends each tick in the same status as under ``tick_once()``. Trees with other composites or decorators fall back to py_trees.
+the same calls and ends each tick in the same status as under ``tick_once()``. Trees with other
+composites or decorators fall back to py_trees.
 """
 
 from __future__ import annotations
