@@ -34,6 +34,7 @@ class MoveToField(PlanBehaviour):
     family: ClassVar[str] = "move_to_field"
     variant: ClassVar[str] = "go_to"
     Params: ClassVar[type[BehaviourParams]] = GoToParams
+    params: GoToParams
     ends_move_to_field: ClassVar[bool] = False
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
@@ -61,6 +62,7 @@ class ReturnHome(PlanBehaviour):
     family: ClassVar[str] = "return_home"
     variant: ClassVar[str] = "go_to"
     Params: ClassVar[type[BehaviourParams]] = GoToParams
+    params: GoToParams
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
         super().__init__(params, **kwargs)

@@ -40,6 +40,7 @@ class OpAreaSafety(PlanBehaviour):
     family: ClassVar[str] = "safety"
     variant: ClassVar[str] = "oparea"
     Params: ClassVar[type[BehaviourParams]] = OpAreaSafetyParams
+    params: OpAreaSafetyParams
 
     def initialise(self) -> None:
         """A new activation: nothing to reset (the hysteresis is the RUNNING status itself)."""

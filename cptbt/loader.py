@@ -90,7 +90,7 @@ def _data_path(loc: Loc, data: Any) -> Loc:
         if (isinstance(cur, dict) and part in cur) or (
             isinstance(cur, list) and isinstance(part, int) and 0 <= part < len(cur)
         ):
-            cur = cur[part]
+            cur = cur[part]  # type: ignore[index]
         elif isinstance(cur, dict) and part == cur.get("variant"):
             continue  # the tag of a discriminated union, not a key of the file
         elif isinstance(cur, dict) and isinstance(part, str):
@@ -146,7 +146,8 @@ def load_mission(
     try:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise MissionError([f"{source}:0: (file): {exc.strerror or exc}"]) from None
+        reason = exc.strerror if isinstance(exc, OSError) else None
+        raise MissionError([f"{source}:0: (file): {reason or exc}"]) from None
     return loads_mission(text, source, registry, environment)
 
 

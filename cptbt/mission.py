@@ -176,7 +176,7 @@ def _variant_model(spec: BehaviourSpec) -> type[BehaviourParams]:
         name,
         __base__=spec.params,
         __doc__=spec.summary or spec.params.__doc__,
-        variant=(Literal[spec.variant], Field(default=spec.variant, description="Variant name")),
+        variant=(Literal[spec.variant], Field(default=spec.variant, description="Variant name")),  # type: ignore[arg-type]
     )
 
 
@@ -210,7 +210,7 @@ def _item_model(registry: Registry) -> type[BaseModel]:
         "Behaviour",
         __config__=ConfigDict(frozen=True, extra="forbid"),
         __validators__={
-            "_check": model_validator(mode="before")(check),  # type: ignore[arg-type]
+            "_check": model_validator(mode="before")(check),  # type: ignore[dict-item]
         },
         **fields,
     )
@@ -223,13 +223,11 @@ def mission_model(
     """The full mission model for a registry (and, in the application layer, an environment)."""
     item = _item_model(registry)
     env: Any = (environment, Field(default_factory=environment)) if environment else (Any, None)
-    return create_model(  # type: ignore[no-any-return]
+    items: Any = list[item]  # type: ignore[valid-type]
+    return create_model(
         "Mission",
         __base__=MissionBase,
-        behaviours=(
-            list[item],
-            Field(min_length=1, description="Behaviours, highest priority first"),
-        ),  # type: ignore[valid-type]
+        behaviours=(items, Field(min_length=1, description="Behaviours, highest priority first")),
         environment=env,
     )
 

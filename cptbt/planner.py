@@ -127,7 +127,7 @@ class Planner:
     @property
     def declared_source(self) -> Point | None:
         """The declared source (planning frame), once declared."""
-        return self._storage[self._key["declared_source"]]  # type: ignore[no-any-return]
+        return self._storage[self._key["declared_source"]]
 
     @property
     def done(self) -> bool:

@@ -53,7 +53,7 @@ def write_report(rows: Rows, out: Path) -> list[Path]:
     groups: dict[str, Rows] = defaultdict(list)
     for r in rows:
         groups[_config_label(r, sweep_cols)].append(r)
-    written = [_tables(groups, out / "tables.md")]
+    written: list[Path | None] = [_tables(groups, out / "tables.md")]
     plt = pyplot()
     written.append(_map(groups, out / "time_to_source_map.png", plt))
     line = _line(groups, out / "time_vs_start_x.png", plt)

@@ -109,7 +109,7 @@ def load_results(path: Path) -> list[dict[str, Any]]:
     if path.suffix == ".parquet":
         if pq is None:
             raise RuntimeError("reading Parquet needs pyarrow: pip install 'cptbt[results]'")
-        return pq.read_table(path).to_pylist()  # type: ignore[no-any-return]
+        return pq.read_table(path).to_pylist()
     with path.open(newline="", encoding="utf-8") as f:
         return [_typed(r) for r in csv.DictReader(f)]
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 from cptbt.cli import inspect_cmds, phases_cmd
 from cptbt.loader import MissionError
@@ -31,7 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _optional_command_modules() -> list:  # type: ignore[type-arg]
+def _optional_command_modules() -> list[Any]:
     """Command groups that need the simulator (present in a full install)."""
     from cptbt.cli import batch_cmd, run_cmd
 

@@ -25,7 +25,7 @@ def cptbt(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
 
 
 def test_every_command_has_help() -> None:
-    for cmd in ("validate", "tree", "behaviours", "schema", "run"):
+    for cmd in ("validate", "tree", "behaviours", "schema", "run", "phases", "batch", "plot"):
         res = cptbt(cmd, "--help")
         assert res.returncode == 0 and "usage: cptbt" in res.stdout, (cmd, res.stderr)
 
