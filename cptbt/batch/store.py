@@ -58,16 +58,7 @@ class ResultStore:
 
     def write_group(self, key: str, rows: list[dict[str, Any]]) -> None:
         """Write one finished group's rows atomically."""
-        final = self.parts / f"{key}{SUFFIX}"
-        tmp = self.parts / f".{key}{SUFFIX}.tmp"
-        if pq is not None:
-            pq.write_table(pa.Table.from_pylist(rows), tmp)
-        else:
-            with tmp.open("w", newline="", encoding="utf-8") as f:
-                writer = csv.DictWriter(f, fieldnames=_columns(rows))
-                writer.writeheader()
-                writer.writerows(rows)
-        os.replace(tmp, final)
+        _write_table(rows, self.parts / f"{key}{SUFFIX}")
 
     def rows(self) -> list[dict[str, Any]]:
         """Every finished run, in group order."""
@@ -84,17 +75,8 @@ class ResultStore:
         """Write the single results table (``results.parquet`` or ``results.csv``)."""
         rows = self.rows()
         cols = _columns(rows)
-        rows = [{c: r.get(c) for c in cols} for r in rows]
         path = self.folder / f"results{SUFFIX}"
-        tmp = self.folder / f".results{SUFFIX}.tmp"
-        if pq is not None:
-            pq.write_table(pa.Table.from_pylist(rows), tmp)
-        else:
-            with tmp.open("w", newline="", encoding="utf-8") as f:
-                writer = csv.DictWriter(f, fieldnames=_columns(rows))
-                writer.writeheader()
-                writer.writerows(rows)
-        os.replace(tmp, path)
+        _write_table([{c: r.get(c) for c in cols} for r in rows], path)
         return path
 
 
@@ -112,6 +94,19 @@ def load_results(path: Path) -> list[dict[str, Any]]:
         return pq.read_table(path).to_pylist()
     with path.open(newline="", encoding="utf-8") as f:
         return [_typed(r) for r in csv.DictReader(f)]
+
+
+def _write_table(rows: list[dict[str, Any]], path: Path) -> None:
+    """Write rows as Parquet or CSV: to a temporary file first, then renamed into place."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    if pq is not None:
+        pq.write_table(pa.Table.from_pylist(rows), tmp)
+    else:
+        with tmp.open("w", newline="", encoding="utf-8") as f:
+            writer = csv.DictWriter(f, fieldnames=_columns(rows))
+            writer.writeheader()
+            writer.writerows(rows)
+    os.replace(tmp, path)
 
 
 def _columns(rows: list[dict[str, Any]]) -> list[str]:
