@@ -86,6 +86,8 @@ def test_lost_contact_goes_to_cloverleaf_and_a_hit_preempts_it() -> None:
     assert s.cycle(90, 3) == "reacquire_plume.cloverleaf"     # t = 12: 9 s > lambda, contact lost
     leaf = cloverleaf(s)
     assert leaf.status.name == "RUNNING"
+    first_tour = leaf.waypoints
+    assert (first_tour[0].x, first_tour[0].y) == (100, 0)  # C → tip → C, centred on (100, 0)
     assert s.cycle(92, 4, conc=0.5) == "maintain_plume.track_in"  # hit: maintain pre-empts
     assert leaf.status.name == "INVALID"                       # terminated by py_trees
     for k in range(9):
@@ -96,6 +98,8 @@ def test_lost_contact_goes_to_cloverleaf_and_a_hit_preempts_it() -> None:
     last = s.planner.percept.last_detection
     assert (last.x, last.y) == (92, 4)
     assert len(s.planner.percept.lost_contacts) == 2
+    tour = leaf.waypoints
+    assert (tour[0].x, tour[0].y) == (92, 4) and tour != first_tour
 
 
 def test_no_flow_estimate_means_no_flow_relative_output() -> None:
