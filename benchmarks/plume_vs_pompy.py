@@ -36,6 +36,7 @@ import sys
 import time
 
 import numpy as np
+
 from cptbt.sim import FlowParams, MeanderingFlow, PlumeParams, PuffPlume
 
 DT = 0.01

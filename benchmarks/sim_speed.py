@@ -19,6 +19,7 @@ import platform
 import time
 
 import numpy as np
+
 from cptbt.sim import EnvironmentParams, World
 
 

@@ -7,6 +7,7 @@ each and exit with status 2, never a traceback.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from typing import Any
@@ -52,6 +53,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except RegistryError as exc:
         print(f"cptbt: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:  # e.g. `cptbt run ... | head`: the reader left, nothing to report
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 1
     except KeyboardInterrupt:
         print("cptbt: interrupted", file=sys.stderr)
         return 130

@@ -9,6 +9,9 @@ from __future__ import annotations
 import math
 
 import pytest
+from py_trees.common import Status
+from pydantic import ValidationError
+
 from cptbt.behaviours.declare_source import (
     OracleDeclare,
     OracleUnavailableError,
@@ -18,9 +21,6 @@ from cptbt.behaviours.declare_source import (
     UpflowSpreadDeclare,
 )
 from cptbt.behaviours.safety import OpAreaSafety, OpAreaSafetyParams
-from py_trees.common import Status
-from pydantic import ValidationError
-
 from cptbt.mission import BehaviourEntry
 from cptbt.registry import BehaviourSpec, Registry
 from cptbt.testing import (

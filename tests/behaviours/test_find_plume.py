@@ -11,13 +11,13 @@ import dataclasses
 from collections.abc import Sequence
 
 import pytest
+from py_trees.common import Status
+
 from cptbt.behaviours.find_plume import (
     BEHAVIOURS,
     AppendixBilliardFindPlume,
     BilliardFindPlume,
 )
-from py_trees.common import Status
-
 from cptbt.node import PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.testing import (

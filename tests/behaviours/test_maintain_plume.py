@@ -7,14 +7,14 @@ upflow -90°.
 from __future__ import annotations
 
 import pytest
+from py_trees.common import Status
+
 from cptbt.behaviours.maintain_plume import (
     BEHAVIOURS,
     CounterTurnParams,
     CounterTurnTrack,
     TrackParams,
 )
-from py_trees.common import Status
-
 from cptbt.registry import BehaviourSpec
 from cptbt.testing import ScriptedPerception, TreeHarness, check_behaviour, fresh_namespace
 from cptbt.types import Percept

@@ -17,14 +17,14 @@ from itertools import pairwise
 
 import py_trees
 import pytest
+from py_trees.common import Status
+
 from cptbt.behaviours.reacquire import (
     BEHAVIOURS,
     CloverleafReacquire,
     ThreePointParams,
     ThreePointReacquire,
 )
-from py_trees.common import Status
-
 from cptbt.registry import BehaviourSpec
 from cptbt.testing import ScriptedPerception, TreeHarness, check_behaviour, fresh_namespace
 

@@ -11,6 +11,9 @@ from collections.abc import Iterable
 
 import py_trees
 import pytest
+from py_trees.common import Access
+from pydantic import ValidationError
+
 from cptbt.behaviours.strategies import (
     BEHAVIOURS,
     StrategyICast,
@@ -22,9 +25,6 @@ from cptbt.behaviours.strategies import (
     StrategyIMaintain,
     StrategyMismatchError,
 )
-from py_trees.common import Access
-from pydantic import ValidationError
-
 from cptbt.mission import BehaviourEntry
 from cptbt.node import PlanBehaviour
 from cptbt.registry import BehaviourSpec, Registry

@@ -6,8 +6,9 @@ import math
 
 import numpy as np
 import pytest
-from cptbt.sim import FlowParams, MeanderingFlow, PlumeParams, PuffPlume, UniformFlow, make_flow
 from pydantic import ValidationError
+
+from cptbt.sim import FlowParams, MeanderingFlow, PlumeParams, PuffPlume, UniformFlow, make_flow
 
 AREA = (-20.0, 120.0, -70.0, 70.0)
 

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from cptbt.sim import EnvironmentParams, PlumeParams, PuffPlume, UniformFlow, World, make_flow
 
 THRESHOLD = 0.20  # TRO Table I

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+
 from cptbt.sim import VehicleParams, Vehicles, wrap_deg
 
 STILL = np.zeros((1, 2))

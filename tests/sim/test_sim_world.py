@@ -6,11 +6,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-import cptbt.sim
 import numpy as np
 import pytest
-from cptbt.sim import EnvironmentParams, FluorometerParams, NavigationParams, World
 from pydantic import ValidationError
+
+import cptbt.sim
+from cptbt.sim import EnvironmentParams, FluorometerParams, NavigationParams, World
 
 
 def _run(world: World, seconds: float) -> list:
