@@ -1,0 +1,66 @@
+"""The AB 2001 missions end to end: Strategy III finds the source (AB Figs. 10-11, SPEC §12).
+
+The fast test flies ``missions/ab2001_strategy3.yaml`` from a start 10 m down-flow of the source,
+where AB's three strategies are equally good (Fig. 10) and the searcher meets the plume at once.
+The slow test runs a small version of the AB Fig. 11 study; the full reproduction, with the
+paper's numbers beside ours, is ``benchmarks/ab2001_reproduction.py``.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from cptbt.batch.engine import simulate
+from cptbt.batch.scenario import to_sim_params
+from cptbt.batch.store import load_results
+from cptbt.cli.inspect_cmds import load
+
+ROOT = Path(__file__).resolve().parents[2]
+MISSION = ROOT / "missions" / "ab2001_strategy3.yaml"
+SCRIPT = Path(sys.executable).parent / "cptbt"
+
+# Success rate floor of the slow study (10 x 10 grid, 3 plume realisations per start, seed 2001).
+# Measured with the ab_large_meander preset (benchmarks/ab2001_reproduction.py): 50-59 % over
+# 100-500 runs, with whole-replicate swings of about +-10 % (every start of a replicate shares
+# one plume). Starts 10-35 m down-flow succeed in 80-100 % of runs, starts 45 m or more down-flow
+# mostly time out (Strategy III gains ~0.2-0.3 m/s up-flow here). 35 % sits below the replicate
+# spread of the healthy planner yet above what the billiard alone reaches: with the maintain and
+# reacquire halves unable to track, only starts within a few metres of the source (~10 % of the
+# grid) would succeed. AB report 97 % (see the benchmark for why we do not).
+SUCCESS_FLOOR = 0.35
+
+
+# Seeds whose plume passes the start at t = 0 (in seed 2001's it has meandered aside and the
+# billiard takes over: the test is about tracking, not finding).
+@pytest.mark.parametrize("seed", [1, 7])
+def test_strategy_3_finds_the_source_from_a_near_start(seed: int) -> None:
+    mission = load(str(MISSION))
+    params = to_sim_params(mission, seed)
+    (run,), _, _ = simulate(mission, params, [(30.0, 0.0, 180.0)], time_limit_s=150.0)
+    assert run.outcome == "found"
+    assert run.error_at_end_m <= 1.0
+    assert run.t_end < 150.0
+    # Found by tracking the plume, not by the billiard stumbling on the source; 10 m up-flow in
+    # 40-50 s: Strategy III's ~0.2-0.3 m/s up-flow progress in this plume.
+    assert run.time_in.get("maintain_plume.strategy_3", 0.0) > 5.0
+    assert run.time_in.get("find_plume.billiard_ab", 0.0) < 5.0
+
+
+@pytest.mark.slow
+def test_strategy_3_grid_study_success_rate(tmp_path: Path) -> None:
+    res = subprocess.run(
+        [str(SCRIPT), "batch", str(MISSION), "--grid", "10x10", "--runs-per-start", "3",
+         "--seed", "2001", "--out", str(tmp_path), "--no-plots", "--quiet"],
+        capture_output=True, text=True, timeout=1800,
+    )
+    assert res.returncode == 0, res.stderr
+    rows = load_results(tmp_path)
+    assert len(rows) == 300
+    rate = sum(bool(r["success"]) for r in rows) / len(rows)
+    assert rate >= SUCCESS_FLOOR, f"Strategy III success {rate:.0%} < floor {SUCCESS_FLOOR:.0%}"
+    near = [r for r in rows if 25.0 <= r["start_x"] <= 35.0]
+    assert sum(bool(r["success"]) for r in near) / len(near) >= 0.7
