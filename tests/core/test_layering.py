@@ -5,7 +5,6 @@ from __future__ import annotations
 import ast
 import subprocess
 import sys
-from importlib.metadata import files
 from pathlib import Path
 
 import cptbt
@@ -59,6 +58,12 @@ def test_behaviours_and_sim_install_under_cptbt_only() -> None:
 
     assert Path(cptbt.behaviours.__file__).parent.name == "behaviours"
     assert Path(cptbt.sim.__file__).parent.name == "sim"
-    installed = files("cptbt") or []
-    top = {f.parts[0] for f in installed}
-    assert "behaviours" not in top and "sim" not in top, sorted(top)
+    # Nothing installs a generic top-level `behaviours` or `sim` (checked away from the source
+    # folder, whose own behaviours/ and sim/ folders would otherwise be found first).
+    code = (
+        "import importlib.util as u\n"
+        "assert u.find_spec('behaviours') is None, u.find_spec('behaviours')\n"
+        "assert u.find_spec('sim') is None, u.find_spec('sim')\n"
+        "import cptbt.behaviours.find_plume, cptbt.sim.world\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=CORE.parents[1])
