@@ -141,8 +141,7 @@ def _outcomes(groups: dict[str, Rows], path: Path, plt: Any) -> Path:
         err = [r["error_m"] for r in groups[k] if r.get("error_m") is not None]
         if err:
             a2.hist(err, bins=30, alpha=0.6, label=k)
-        share = [r["T_D"] / r["t3"] for r in groups[k]
-                 if r.get("T_D") is not None and r.get("t3")]
+        share = [v for v in map(_td_share, groups[k]) if v is not None]
         if share:
             a3.hist(share, bins=20, range=(0, 1), alpha=0.6, label=k)
     a2.set_xlabel("declaration error (m)")
@@ -154,6 +153,13 @@ def _outcomes(groups: dict[str, Rows], path: Path, plt: Any) -> Path:
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path
+
+
+def _td_share(row: dict[str, Any]) -> float | None:
+    """T_D as a share of the mission time to declaration (TRO Table III), when both exist."""
+    if row.get("T_D") is None or not row.get("t3"):
+        return None
+    return float(row["T_D"]) / float(row["t3"])
 
 
 def _mean(values: list[Any]) -> float:
@@ -183,7 +189,7 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
                   "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         shown = declared if len(declared) <= 20 else []
         for r in shown:
-            share = r["T_D"] / r["t3"] if r.get("t3") else None
+            share = _td_share(r)
             lines.append(
                 f"| r{r['replicate']}s{r['start']} | ({_fmt(r['start_x'])}, {_fmt(r['start_y'])}) "
                 f"| ({_fmt(r.get('declared_source_north'))}, "
@@ -194,7 +200,7 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
                 f"| {_fmt(r.get('D3'))} | {_fmt(r.get('D1_over_D0'), 2)} |")
         keys = ("error_m", "T_F", "T_T", "T_D", "D0", "D1", "D2", "D3", "D1_over_D0")
         means = {k: _mean([r.get(k) for r in declared]) for k in keys}
-        share = _mean([r["T_D"] / r["t3"] for r in declared if r.get("t3")])
+        share = _mean([_td_share(r) for r in declared])
         lines.append(
             f"| mean of {len(declared)} declared | | | {_fmt(means['error_m'])} "
             f"| {_fmt(means['T_F'])} | {_fmt(means['T_T'])} | {_fmt(means['T_D'])} "
