@@ -13,6 +13,9 @@ from collections import deque
 from cptbt.frames import OpArea
 from cptbt.types import Detection, FlowEstimate, Percept, Point, Pose
 
+TIME_EPS_S = 1e-9
+"""Tolerance on time comparisons, far below any cycle period."""
+
 
 class Perception:
     """Turns raw samples into one :class:`Percept` per planning cycle.
@@ -90,7 +93,9 @@ class Perception:
                 self._contacts += 1
                 self._first_t = t
             self._last = Detection(t, pose.x, pose.y)
-        in_plume = self._last is not None and t - self._last.t <= self.lambda_s
+        # A nanosecond of slack: at 10 Hz, 2.2 - 1.2 = 1.0000000000000002 > lambda_s = 1.0 would
+        # lose contact one cycle early on float time stamps.
+        in_plume = self._last is not None and t - self._last.t <= self.lambda_s + TIME_EPS_S
         if self._was_in_plume and not in_plume and self._last is not None:
             self._lost = (*self._lost, self._last.point)
         self._was_in_plume = in_plume

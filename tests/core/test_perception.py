@@ -90,3 +90,17 @@ def test_navigation_fault_keeps_last_good_pose() -> None:
     p.set_pose(Pose(math.nan, 0, 0))
     per = p.cycle(1.0)
     assert (per.pose.x, per.pose.y, per.pose.heading_deg) == (10, 5, 30)
+
+
+def test_lambda_holds_exactly_on_float_time_stamps() -> None:
+    # At 10 Hz, 2.2 - 1.2 = 1.0000000000000002: still within lambda = 1 s.
+    p = make(lambda_s=1.0)
+    p.set_pose(Pose(50, 0))
+    p.add_sample(1.2, 0.5)
+    assert p.cycle(1.2).in_plume
+    t = 1.2
+    for _ in range(10):
+        t += 0.1
+        per = p.cycle(t)
+    assert round(t, 9) == 2.2 and per.in_plume and not per.lost_contacts
+    assert not p.cycle(t + 0.1).in_plume
