@@ -140,4 +140,4 @@ def test_report_handles_oracle_rows_and_failures(tmp_path: Path) -> None:
     assert {"tables.md", "time_to_source_map.png", "time_vs_start_x.png",
             "success_and_error.png"} <= names
     table = (tmp_path / "tables.md").read_text()
-    assert "| m | 3 | 66.7% | 41.0 |" in table  # two successes at 42 s and 40 s
+    assert "| m | 3 | 66.7% | 41.0 | 1.0 | 127.3 |" in table  # 42 s, 40 s, and a 300 s failure
