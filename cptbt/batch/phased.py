@@ -13,6 +13,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from cptbt.batch.engine import TRACE_COLUMNS, VehicleRun
 from cptbt.batch.scenario import environment_of, planning_angle
 from cptbt.batch.sim_link import LinkFaults, SimVehicleLink
@@ -91,7 +93,7 @@ def simulate_phased(
         raise ValueError(f"mission {mission.name!r} has no mission_a section")
     wall0 = time.perf_counter()
     x0, y0, h0 = launch_pose_phased(mission)
-    world = World(params, [[x0, y0]], h0)
+    world = World(params, np.array([[x0, y0]]), h0)
     world.warm_up()
     source = Point(*params.source_xy_m)
     waypoints = [mission.to_xy(w) for w in spec.waypoints]
