@@ -34,6 +34,17 @@ class BehaviourParams(BaseModel):
     )
 
 
+def planner_keys(field_reached: bool) -> dict[str, Any]:
+    """The blackboard keys the planner owns, with their values at mission start.
+
+    ``command`` is the active behaviour's output; ``field_reached`` lets find-plume drive (False
+    only while move-to-field has work to do); ``declared_source``, ``go_home`` and
+    ``mission_done`` carry the mission's end game.
+    """
+    return {"command": None, "field_reached": field_reached, "declared_source": None,
+            "go_home": False, "mission_done": False}
+
+
 class PerceptSource(Protocol):
     """Where a behaviour reads the current cycle's percept."""
 

@@ -15,7 +15,7 @@ from py_trees.common import Access, Status
 
 from cptbt import ticking
 from cptbt.mission import MissionBase
-from cptbt.node import MissionContext
+from cptbt.node import MissionContext, planner_keys
 from cptbt.perception import Perception
 from cptbt.registry import Registry, default_registry
 from cptbt.tree import build_tree, plan_leaves
@@ -72,12 +72,10 @@ class Planner:
         self.root = build_tree(entries, self.registry, self.namespace)
         self.leaves = plan_leaves(self.root)
         self.bb = py_trees.blackboard.Client(name="planner", namespace=self.namespace)
-        for key in ("command", "field_reached", "declared_source", "go_home", "mission_done"):
+        has_field = any(e.family == "move_to_field" for e in entries)
+        for key, value in planner_keys(field_reached=not has_field).items():
             self.bb.register_key(key, access=Access.WRITE)
-        self.bb.field_reached = not any(e.family == "move_to_field" for e in entries)
-        self.bb.declared_source = None
-        self.bb.go_home = False
-        self.bb.mission_done = False
+            self.bb.set(key, value)
         for node in self.root.iterate():
             node.setup(context=self.context)
         self._direct = ticking.supports(self.root)

@@ -12,7 +12,7 @@ and check it against the rules every behaviour must keep with :func:`check_behav
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,9 +21,17 @@ from py_trees.common import Access, Status
 
 from cptbt.angles import unit
 from cptbt.frames import OpArea
-from cptbt.node import BehaviourParams, MissionContext, PlanBehaviour, Watch, overrides_watch
+from cptbt.node import (
+    BehaviourParams,
+    MissionContext,
+    PlanBehaviour,
+    Watch,
+    overrides_watch,
+    planner_keys,
+)
 from cptbt.perception import Perception
 from cptbt.registry import BehaviourSpec
+from cptbt.tree import plan_leaves
 from cptbt.types import Command, Percept, Point, Pose
 
 _namespaces = iter(range(10**12))
@@ -121,13 +129,9 @@ class TreeHarness:
             and not any(isinstance(w, Watch) and w.behaviour is n for w in root.iterate())
         ]
         self.bb = py_trees.blackboard.Client(name="harness")
-        for key in ("command", "field_reached", "declared_source", "go_home", "mission_done"):
+        for key, value in planner_keys(field_reached).items():
             self.bb.register_key(f"{_namespace(root)}/{key}", access=Access.WRITE)
-        self.set("field_reached", field_reached)
-        for key in ("declared_source",):
-            self.set(key, None)
-        self.set("go_home", False)
-        self.set("mission_done", False)
+            self.set(key, value)
         for node in root.iterate():
             node.setup(context=self.context)
 
@@ -285,7 +289,7 @@ def check_behaviour(
     base = _base_attrs()
     fresh = spec.build(params, fresh_namespace())
     TreeHarness(fresh, make_context(area, true_source=(20.0, 0.0)))
-    for old, new in zip(_leaves(node), _leaves(fresh), strict=True):
+    for old, new in zip(plan_leaves(node), plan_leaves(fresh), strict=True):
         old.initialise()
         new.initialise()
         got, want = _state(old, base), _state(new, base)
@@ -298,7 +302,3 @@ def _same(a: object, b: object) -> bool:
     if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
         return True
     return a == b
-
-
-def _leaves(root: py_trees.behaviour.Behaviour) -> Sequence[PlanBehaviour]:
-    return [n for n in root.iterate() if isinstance(n, PlanBehaviour)]

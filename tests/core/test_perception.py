@@ -63,9 +63,8 @@ def test_contacts_first_detection_and_lost_contacts() -> None:
     assert [q.in_plume for q in out] == [True, True, True, True, True, False, True]
     assert [q.contact_count for q in out] == [1, 1, 1, 1, 1, 1, 2]
     assert out[3].first_detection_t == 1 and out[6].first_detection_t == 7
-    assert out[5].lost_contacts == ((12.0, 0.0),) or [(q.x, q.y) for q in out[5].lost_contacts] == [
-        (12.0, 0.0)
-    ]
+    assert [(q.x, q.y) for q in out[4].lost_contacts] == []
+    assert [(q.x, q.y) for q in out[5].lost_contacts] == [(12.0, 0.0)]
     assert out[6].last_detection is not None and out[6].last_detection.x == 16
 
 
