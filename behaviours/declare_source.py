@@ -246,70 +246,8 @@ class UpflowSpreadDeclare(SourceDeclaration):
         return Point(sum(q.x for q in top) / k, sum(q.y for q in top) / k)
 
 
-class OracleParams(BehaviourParams):
-    """Parameters of the simulation-only oracle declaration (AB appendix)."""
-
-    radius_m: float = Field(
-        default=1.0, gt=0, description="Success when the vehicle is this close to the source, m"
-    )
-
-
-class OracleUnavailableError(RuntimeError):
-    """The oracle was set up without a true source: it only exists inside the simulator."""
-
-
-class OracleDeclare(_Declaration):
-    """Success when the vehicle reaches the true source (AB appendix; simulation benchmarks only).
-
-    When the vehicle (``p.pose``) is within ``radius_m`` of ``context.true_source``, the true
-    source is declared and ``mission_done`` is written at once: the run ends, there is no drive
-    home. :meth:`setup` refuses a context without a true source, so the oracle can never run on a
-    vehicle.
-
-    Reading chosen: after success it keeps heading for the source (it is still the highest plume
-    behaviour) for the cycles the application layer may run before it stops.
-    """
-
-    variant: ClassVar[str] = "oracle"
-    Params: ClassVar[type[BehaviourParams]] = OracleParams
-    params: OracleParams
-
-    def setup(self, **kwargs: Any) -> None:
-        """Bind the context; raise unless it carries the simulator's true source.
-
-        Raises:
-            OracleUnavailableError: ``context.true_source`` is None (not a simulation).
-        """
-        super().setup(**kwargs)
-        assert self.context is not None
-        if self.context.true_source is None:
-            raise OracleUnavailableError(
-                f"{self.name} needs the simulator's true source (MissionContext.true_source); "
-                "it is a simulation benchmark and cannot run on a vehicle"
-            )
-
-    def estimate(self, p: Percept) -> Point | None:
-        """The true source once the vehicle is within ``radius_m`` of it."""
-        assert self.context is not None and self.context.true_source is not None
-        source = self.context.true_source
-        return source if p.pose.point.distance_to(source) <= self.params.radius_m else None
-
-    def watch(self, p: Percept) -> None:
-        """Check the success criterion; on success the mission is done at once."""
-        super().watch(p)
-        if self.declared is not None:
-            self.bb.mission_done = True
-
-    def decide(self, p: Percept) -> Command | None:
-        """No output until success; then hold course for the source."""
-        if self.declared is None:
-            return None
-        return self.command(p.pose.point.bearing_to(self.declared))
-
-
 BEHAVIOURS = [
     BehaviourSpec.of(UpflowClusterDeclare, default=True),
     BehaviourSpec.of(RecentBoxDeclare),
     BehaviourSpec.of(UpflowSpreadDeclare),
-    BehaviourSpec.of(OracleDeclare),
 ]

@@ -7,7 +7,7 @@ from typing import ClassVar
 from py_trees.common import Access
 from pydantic import Field
 
-from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept, Point
 
@@ -33,6 +33,7 @@ class MoveToField(PlanBehaviour):
 
     family: ClassVar[str] = "move_to_field"
     variant: ClassVar[str] = "go_to"
+    contract: ClassVar[Contract] = Contract(needs_flow=False)
     Params: ClassVar[type[BehaviourParams]] = GoToParams
     params: GoToParams
     ends_move_to_field: ClassVar[bool] = False
@@ -61,6 +62,7 @@ class ReturnHome(PlanBehaviour):
 
     family: ClassVar[str] = "return_home"
     variant: ClassVar[str] = "go_to"
+    contract: ClassVar[Contract] = Contract(needs_flow=False)
     Params: ClassVar[type[BehaviourParams]] = GoToParams
     params: GoToParams
 

@@ -1,22 +1,23 @@
 """Maintain-plume: keep contact with the plume while moving up-flow (SPEC §5; TRO IV-B, OMAE).
 
 Every variant writes the sign of its last cross-flow offset to the blackboard key ``beta_sign``
-(int, ±1), which the cloverleaf reacquire reads to pick its first leaf. Every variant's
-parameters have a ``lambda_s``: the planner's perception declares contact lost after that long
-without a detection, which is what hands control to reacquire-plume.
+(int, ±1), which the cloverleaf reacquire reads to pick its first leaf. Contact is lost after
+the mission's ``perception.lambda_s`` without a detection (TRO Table I: λ = 8.5 s), which is what
+hands control to reacquire-plume; λ is the perception's, shared by every behaviour, so it is set
+there and not on a maintain entry.
 """
 
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import py_trees
 from py_trees.common import Access
 from pydantic import Field
 
 from cptbt.angles import bearing_deg, sign, wrap_deg
-from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept
 
@@ -24,9 +25,6 @@ from cptbt.types import Command, Percept
 class TrackParams(BehaviourParams):
     """Parameters of TRO track-in / track-out (TRO Table I), shared by both leaves."""
 
-    lambda_s: float = Field(
-        default=8.5, gt=0, description="Contact is lost after this long without a detection, s"
-    )
     beta_deg: float = Field(
         default=10.0, ge=0, lt=90, description="|beta|: track-out offset from upflow, deg"
     )
@@ -90,20 +88,25 @@ class CounterTurnParams(BehaviourParams):
         default=8.5, gt=0, description="L: the offset's sign reverses every L s without detection"
     )
     beta_deg: float = Field(default=10.0, ge=0, lt=90, description="|B|: offset from upflow, deg")
-    lambda_s: float = Field(
-        default=17.0,
-        gt=0,
-        description="T_w: contact is lost (reacquire takes over) after this long without a "
-        "detection, s",
-    )
+
+
+def _counter_turn_needs_time(params: BehaviourParams, perception: Any) -> str | None:
+    hold = getattr(params, "hold_s", 0.0)
+    if perception.lambda_s <= hold:
+        return (f"counter_turn reverses after hold_s = {hold:g} s without a detection, but "
+                f"perception.lambda_s = {perception.lambda_s:g} s ends contact first; set "
+                f"perception.lambda_s above hold_s (OMAE: T_w = 2L = {2 * hold:g} s)")
+    return None
 
 
 class CounterTurnTrack(PlanBehaviour):
     """Counter-turning plume tracker of OMAE "Plume Tracking" (SPEC §5b).
 
     Heads ``F + 180 + s·B``. For L s after a detection s holds; each further L s without a
-    detection reverses it (the counter-turn); after ``T_w`` (``lambda_s``) s without a detection
-    contact is lost and the behaviour has no output. Writes s to ``beta_sign``.
+    detection reverses it (the counter-turn); after ``T_w`` s without a detection (the mission's
+    ``perception.lambda_s``; OMAE's reading: ``2L`` = 17 s) contact is lost and the behaviour
+    has no output. Writes s to ``beta_sign``. ``validate`` refuses ``lambda_s <= hold_s``: the
+    tracker would lose contact before it ever counter-turns.
 
     Reading chosen: "the sign selected to cause the vehicle to cross the plume" keeps the
     cross-flow direction the vehicle was moving in at the detection,
@@ -114,6 +117,7 @@ class CounterTurnTrack(PlanBehaviour):
 
     family: ClassVar[str] = "maintain_plume"
     variant: ClassVar[str] = "counter_turn"
+    contract: ClassVar[Contract] = Contract(check=_counter_turn_needs_time)
     Params: ClassVar[type[BehaviourParams]] = CounterTurnParams
     params: CounterTurnParams
     persistent_state: ClassVar[tuple[str, ...]] = ("crossing_sign", "signed_detection_t")

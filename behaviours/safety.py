@@ -7,7 +7,7 @@ from typing import ClassVar
 from py_trees.common import Status
 from pydantic import Field
 
-from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept, Point
 
@@ -39,6 +39,7 @@ class OpAreaSafety(PlanBehaviour):
 
     family: ClassVar[str] = "safety"
     variant: ClassVar[str] = "oparea"
+    contract: ClassVar[Contract] = Contract(needs_flow=False)
     Params: ClassVar[type[BehaviourParams]] = OpAreaSafetyParams
     params: OpAreaSafetyParams
 

@@ -2,8 +2,9 @@
 
 Each strategy registers a maintain half (``maintain_plume.strategy_N``: output while in the plume)
 and a reacquire half (``reacquire_plume.strategy_N``: the crosswind cast of SPEC §6c, output from
-λ to T_W after the last detection). A mission must list both halves with the same strategy; the
-halves check each other in ``setup()``. They share state through blackboard keys:
+λ to T_W after the last detection). A mission must list both halves with the same strategy;
+each half declares the pairing as data (its ``contract``), which ``cptbt validate`` checks, so a
+mismatched mission never reaches set-up. They share state through blackboard keys:
 
 - ``cast_sign`` (int ±1, maintain → reacquire): the cast heads ``psi_u - cast_deg*cast_sign``.
   Strategy I writes ``sign(wrap(psi - psi_u))`` (actual heading vs upflow), II and III write
@@ -13,7 +14,6 @@ halves check each other in ``setup()``. They share state through blackboard keys
   cloverleaf reads it too. The cast falls back to it when ``cast_sign`` is absent.
 - ``casting`` (bool, reacquire → maintain): whether the cast had an output on its last tick; a
   new contact made while casting is a *reacquisition*, which flips the sign of beta.
-- ``maintain_strategy`` / ``reacquire_strategy`` (str): each half's variant, for the pair check.
 """
 
 from __future__ import annotations
@@ -24,24 +24,9 @@ from py_trees.common import Access
 from pydantic import Field, model_validator
 
 from cptbt.angles import sign, wrap_deg
-from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept
-
-LAMBDA_DESCRIPTION = "λ: contact is lost after this long without a detection, s (AB Table 3)"
-
-
-class StrategyMismatchError(ValueError):
-    """The maintain and reacquire halves of a mission name different AB strategies."""
-
-
-def _check_pair(bb: Any, other_key: str, mine: str, who: str) -> None:
-    other = bb.get(other_key) if bb.exists(other_key) else None
-    if other is not None and other != mine:
-        raise StrategyMismatchError(
-            f"{who} is AB {mine} but the mission's {other_key.split('_')[0]} half is {other}: "
-            "maintain_plume and reacquire_plume must use the same strategy"
-        )
 
 
 class _StrategyMaintain(PlanBehaviour):
@@ -52,14 +37,6 @@ class _StrategyMaintain(PlanBehaviour):
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
         super().__init__(params, **kwargs)
         self.bb.register_key("cast_sign", access=Access.WRITE)
-        self.bb.register_key("maintain_strategy", access=Access.WRITE)
-        self.bb.register_key("reacquire_strategy", access=Access.READ)
-
-    def setup(self, **kwargs: Any) -> None:
-        """Bind the context; announce this strategy and check the reacquire half's."""
-        super().setup(**kwargs)
-        self.bb.maintain_strategy = self.variant
-        _check_pair(self.bb, "reacquire_strategy", self.variant, self.name)
 
     def steer(self, p: Percept, psi_u: float) -> tuple[float, int]:
         """The offset from upflow this cycle, deg, and the cast sign to leave for reacquire."""
@@ -78,9 +55,11 @@ class _StrategyMaintain(PlanBehaviour):
 
 
 class StrategyIParams(BehaviourParams):
-    """Parameters of AB Strategy I, maintain half (AB Table 3)."""
+    """Parameters of AB Strategy I, maintain half (AB Table 3).
 
-    lambda_s: float = Field(default=1.0, gt=0, description=LAMBDA_DESCRIPTION)
+    λ (1 s in AB Table 3) is the mission's ``perception.lambda_s``: it is the perception's
+    contact-loss time, shared by every behaviour.
+    """
 
 
 class StrategyIMaintain(_StrategyMaintain):
@@ -95,6 +74,7 @@ class StrategyIMaintain(_StrategyMaintain):
     """
 
     variant: ClassVar[str] = "strategy_1"
+    contract: ClassVar[Contract] = Contract(pairs_with=(("reacquire_plume", "strategy_1"),))
     Params: ClassVar[type[BehaviourParams]] = StrategyIParams
     params: StrategyIParams
 
@@ -158,6 +138,7 @@ class StrategyIIMaintain(_CounterturningMaintain):
     """
 
     variant: ClassVar[str] = "strategy_2"
+    contract: ClassVar[Contract] = Contract(pairs_with=(("reacquire_plume", "strategy_2"),))
     Params: ClassVar[type[BehaviourParams]] = StrategyIIParams
     params: StrategyIIParams
 
@@ -201,6 +182,7 @@ class StrategyIIIMaintain(_CounterturningMaintain):
     """
 
     variant: ClassVar[str] = "strategy_3"
+    contract: ClassVar[Contract] = Contract(pairs_with=(("reacquire_plume", "strategy_3"),))
     Params: ClassVar[type[BehaviourParams]] = StrategyIIIParams
     params: StrategyIIIParams
 
@@ -244,14 +226,6 @@ class _CrosswindCast(PlanBehaviour):
         self.bb.register_key("casting", access=Access.WRITE)
         self.bb.register_key("cast_sign", access=Access.READ)
         self.bb.register_key("beta_sign", access=Access.READ)
-        self.bb.register_key("reacquire_strategy", access=Access.WRITE)
-        self.bb.register_key("maintain_strategy", access=Access.READ)
-
-    def setup(self, **kwargs: Any) -> None:
-        """Bind the context; announce this strategy and check the maintain half's."""
-        super().setup(**kwargs)
-        self.bb.reacquire_strategy = self.variant
-        _check_pair(self.bb, "maintain_strategy", self.variant, self.name)
 
     def cast_sign(self) -> int:
         """The sign left by the maintain half (``cast_sign``, else ``beta_sign``, else +1)."""
@@ -274,18 +248,21 @@ class StrategyICast(_CrosswindCast):
     """AB Strategy I, reacquire: cast away from the flow's last drift (pairs with strategy_1)."""
 
     variant: ClassVar[str] = "strategy_1"
+    contract: ClassVar[Contract] = Contract(pairs_with=(("maintain_plume", "strategy_1"),))
 
 
 class StrategyIICast(_CrosswindCast):
     """AB Strategy II, reacquire: counterturn, cast against ``sign(beta)`` (pairs with II)."""
 
     variant: ClassVar[str] = "strategy_2"
+    contract: ClassVar[Contract] = Contract(pairs_with=(("maintain_plume", "strategy_2"),))
 
 
 class StrategyIIICast(_CrosswindCast):
     """AB Strategy III, reacquire: counterturn, cast against ``sign(beta)`` (pairs with III)."""
 
     variant: ClassVar[str] = "strategy_3"
+    contract: ClassVar[Contract] = Contract(pairs_with=(("maintain_plume", "strategy_3"),))
 
 
 BEHAVIOURS = [

@@ -88,6 +88,31 @@ class OpArea:
         dy = max(self.ymin - y, 0.0, y - self.ymax)
         return math.hypot(dx, dy)
 
+    @staticmethod
+    def side_bearings(corners: Sequence[tuple[float, float]]) -> list[float]:
+        """Compass bearings in [0, 180) of the four sides of N-E corners taken around the centre."""
+        cn = sum(c[0] for c in corners) / 4.0
+        ce = sum(c[1] for c in corners) / 4.0
+        ordered = sorted(corners, key=lambda c: math.atan2(c[1] - ce, c[0] - cn))
+        return [
+            math.degrees(
+                math.atan2(ordered[(i + 1) % 4][1] - ordered[i][1],
+                           ordered[(i + 1) % 4][0] - ordered[i][0])
+            ) % 180.0
+            for i in range(4)
+        ]
+
+    def corner_misfit_m(self, corners: Sequence[tuple[float, float]]) -> float:
+        """How far the farthest N-E corner lies from the nearest corner of this rectangle, m."""
+        box = [(x, y) for x in (self.xmin, self.xmax) for y in (self.ymin, self.ymax)]
+        pts = [self.frame.ne_to_xy(n, e) for n, e in corners]
+        return max(min(math.hypot(p.x - bx, p.y - by) for bx, by in box) for p in pts)
+
+    @property
+    def diagonal_m(self) -> float:
+        """Length of the rectangle's diagonal, m."""
+        return math.hypot(self.xmax - self.xmin, self.ymax - self.ymin)
+
     @classmethod
     def from_ne_corners(
         cls, corners: Sequence[tuple[float, float]], x_bearing_deg: float | None = None

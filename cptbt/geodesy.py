@@ -108,7 +108,14 @@ class LocalFrame:
         if not corners:
             raise ValueError("need at least one corner")
         lat = sum(c[0] for c in corners) / len(corners)
-        lon = sum(c[1] for c in corners) / len(corners)
+        # A circular mean, so corners either side of the antimeridian (179.9, -179.9) centre
+        # near 180 rather than near 0.
+        lon = math.degrees(
+            math.atan2(
+                sum(math.sin(math.radians(c[1])) for c in corners),
+                sum(math.cos(math.radians(c[1])) for c in corners),
+            )
+        )
         first = cls(GeoPoint(lat, lon))
         ne = [first.to_ne(c[0], c[1]) for c in corners]
         cn = sum(p[0] for p in ne) / len(ne)

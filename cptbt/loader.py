@@ -7,17 +7,32 @@ overwritten.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import difflib
 from pathlib import Path
-from typing import Any
+from types import UnionType
+from typing import Annotated, Any, Union, get_args, get_origin
 
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from cptbt.mission import MissionBase, mission_model, mission_to_data
+from cptbt.mission import Loc, MissionBase, Problem, dotted, mission_model, mission_to_data
 from cptbt.registry import Registry, default_registry
 
-Loc = tuple[str | int, ...]
+MAX_BYTES = 1_000_000
+"""A mission file larger than this is refused (the shipped ones are a few kB)."""
+
+MAX_DEPTH = 40
+"""Deepest nesting of mappings and sequences a mission may have (the shipped ones: 5)."""
+
+MAX_VALUES = 50_000
+"""Most values a mission may hold once its aliases are expanded (a guard against alias bombs)."""
+
+MOVED_KEYS: dict[tuple[str, ...], str] = {
+    ("threshold",): "perception.threshold",
+    ("flow_window_s",): "perception.flow_window_s",
+    ("maintain_plume", "lambda_s"): "perception.lambda_s",
+}
+"""Keys of earlier mission files that moved, by (parent, key): where they live now."""
 
 
 class MissionError(Exception):
@@ -28,58 +43,113 @@ class MissionError(Exception):
         self.problems = problems
 
 
-def _walk(node: yaml.Node, path: Loc, lines: dict[Loc, int], source: str) -> None:
-    lines[path] = node.start_mark.line + 1
-    if isinstance(node, yaml.MappingNode):
-        seen: dict[Any, int] = {}
-        for key_node, value_node in node.value:
-            key = key_node.value
-            if key in seen:
-                raise MissionError(
-                    [
-                        f"{source}:{key_node.start_mark.line + 1}: {_dotted((*path, key))}: "
-                        f"duplicate key (first at line {seen[key]})"
-                    ]
-                )
-            seen[key] = key_node.start_mark.line + 1
-            _walk(value_node, (*path, key), lines, source)
-            lines[(*path, key)] = key_node.start_mark.line + 1
-    elif isinstance(node, yaml.SequenceNode):
-        for i, item in enumerate(node.value):
-            _walk(item, (*path, i), lines, source)
+class _Walk:
+    """Maps every key path to its line, refusing what could make the loader explode."""
+
+    def __init__(self, source: str) -> None:
+        self.source = source
+        self.lines: dict[Loc, int] = {}
+        self.values = 0
+        self.on_path: set[int] = set()
+
+    def fail(self, line: int, path: Loc, msg: str) -> MissionError:
+        return MissionError([f"{self.source}:{line}: {dotted(path)}: {msg}"])
+
+    def walk(self, node: yaml.Node, path: Loc) -> None:
+        line = node.start_mark.line + 1
+        self.values += 1
+        if self.values > MAX_VALUES:
+            raise self.fail(line, path, f"more than {MAX_VALUES} values once aliases are "
+                                        "expanded: refused (alias bomb?)")
+        if len(path) > MAX_DEPTH:
+            raise self.fail(line, path, f"nested deeper than {MAX_DEPTH} levels")
+        self.lines.setdefault(path, line)
+        if not isinstance(node, yaml.MappingNode | yaml.SequenceNode):
+            return
+        if id(node) in self.on_path:
+            raise self.fail(line, path, "an alias refers to a value that contains it")
+        self.on_path.add(id(node))
+        if isinstance(node, yaml.MappingNode):
+            seen: dict[Any, int] = {}
+            for key_node, value_node in node.value:
+                key_line = key_node.start_mark.line + 1
+                if not isinstance(key_node, yaml.ScalarNode):
+                    kind = "list" if isinstance(key_node, yaml.SequenceNode) else "mapping"
+                    raise self.fail(key_line, path, f"a key must be a plain word, not a {kind}")
+                key = key_node.value
+                if key in seen:
+                    raise self.fail(key_line, (*path, key),
+                                    f"duplicate key (first at line {seen[key]})")
+                seen[key] = key_line
+                self.walk(value_node, (*path, key))
+                self.lines[(*path, key)] = key_line
+        else:
+            for i, item in enumerate(node.value):
+                self.walk(item, (*path, i))
+        self.on_path.discard(id(node))
 
 
-def _dotted(path: Iterable[str | int]) -> str:
-    out = ""
-    for part in path:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
-    return out or "(top)"
+_OPENERS = (yaml.BlockMappingStartToken, yaml.BlockSequenceStartToken,
+            yaml.FlowMappingStartToken, yaml.FlowSequenceStartToken)
+_CLOSERS = (yaml.BlockEndToken, yaml.FlowMappingEndToken, yaml.FlowSequenceEndToken)
+
+
+def _check_depth(text: str, source: str) -> None:
+    """Refuse deep nesting before the (recursive) composer sees it."""
+    depth = 0
+    for token in yaml.scan(text, Loader=yaml.SafeLoader):
+        if isinstance(token, _OPENERS):
+            depth += 1
+            if depth > MAX_DEPTH:
+                line = token.start_mark.line + 1
+                raise MissionError([f"{source}:{line}: (yaml): nested deeper than {MAX_DEPTH} "
+                                    "levels"])
+        elif isinstance(token, _CLOSERS):
+            depth -= 1
 
 
 def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
     """Safe-load one YAML document and map every key path to its line.
 
+    Refused, each with one ``FILE:LINE: path: message`` line: files over :data:`MAX_BYTES`,
+    control characters (NUL...), nesting deeper than :data:`MAX_DEPTH`, aliases that contain
+    themselves or expand past :data:`MAX_VALUES` values, keys that are not plain scalars,
+    duplicate keys, unsafe tags and anything else the YAML parser rejects.
+
     Raises:
-        MissionError: the text is not valid YAML, uses an unsafe tag, or repeats a key.
+        MissionError: the text is not a mission-sized, plain YAML document.
     """
+    size = len(text.encode("utf-8", "surrogatepass"))
+    if size > MAX_BYTES:
+        raise MissionError([f"{source}:1: (file): {size} bytes; a mission file may have at most "
+                            f"{MAX_BYTES}"])
     loader = yaml.SafeLoader(text)
     try:
+        _check_depth(text, source)
         node = loader.get_single_node()
         if node is None:
             raise MissionError([f"{source}:1: (top): the file is empty"])
-        lines: dict[Loc, int] = {}
-        _walk(node, (), lines, source)
+        walk = _Walk(source)
+        walk.walk(node, ())
         data = loader.construct_document(node)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else 1
         msg = " ".join(str(x) for x in (exc.context, exc.problem) if x)
         raise MissionError([f"{source}:{line}: (yaml): {msg}"]) from None
+    except yaml.reader.ReaderError as exc:
+        line = text.count("\n", 0, max(exc.position, 0)) + 1
+        what = "NUL byte" if exc.character in (0, "\0") else f"character {exc.character!r}"
+        raise MissionError(
+            [f"{source}:{line}: (yaml): {what} not allowed in a mission file"]
+        ) from None
     except yaml.YAMLError as exc:
-        raise MissionError([f"{source}:1: (yaml): {exc}"]) from None
+        raise MissionError([f"{source}:1: (yaml): {' '.join(str(exc).split())}"]) from None
+    except (RecursionError, ValueError, OverflowError) as exc:  # e.g. a 5000-digit integer
+        raise MissionError([f"{source}:1: (yaml): cannot read: {exc}"]) from None
     finally:
         loader.dispose()
-    return data, lines
+    return data, walk.lines
 
 
 def _data_path(loc: Loc, data: Any) -> Loc:
@@ -102,30 +172,120 @@ def _data_path(loc: Loc, data: Any) -> Loc:
     return tuple(path)
 
 
+def _line(path: Loc, lines: dict[Loc, int]) -> int:
+    return next((lines[path[:i]] for i in range(len(path), -1, -1) if path[:i] in lines), 1)
+
+
+def _at(data: Any, path: Loc) -> Any:
+    for part in path:
+        try:
+            data = data[part]
+        except (KeyError, IndexError, TypeError):
+            return None
+    return data
+
+
+def _unknown_key(path: Loc, model: type[BaseModel] | None, data: Any) -> str:
+    """The message for an unknown key: where it moved, or the close matches."""
+    key = str(path[-1])
+    moved = MOVED_KEYS.get(tuple(str(p) for p in path[-2:])) or MOVED_KEYS.get((key,))
+    if moved and (len(path) == 1 or path[-2] == "maintain_plume"):
+        return (f"unknown key: '{key}' moved to {moved} in cptbt 0.2; write it under "
+                f"'{moved.split('.')[0]}:'")
+    known = _fields_at(model, path[:-1], data) if model is not None else []
+    return "unknown key" + (close_matches(key, known) if known else "")
+
+
+def _fields_at(model: type[BaseModel], path: Loc, data: Any) -> list[str]:
+    """Field names of the model that validates the mapping at ``path`` (for suggestions)."""
+    kind: Any = model
+    for i, part in enumerate(path):
+        kind = _unwrap(kind, _at(data, path[:i]))
+        if isinstance(kind, type) and issubclass(kind, BaseModel):
+            field = kind.model_fields.get(str(part))
+            if field is None:
+                return []
+            kind = field.annotation
+        elif get_origin(kind) is list:
+            kind = get_args(kind)[0]
+        else:
+            return []
+    kind = _unwrap(kind, _at(data, path))
+    if isinstance(kind, type) and issubclass(kind, BaseModel):
+        return list(kind.model_fields)
+    return []
+
+
+def _unwrap(kind: Any, value: Any) -> Any:
+    """Strip Optional/Annotated; pick a discriminated union's member by the data's ``variant``."""
+    while True:
+        if get_origin(kind) is Annotated:
+            kind = get_args(kind)[0]
+        elif get_origin(kind) in (Union, UnionType):
+            members = [a for a in get_args(kind) if a is not type(None)]
+            variant = value.get("variant") if isinstance(value, dict) else None
+            pick = [m for m in members if isinstance(m, type) and issubclass(m, BaseModel)
+                    and m.model_fields.get("variant") is not None
+                    and m.model_fields["variant"].default == variant]
+            kind = pick[0] if pick else members[0] if len(members) == 1 else None
+        else:
+            return kind
+
+
+def close_matches(word: str, choices: list[str]) -> str:
+    """``; did you mean 'x'?`` for the close matches of ``word``, or ``; known: ...``."""
+    matches = difflib.get_close_matches(word, choices, n=3, cutoff=0.6)
+    if matches:
+        return "; did you mean " + " or ".join(repr(m) for m in matches) + "?"
+    return "; known keys: " + ", ".join(choices)
+
+
 def format_errors(
-    exc: ValidationError, data: Any, lines: dict[Loc, int], source: str, prefix: Loc = ()
+    exc: ValidationError,
+    data: Any,
+    lines: dict[Loc, int],
+    source: str,
+    prefix: Loc = (),
+    model: type[BaseModel] | None = None,
 ) -> list[str]:
     """One ``FILE:LINE: path: message`` line per pydantic error."""
     out = []
     for err in exc.errors(include_url=False):
         path = _data_path(tuple(err["loc"]), data)
-        full = (*prefix, *path)
-        line = next((lines[full[:i]] for i in range(len(full), -1, -1) if full[:i] in lines), 1)
         msg = err["msg"].removeprefix("Value error, ")
         if err["type"] == "extra_forbidden":
-            msg = "unknown key"
-        out.append(f"{source}:{line}: {_dotted(full)}: {msg}")
+            msg = _unknown_key(path, model, data)
+        elif msg.startswith("unknown variant") or msg.startswith("'oracle'"):
+            item = _at(data, path)
+            if isinstance(item, dict) and len(item) == 1:
+                (family,) = item
+                path = (*path, family, "variant") if isinstance(item[family], dict) else path
+        full = (*prefix, *path)
+        out.append(f"{source}:{_line(full, lines)}: {dotted(full)}: {msg}")
     return out
+
+
+def format_problems(problems: list[Problem], lines: dict[Loc, int], source: str) -> list[str]:
+    """One ``FILE:LINE: path: message`` line per cross-field problem of a mission."""
+    return [f"{source}:{_line(loc, lines)}: {dotted(loc)}: {msg}" for loc, msg in problems]
 
 
 def validate_data(
     data: Any, lines: dict[Loc, int], source: str, model: type[BaseModel]
 ) -> BaseModel:
-    """Validate parsed YAML against a model, turning errors into a :class:`MissionError`."""
+    """Validate parsed YAML against a model, turning errors into a :class:`MissionError`.
+
+    Cross-field problems (:meth:`~cptbt.mission.MissionBase.problems`) are reported at the line
+    of the key each is about.
+    """
+    problems: list[Problem] = []
     try:
-        return model.model_validate(data)
+        result = model.model_validate(data, context={"problems": problems})
     except ValidationError as exc:
-        raise MissionError(format_errors(exc, data, lines, source)) from None
+        raise MissionError(format_errors(exc, data, lines, source, model=model)) from None
+    if problems:
+        raise MissionError(format_problems(problems, lines, source))
+    return result
 
 
 def load_mission(

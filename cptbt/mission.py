@@ -11,30 +11,60 @@ from __future__ import annotations
 from functools import cache
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationInfo,
+    create_model,
+    model_validator,
+)
 
 from cptbt.frames import OpArea, PlanningFrame
 from cptbt.geodesy import GeoPoint, LocalFrame
 from cptbt.mission_a import MissionASpec
-from cptbt.node import BehaviourParams
+from cptbt.node import BehaviourParams, Contract
+from cptbt.perception import PerceptionSettings
 from cptbt.registry import BehaviourSpec, Registry, UnknownBehaviourError
 from cptbt.types import Point
 
 Coord = tuple[float, float]
 
 
+FINITE = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+"""Every section of a mission: frozen, unknown keys rejected, numbers finite."""
+
+RECTANGLE_TOL_FRACTION = 0.01
+"""An OpArea's corners may lie this fraction of its diagonal (or 1 m, if more) off a rectangle."""
+
+NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,79}$"
+"""A mission name is a safe file name: it becomes a folder of ``cptbt run``'s outputs."""
+
+REMOVED_VARIANTS: dict[tuple[str, str], str] = {
+    ("declare_source", "oracle"): "the oracle is no longer a behaviour (the planner never sees "
+    "the true source): remove this entry and write 'evaluation: {criterion: arrival, "
+    "success_radius_m: 1}'",
+}
+"""Variants of earlier versions that were removed, with how to migrate."""
+
+Place = Literal["start", "home", "source"]
+Loc = tuple[str | int, ...]
+Problem = tuple[Loc, str]
+
+
 class OpAreaSpec(BaseModel):
     """The OpArea as written: four corners in the mission's frame."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = FINITE
 
     corners: list[Coord] = Field(
-        min_length=4, max_length=4, description="Four corners, [a, b] each, in the mission frame"
+        min_length=4, max_length=4, description="Four corners, [a, b] each, in the mission frame; "
+        "they must form a rectangle (each corner within 1% of the diagonal, or 1 m, of it)"
     )
     x_axis_bearing_deg: float | None = Field(
-        default=None,
+        default=None, ge=-360, le=360,
         description="Compass bearing of the planning +x axis (default: along the long side, "
-        "bearing in [0, 180)); only for frames 'ne' and 'geodetic'",
+        "bearing in [0, 180)); must be parallel to a side; only for frames 'ne' and 'geodetic'",
     )
     geodetic_centre_deg: Coord | None = Field(
         default=None,
@@ -44,13 +74,43 @@ class OpAreaSpec(BaseModel):
     )
 
 
+class EvaluationSpec(BaseModel):
+    """How a simulated run is judged against the simulator's true source (never seen by the AMP).
+
+    ``criterion: declaration`` (TRO): the run succeeds when the planner declares a source within
+    ``success_radius_m`` of the true one; a declaration farther off is a *false declaration*.
+    ``criterion: arrival`` (AB appendix, the old "oracle"): the run ends, successfully, the first
+    time the vehicle's true position comes within ``success_radius_m`` of the true source.
+    """
+
+    model_config = FINITE
+
+    criterion: Literal["declaration", "arrival"] = Field(
+        default="declaration",
+        description="'declaration': success = a declaration within the radius (TRO); 'arrival': "
+        "success = the vehicle within the radius of the true source, which ends the run (AB)",
+    )
+    success_radius_m: float = Field(
+        default=15.0, gt=0, le=10_000, description="Success radius around the true source, m"
+    )
+
+
 class MissionBase(BaseModel):
-    """Fields every mission has; :func:`mission_model` adds the behaviour list's schema."""
+    """Fields every mission has; :func:`mission_model` adds the behaviour list's schema.
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    Cross-field rules (OpArea geometry, places inside the OpArea, vehicle limits, behaviour
+    contracts) are checked after the fields; each problem names the key it is about (see
+    :meth:`problems`).
+    """
 
-    name: str = Field(min_length=1, description="Mission identifier")
-    description: str = ""
+    model_config = FINITE
+
+    name: str = Field(
+        pattern=NAME_PATTERN,
+        description="Mission identifier: letters, digits, '.', '_' and '-' (it names output "
+        "folders)",
+    )
+    description: str = Field(default="", max_length=10_000)
     frame: Literal["ne", "planning", "geodetic"] = Field(
         default="ne",
         description="Frame of every coordinate in this file: 'ne' = [north, east] metres; "
@@ -62,11 +122,24 @@ class MissionBase(BaseModel):
     start: Coord | None = Field(
         default=None, description="Move-to-field goal and the vehicle's starting point"
     )
-    speed_mps: float = Field(default=1.5, gt=0, description="Cruise speed command, m/s")
+    allow_outside: list[Place] = Field(
+        default_factory=list,
+        description="Places allowed outside the OpArea (default: none): 'start', 'home', "
+        "'source' (the simulator's)",
+    )
+    speed_mps: float = Field(default=1.5, gt=0, le=20, description="Cruise speed command, m/s")
     cycle_hz: float = Field(default=1.0, gt=0, le=100, description="Planner cycle rate, Hz")
-    threshold: float = Field(default=0.20, ge=0, description="Detection threshold (TRO Table I)")
-    flow_window_s: float = Field(default=100.0, gt=0, description="Flow averaging window, s")
-    time_limit_s: float = Field(default=3600.0, gt=0, description="AMP time limit, s")
+    time_limit_s: float = Field(
+        default=3600.0, gt=0, le=7 * 86400, description="AMP time limit, s"
+    )
+    perception: PerceptionSettings = Field(
+        default_factory=PerceptionSettings,
+        description="Detection threshold, contact-loss time λ and flow estimate (SPEC §2)",
+    )
+    evaluation: EvaluationSpec = Field(
+        default_factory=EvaluationSpec,
+        description="How simulated runs are judged against the true source (simulation only)",
+    )
     behaviours: list[Any] = Field(min_length=1, description="Behaviours, highest priority first")
     environment: Any = Field(default=None, description="Simulated environment (simulator only)")
     mission_a: MissionASpec | None = Field(
@@ -75,37 +148,151 @@ class MissionBase(BaseModel):
         "(SPEC §9); without it the AMP drives from t = 0",
     )
 
-    @field_validator("op_area")
-    @classmethod
-    def _area_not_degenerate(cls, v: OpAreaSpec) -> OpAreaSpec:
-        if len({tuple(c) for c in v.corners}) != 4:
-            raise ValueError("the four corners must be distinct")
-        return v
-
     @model_validator(mode="after")
-    def _geometry(self) -> MissionBase:
-        self.op_area_geometry()  # raises ValueError on a degenerate or non-rectangular area
-        families = [e.family for e in self.entries()]
-        seen = {f for f in families if families.count(f) > 1}
-        if seen:
-            raise ValueError(f"behaviour listed twice: {', '.join(sorted(seen))}")
-        return self
+    def _cross_field(self, info: ValidationInfo) -> MissionBase:
+        problems = self.problems()
+        if not problems:
+            return self
+        sink = info.context.get("problems") if isinstance(info.context, dict) else None
+        if isinstance(sink, list):  # the loader reports each problem at its own key's line
+            sink.extend(problems)
+            return self
+        raise ValueError("; ".join(f"{dotted(loc)}: {msg}" for loc, msg in problems))
 
-    def op_area_geometry(self) -> OpArea:
-        """The OpArea in the planning frame."""
-        corners = [tuple(c) for c in self.op_area.corners]
+    # -- cross-field rules -------------------------------------------------------------------
+    def problems(self) -> list[Problem]:
+        """Every cross-field problem, as (key path, message); empty for a sound mission."""
+        out = self._coordinate_problems()
+        if out:
+            return out  # the geometry below needs sound coordinates
+        try:
+            area = self.op_area_geometry()
+        except ValueError as exc:
+            return [(("op_area", "corners"), str(exc))]
+        out += self._rectangle_problems(area)
+        for key in ("start", "home"):
+            coord = getattr(self, key)
+            if coord is None or key in self.allow_outside:
+                continue
+            p = self.to_xy(coord)
+            if not area.contains(p.x, p.y):
+                out.append(((key,), f"{area.distance_outside(p.x, p.y):.1f} m outside the OpArea "
+                             f"(list '{key}' in allow_outside if that is intended)"))
+        out += self._limit_problems()
+        out += self._behaviour_problems()
+        return out
+
+    def _coordinate_problems(self) -> list[Problem]:
+        if self.frame != "geodetic":
+            if len({tuple(c) for c in self.op_area.corners}) != 4:
+                return [(("op_area", "corners"), "the four corners must be distinct")]
+            return []
+        out: list[Problem] = []
+        places: list[tuple[Loc, Coord | None]] = [
+            (("op_area", "corners", i), c) for i, c in enumerate(self.op_area.corners)
+        ]
+        places += [(("home",), self.home), (("start",), self.start),
+                   (("op_area", "geodetic_centre_deg"), self.op_area.geodetic_centre_deg)]
+        for loc, c in places:
+            if c is not None and not (-90 < c[0] < 90 and -180 <= c[1] <= 180):
+                out.append((loc, f"[{c[0]:g}, {c[1]:g}] is not [latitude, longitude]: latitude "
+                                 "must lie in (-90, 90) and longitude in [-180, 180]"))
+        if not out and len({tuple(c) for c in self.op_area.corners}) != 4:
+            out.append((("op_area", "corners"), "the four corners must be distinct"))
+        return out
+
+    def _rectangle_problems(self, area: OpArea) -> list[Problem]:
+        if self.frame == "planning":
+            return []
+        ne = self.corners_ne()
+        tol = max(1.0, RECTANGLE_TOL_FRACTION * area.diagonal_m)
+        misfit = area.corner_misfit_m(ne)
+        if misfit <= tol:
+            return []
+        sides = "/".join(f"{b:.1f}°" for b in sorted({round(b, 1) for b in area.side_bearings(ne)}))
+        given = self.op_area.x_axis_bearing_deg
+        if given is not None:
+            own = OpArea.from_ne_corners(ne)
+            if own.corner_misfit_m(ne) <= tol:
+                return [(("op_area", "x_axis_bearing_deg"),
+                         f"{given:g}° is not parallel to the corners' sides ({sides}): the "
+                         f"OpArea would reach {misfit:.1f} m beyond them (tolerance {tol:.1f} m); "
+                         "give a side's bearing or leave it out")]
+        return [(("op_area", "corners"),
+                 f"not a rectangle: a corner lies {misfit:.1f} m off the fitted rectangle "
+                 f"(tolerance {tol:.1f} m, 1% of the diagonal); sides at {sides}")]
+
+    def _limit_problems(self) -> list[Problem]:
+        a = self.mission_a
+        if a is None:
+            return []
+        lim = a.limits
+        out: list[Problem] = []
+        speeds: list[tuple[Loc, float]] = [(("speed_mps",), self.speed_mps),
+                                           (("mission_a", "speed_mps"), a.speed_mps)]
+        for i, e in enumerate(self.entries()):
+            if e.params.speed_mps is not None:
+                speeds.append((("behaviours", i, e.family, "speed_mps"), e.params.speed_mps))
+        for loc, v in speeds:
+            if not lim.min_speed_mps <= v <= lim.max_speed_mps:
+                out.append((loc, f"{v:g} m/s is outside the vehicle's limits "
+                                 f"[{lim.min_speed_mps:g}, {lim.max_speed_mps:g}] m/s "
+                                 "(mission_a.limits): the vehicle would refuse it"))
+        for key in ("depth_m", "amp_depth_m"):
+            depth = getattr(a, key)
+            if depth is not None and depth > lim.max_depth_m:
+                out.append((("mission_a", key), f"{depth:g} m is deeper than the vehicle's limit "
+                                                 f"{lim.max_depth_m:g} m (mission_a.limits)"))
+        return out
+
+    def _behaviour_problems(self) -> list[Problem]:
+        entries = self.entries()
+        out: list[Problem] = []
+        first: dict[str, int] = {}
+        for i, e in enumerate(entries):
+            if e.family in first:
+                out.append((("behaviours", i, e.family),
+                            f"behaviour listed twice (first at behaviours[{first[e.family]}])"))
+            first.setdefault(e.family, i)
+        chosen = {e.family: e.variant for e in entries}
+        for i, e in enumerate(entries):
+            loc: Loc = ("behaviours", i, e.family, "variant")
+            for family, variant in e.contract.pairs_with:
+                if family in chosen and chosen[family] != variant:
+                    out.append((loc, f"{e.family} {e.variant} must be paired with {family} "
+                                     f"{variant}, not {chosen[family]}"))
+            why = e.contract.check(e.params, self.perception) if e.contract.check else None
+            if why:
+                out.append((("behaviours", i, e.family), why))
+            if e.contract.needs_flow and self.perception.flow_source == "none":
+                out.append((loc, f"{e.family} {e.variant} needs a flow estimate, but "
+                                 "perception.flow_source is 'none'"))
+        return out
+
+    # -- geometry --------------------------------------------------------------------------
+    def corners_ne(self) -> list[tuple[float, float]]:
+        """The OpArea corners in N-E metres (frames 'ne' and 'geodetic')."""
+        corners = [(float(c[0]), float(c[1])) for c in self.op_area.corners]
         if self.frame == "geodetic":
             local = self.local_frame()
             assert local is not None
-            ne = [local.to_ne(c[0], c[1]) for c in corners]
-            return OpArea.from_ne_corners(ne, self.op_area.x_axis_bearing_deg)
-        if self.frame == "ne":
-            return OpArea.from_ne_corners(corners, self.op_area.x_axis_bearing_deg)  # type: ignore[arg-type]
+            return [local.to_ne(c[0], c[1]) for c in corners]
+        return corners
+
+    def op_area_geometry(self) -> OpArea:
+        """The OpArea in the planning frame.
+
+        Raises:
+            ValueError: degenerate corners, or bearing/centre keys in frame 'planning'.
+        """
+        if self.frame != "planning":
+            return OpArea.from_ne_corners(self.corners_ne(), self.op_area.x_axis_bearing_deg)
         if self.op_area.x_axis_bearing_deg is not None or self.op_area.geodetic_centre_deg:
             raise ValueError(
                 "op_area.x_axis_bearing_deg and geodetic_centre_deg apply to frames 'ne' and "
                 "'geodetic' only"
             )
+        corners = [tuple(c) for c in self.op_area.corners]
         xs = sorted({c[0] for c in corners})
         ys = sorted({c[1] for c in corners})
         if len(xs) != 2 or len(ys) != 2:
@@ -146,6 +333,14 @@ class MissionBase(BaseModel):
         return [BehaviourEntry.from_item(item) for item in self.behaviours]
 
 
+def dotted(path: Loc) -> str:
+    """A key path as written in messages: ``behaviours[2].maintain_plume.lambda_s``."""
+    out = ""
+    for part in path:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "(top)"
+
+
 class BehaviourEntry(BaseModel):
     """One validated behaviour of a mission."""
 
@@ -163,6 +358,11 @@ class BehaviourEntry(BaseModel):
         ((family, params),) = ((k, v) for k, v in item if v is not None)
         return cls(family=family, variant=params.variant, params=params)
 
+    @property
+    def contract(self) -> Contract:
+        """What this variant needs from the rest of the mission (from its registry spec)."""
+        return getattr(type(self.params), "contract", None) or Contract()
+
     def to_data(self) -> dict[str, Any]:
         """The YAML form ``{family: {variant: ..., params...}}``."""
         body = self.params.model_dump(mode="json", exclude_none=True)
@@ -172,12 +372,14 @@ class BehaviourEntry(BaseModel):
 
 def _variant_model(spec: BehaviourSpec) -> type[BehaviourParams]:
     name = "".join(p.title() for p in f"{spec.family}_{spec.variant}".split("_"))
-    return create_model(
+    model = create_model(
         name,
         __base__=spec.params,
         __doc__=spec.summary or spec.params.__doc__,
         variant=(Literal[spec.variant], Field(default=spec.variant, description="Variant name")),  # type: ignore[arg-type]
     )
+    model.contract = spec.contract
+    return model
 
 
 def _item_model(registry: Registry) -> type[BaseModel]:
@@ -201,9 +403,14 @@ def _item_model(registry: Registry) -> type[BaseModel]:
                 body = {}
             if isinstance(body, dict):
                 body = {"variant": default_variant[family], **body}
+                if not isinstance(body["variant"], str):
+                    raise ValueError(f"{family}.variant must be a name")
                 registry.get(family, body["variant"])
         except UnknownBehaviourError as exc:
-            raise ValueError(str(exc)) from None
+            variant = body.get("variant") if isinstance(body, dict) else None
+            removed = REMOVED_VARIANTS.get((str(family), str(variant)))
+            msg = f"unknown variant {variant!r}: {removed}" if removed else str(exc)
+            raise ValueError(msg) from None
         return {family: body}
 
     return create_model(

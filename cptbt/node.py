@@ -9,6 +9,7 @@ subsumption network of TRO Fig. 2 (SPEC §3).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar, Protocol
 
@@ -20,6 +21,22 @@ from cptbt.frames import OpArea
 from cptbt.types import Command, Percept, Point
 
 
+@dataclass(frozen=True, slots=True)
+class Contract:
+    """What a behaviour variant needs from the rest of its mission, checked by ``validate``.
+
+    Attributes:
+        needs_flow: it steers by the flow estimate, so the mission's perception must have one.
+        pairs_with: ``(family, variant)`` pairs: if the mission lists that family, it must use
+            that variant (the two halves of an AB strategy share state).
+        check: ``check(params, perception_settings)`` returns why the pair cannot work, or None.
+    """
+
+    needs_flow: bool = True
+    pairs_with: tuple[tuple[str, str], ...] = ()
+    check: Callable[[BehaviourParams, Any], str | None] | None = None
+
+
 class BehaviourParams(BaseModel):
     """Base of every behaviour's parameter model: frozen, unknown keys rejected.
 
@@ -27,10 +44,13 @@ class BehaviourParams(BaseModel):
     ``beta_deg``); the model is at once the YAML schema, the documentation and the validation.
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+    contract: ClassVar[Contract | None] = None
+    """Set on the mission schema's per-variant models from the registry spec."""
 
     speed_mps: float | None = Field(
-        default=None, gt=0, description="Speed command while active, m/s (default: mission speed)"
+        default=None, gt=0, le=20,
+        description="Speed command while active, m/s (default: mission speed)",
     )
 
 
@@ -66,8 +86,6 @@ class MissionContext:
     start: Point | None
     speed_mps: float
     percept: Percept | None = None
-    true_source: Point | None = None
-    """Known only in simulation; the oracle declaration refuses to run without it."""
 
 
 class PlanBehaviour(py_trees.behaviour.Behaviour):
@@ -82,12 +100,14 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         variant: its name within the family (``billiard``, ``track_in_out``, ...).
         Params: its frozen parameter model.
         ends_move_to_field: once this behaviour has had an output, move-to-field stops for good.
+        contract: what it needs from the rest of the mission (checked by ``validate``).
     """
 
     family: ClassVar[str] = ""
     variant: ClassVar[str] = ""
     Params: ClassVar[type[BehaviourParams]] = BehaviourParams
     ends_move_to_field: ClassVar[bool] = True
+    contract: ClassVar[Contract] = Contract()
 
     def __init__(
         self,

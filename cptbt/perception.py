@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
 
 from cptbt.frames import OpArea
 from cptbt.types import Detection, FlowEstimate, Percept, Point, Pose
@@ -17,38 +20,89 @@ TIME_EPS_S = 1e-9
 """Tolerance on time comparisons, far below any cycle period."""
 
 
+class PerceptionSettings(BaseModel):
+    """The ``perception:`` section of a mission: how raw samples become percepts (SPEC §2).
+
+    These settings are shared by every behaviour, so they are declared once here rather than
+    on any one behaviour's entry.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    threshold: float = Field(
+        default=0.20, ge=0, description="A cycle's concentration above this is a detection "
+        "(TRO Table I: 0.20)"
+    )
+    lambda_s: float = Field(
+        default=8.5, gt=0, le=3600, description="λ: contact is lost after this long without a "
+        "detection, s (TRO Table I: 8.5; AB Table 3: 1; OMAE counter-turning T_w: 17)"
+    )
+    flow_window_s: float = Field(
+        default=100.0, gt=0, le=3600, description="The flow estimate is the vector mean over "
+        "this window, s (TRO IV: 100; AB's searcher senses the local flow: a few seconds)"
+    )
+    flow_source: Literal["adcp", "none"] = Field(
+        default="adcp", description="'adcp': flow over ground from the ADCP and the vehicle's "
+        "velocity (TRO IV); 'none': the vehicle has no flow sensor (behaviours that steer by "
+        "the flow cannot be used)"
+    )
+    max_flow_speed_mps: float = Field(
+        default=5.0, gt=0, le=100, description="Flow samples faster than this are impossible "
+        "(sensor faults, fill values) and ignored, m/s"
+    )
+
+
 class Perception:
     """Turns raw samples into one :class:`Percept` per planning cycle.
 
+    Robust to the faults a vehicle's sensors and clock produce (issue 9):
+
+    - concentration: NaN or infinite samples are dropped (a fault degrades to "no detection");
+    - flow: non-finite samples and samples faster than ``max_flow_speed_mps`` (fill values such
+      as 9.97e36, spikes) are dropped; the windowed vector mean is summed afresh each cycle with
+      :func:`math.fsum`, so no sample outlives its window and no running sum loses precision;
+    - position: a non-finite fix keeps the previous estimate;
+    - time: the planner runs on its own monotonic clock. A cycle whose time stamp is not finite,
+      repeats, or steps back is taken as one nominal period after the previous cycle, and later
+      time stamps are shifted by the same amount (a clock step is a correction, not elapsed
+      time), so timers never run backwards and the planner is never silenced; a forward jump is
+      elapsed time and ages every timer.
+
     Args:
         op_area: detections outside it are ignored (TRO V).
-        threshold: a cycle's concentration above this is a detection (TRO Table I: 0.20).
-        lambda_s: contact is lost after this long without a detection (TRO Table I: 8.5 s).
-        flow_window_s: the flow estimate is the vector mean over this window (TRO: 100 s).
+        settings: threshold, λ, flow window and flow gate (the mission's ``perception:``).
     """
 
-    def __init__(
-        self, op_area: OpArea, threshold: float, lambda_s: float, flow_window_s: float = 100.0
-    ) -> None:
+    def __init__(self, op_area: OpArea, settings: PerceptionSettings | None = None) -> None:
         self.op_area = op_area
-        self.threshold = threshold
-        self.lambda_s = lambda_s
-        self.flow_window_s = flow_window_s
+        self.settings = settings or PerceptionSettings()
+        self.threshold = self.settings.threshold
+        self.lambda_s = self.settings.lambda_s
+        self.flow_window_s = self.settings.flow_window_s
         self.reset()
 
     def reset(self) -> None:
         """Forget everything: a new mission."""
         self._cycle_max = -math.inf
         self._flows: deque[tuple[float, float, float]] = deque()
-        self._sum_vx = 0.0
-        self._sum_vy = 0.0
         self._pose = Pose(math.nan, math.nan, 0.0)
         self._last: Detection | None = None
         self._first_t: float | None = None
         self._was_in_plume = False
         self._contacts = 0
         self._lost: tuple[Point, ...] = ()
+        self._t_prev = -math.inf
+        self._offset = 0.0
+        self._period = 1.0
+        self.rejected_flow_samples = 0
+        self.clock_corrections = 0
         self.latest: Percept | None = None
+
+    def _clock(self, t: float) -> float:
+        """A sample's time on the planner's clock (the vehicle's, shifted by past steps back)."""
+        if not math.isfinite(t):
+            return self._t_prev if math.isfinite(self._t_prev) else 0.0
+        return t + self._offset
 
     def add_sample(self, t: float, concentration: float) -> None:
         """One fluorometer sample; NaN or infinite values (sensor faults) are ignored."""
@@ -56,12 +110,15 @@ class Perception:
             self._cycle_max = concentration
 
     def add_flow(self, t: float, vx: float, vy: float) -> None:
-        """One flow-over-ground sample (planning frame, m/s); non-finite samples are ignored."""
-        if not (math.isfinite(vx) and math.isfinite(vy)):
+        """One flow-over-ground sample (planning frame, m/s); impossible samples are ignored."""
+        if self.settings.flow_source == "none":
             return
-        self._flows.append((t, vx, vy))
-        self._sum_vx += vx
-        self._sum_vy += vy
+        if not (math.isfinite(vx) and math.isfinite(vy)) or (
+            math.hypot(vx, vy) > self.settings.max_flow_speed_mps
+        ):
+            self.rejected_flow_samples += 1
+            return
+        self._flows.append((self._clock(t), vx, vy))
 
     def set_pose(self, pose: Pose) -> None:
         """The latest navigation estimate; a non-finite one keeps the previous estimate."""
@@ -71,17 +128,36 @@ class Perception:
 
     def _flow(self, t: float) -> FlowEstimate | None:
         while self._flows and self._flows[0][0] <= t - self.flow_window_s:
-            _, vx, vy = self._flows.popleft()
-            self._sum_vx -= vx
-            self._sum_vy -= vy
+            self._flows.popleft()
+        # Samples time-stamped after this cycle (a clock that stepped back) still count.
         if not self._flows:
             # Keep the last known estimate rather than forgetting the flow in a long dropout.
             return self.latest.flow if self.latest is not None else None
         n = len(self._flows)
-        return FlowEstimate(self._sum_vx / n, self._sum_vy / n)
+        return FlowEstimate(
+            math.fsum(f[1] for f in self._flows) / n, math.fsum(f[2] for f in self._flows) / n
+        )
+
+    def _cycle_time(self, t: float) -> float:
+        """This cycle's time on the monotonic planner clock (see the class docstring)."""
+        now = t + self._offset if math.isfinite(t) else -math.inf
+        if now <= self._t_prev:  # not finite, repeated or stepped back
+            target = self._t_prev + self._period if math.isfinite(self._t_prev) else 0.0
+            if math.isfinite(t):
+                self._offset += target - now
+            self.clock_corrections += 1
+            now = target
+        elif math.isfinite(self._t_prev):
+            self._period = min(now - self._t_prev, 60.0)
+        self._t_prev = now
+        return now
 
     def cycle(self, t: float) -> Percept:
-        """Close the current cycle at time ``t`` and return its percept."""
+        """Close the current cycle at vehicle time ``t`` and return its percept.
+
+        The percept's ``t`` is the planner clock (equal to ``t`` unless the clock stepped back).
+        """
+        t = self._cycle_time(t)
         pose = self._pose
         conc = self._cycle_max if self._cycle_max > -math.inf else math.nan
         self._cycle_max = -math.inf

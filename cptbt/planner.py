@@ -23,18 +23,12 @@ from cptbt.types import Command, Percept, Point, Pose
 
 _ids = itertools.count()
 
-DEFAULT_LAMBDA_S = 8.5
-"""TRO Table I; used when the mission has no maintain-plume behaviour that sets ``lambda_s``."""
-
-
 class Planner:
     """The Adaptive Mission Planner for one vehicle.
 
     Args:
         mission: a validated mission.
         registry: where its behaviours are found (default: installed entry points).
-        true_source: the simulated source (planning frame); only the oracle declaration reads
-            it, and it must stay None on a real vehicle.
         namespace: blackboard namespace (default: a fresh one).
     """
 
@@ -43,30 +37,18 @@ class Planner:
         mission: MissionBase,
         registry: Registry | None = None,
         *,
-        true_source: Point | None = None,
         namespace: str | None = None,
     ) -> None:
         self.mission = mission
         self.registry = registry or default_registry()
         entries = mission.entries()
         self.op_area = mission.op_area_geometry()
-        lambda_s = next(
-            (
-                e.params.lambda_s
-                for e in entries
-                if e.family == "maintain_plume" and hasattr(e.params, "lambda_s")
-            ),
-            DEFAULT_LAMBDA_S,
-        )
-        self.perception = Perception(
-            self.op_area, mission.threshold, lambda_s, mission.flow_window_s
-        )
+        self.perception = Perception(self.op_area, mission.perception)
         self.context = MissionContext(
             op_area=self.op_area,
             home=mission.to_xy(mission.home),
             start=mission.to_xy(mission.start) if mission.start is not None else None,
             speed_mps=mission.speed_mps,
-            true_source=true_source,
         )
         self.namespace = namespace or f"/cptbt/p{next(_ids)}"
         self.root = build_tree(entries, self.registry, self.namespace)
@@ -107,7 +89,11 @@ class Planner:
 
     # -- the cycle ------------------------------------------------------------------------
     def tick(self, t: float) -> Command | None:
-        """Run one planning cycle at time ``t``; returns the command, or None (no output)."""
+        """Run one planning cycle at time ``t``; returns the command, or None (no output).
+
+        Any ``t`` is accepted: a time stamp that is not finite, repeats or steps back is handled
+        by the perception's monotonic clock (see :class:`~cptbt.perception.Perception`).
+        """
         self.percept = self.context.percept = self.perception.cycle(t)
         storage = self._storage
         storage[self._key["command"]] = None

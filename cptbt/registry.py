@@ -14,7 +14,7 @@ from importlib.metadata import entry_points
 
 import py_trees
 
-from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 
 ENTRY_POINT_GROUP = "cptbt.behaviours"
 
@@ -59,6 +59,8 @@ class BehaviourSpec:
         summary: one line for listings.
         behaviour_classes: the PlanBehaviour classes the node is made of (for conformance checks).
         default: the variant used when a mission names the family without a variant.
+        contract: what it needs from the rest of the mission (checked by ``validate``, so
+            nothing that validates fails at set-up).
     """
 
     family: str
@@ -68,6 +70,7 @@ class BehaviourSpec:
     summary: str = ""
     behaviour_classes: tuple[type[PlanBehaviour], ...] = field(default=())
     default: bool = False
+    contract: Contract = field(default_factory=Contract)
 
     @property
     def key(self) -> str:
@@ -89,6 +92,7 @@ class BehaviourSpec:
             summary=_first_line(behaviour.__doc__),
             behaviour_classes=(behaviour,),
             default=default,
+            contract=behaviour.contract,
         )
 
 

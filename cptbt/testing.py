@@ -29,7 +29,7 @@ from cptbt.node import (
     overrides_watch,
     planner_keys,
 )
-from cptbt.perception import Perception
+from cptbt.perception import Perception, PerceptionSettings
 from cptbt.registry import BehaviourSpec
 from cptbt.tree import plan_leaves
 from cptbt.types import Command, Percept, Point, Pose
@@ -47,7 +47,6 @@ def make_context(
     home: tuple[float, float] = (0.0, 0.0),
     start: tuple[float, float] | None = None,
     speed_mps: float = 1.0,
-    true_source: tuple[float, float] | None = None,
 ) -> MissionContext:
     """A mission context for tests."""
     return MissionContext(
@@ -55,7 +54,6 @@ def make_context(
         home=Point(*home),
         start=Point(*start) if start else None,
         speed_mps=speed_mps,
-        true_source=Point(*true_source) if true_source else None,
     )
 
 
@@ -75,7 +73,10 @@ class ScriptedPerception:
         lambda_s: float = 8.5,
         flow_window_s: float = 100.0,
     ) -> None:
-        self.perception = Perception(op_area or square_area(), threshold, lambda_s, flow_window_s)
+        settings = PerceptionSettings(
+            threshold=threshold, lambda_s=lambda_s, flow_window_s=flow_window_s
+        )
+        self.perception = Perception(op_area or square_area(), settings)
         self.flow = flow
 
     def step(
@@ -253,7 +254,7 @@ def check_behaviour(
     rng = np.random.default_rng(seed)
     params = params if params is not None else spec.params()
     area = square_area(100.0)
-    context = make_context(area, home=(5.0, 0.0), start=(50.0, 10.0), true_source=(20.0, 0.0))
+    context = make_context(area, home=(5.0, 0.0), start=(50.0, 10.0))
     ns = fresh_namespace()
     node = spec.build(params, ns)
     harness = TreeHarness(node, context, field_reached=False)
@@ -288,7 +289,7 @@ def check_behaviour(
     node.stop(Status.INVALID)
     base = _base_attrs()
     fresh = spec.build(params, fresh_namespace())
-    TreeHarness(fresh, make_context(area, true_source=(20.0, 0.0)))
+    TreeHarness(fresh, make_context(area))
     for old, new in zip(plan_leaves(node), plan_leaves(fresh), strict=True):
         old.initialise()
         new.initialise()

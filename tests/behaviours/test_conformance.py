@@ -43,6 +43,5 @@ def test_registry_holds_every_variant_of_the_papers() -> None:
         "declare_source.upflow_cluster",
         "declare_source.recent_box",
         "declare_source.upflow_spread",
-        "declare_source.oracle",
     }
     assert expected <= keys, sorted(expected - keys)

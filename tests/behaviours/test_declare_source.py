@@ -1,4 +1,4 @@
-"""Declare-source variants, tick by tick (SPEC §7; TRO IV-D; OMAE; AB appendix).
+"""Declare-source variants, tick by tick (SPEC §7; TRO IV-D; OMAE).
 
 Lost-contact points are produced by the real perception: a cycle detecting at the point, then a
 cycle 2 s later (lambda_s = 1 s) with no detection, which appends the point to the list.
@@ -13,8 +13,6 @@ from py_trees.common import Status
 from pydantic import ValidationError
 
 from cptbt.behaviours.declare_source import (
-    OracleDeclare,
-    OracleUnavailableError,
     RecentBoxDeclare,
     UpflowClusterDeclare,
     UpflowClusterParams,
@@ -213,32 +211,13 @@ def test_upflow_spread_no_declaration_when_spread_along_the_flow() -> None:
     assert h.get("declared_source") is None
 
 
-def test_oracle_declares_the_true_source_and_ends_the_mission() -> None:
-    # True source (20, 0), R = 1: at (25, 0) (5 m) nothing; at (20, 0.9) (0.9 m) success:
-    # declared_source = (20, 0), mission_done at once, heading toward the source = -90°.
-    script = ScriptedPerception(flow=FLOW_PLUS_X)
-    h = harness(OracleDeclare(namespace=fresh_namespace()), true_source=(20.0, 0.0))
-    tk = h.tick(script.step(0.0, 25.0, 0.0))
-    assert tk.status == Status.FAILURE and h.get("mission_done") is False
-    tk = h.tick(script.step(1.0, 20.0, 0.9))
-    assert tk.status == Status.RUNNING and tk.command is not None
-    assert math.isclose(tk.command.heading_deg, -90.0)
-    assert h.get("declared_source") == Point(20.0, 0.0)
-    assert h.get("mission_done") is True
-
-
-def test_oracle_refuses_to_run_without_a_true_source() -> None:
-    with pytest.raises(OracleUnavailableError, match="true source"):
-        harness(OracleDeclare(namespace=fresh_namespace()))
-
-
 def test_cluster_larger_than_window_is_rejected() -> None:
     with pytest.raises(ValidationError):
         UpflowClusterParams(recent_points=2, cluster_points=3)
 
 
 @pytest.mark.parametrize(
-    "cls", [UpflowClusterDeclare, RecentBoxDeclare, UpflowSpreadDeclare, OracleDeclare]
+    "cls", [UpflowClusterDeclare, RecentBoxDeclare, UpflowSpreadDeclare]
 )
 def test_conformance(cls: type) -> None:
     check_behaviour(BehaviourSpec.of(cls))

@@ -23,7 +23,6 @@ from cptbt.behaviours.strategies import (
     StrategyIIIParams,
     StrategyIIMaintain,
     StrategyIMaintain,
-    StrategyMismatchError,
 )
 from cptbt.mission import BehaviourEntry
 from cptbt.node import PlanBehaviour
@@ -173,7 +172,6 @@ def test_strategy_3_pair_beta_schedule_and_flip() -> None:
     expected += span(19, 25, 95.0) + span(26, 29, -90.0) + span(30, 31, -170.0)
     expected += span(32, 35, -115.0) + span(36, 40, -95.0) + [(41, 90.0)]
     check(h, script(range(10, 42), {13, 14, 15, 30}, {}), expected)
-    assert h.get("maintain_strategy") == "strategy_3" == h.get("reacquire_strategy")
 
 
 def test_strategy_3_maintain_alone_schedule_at_0_1_0_3_0_6() -> None:
@@ -186,14 +184,11 @@ def test_strategy_3_maintain_alone_schedule_at_0_1_0_3_0_6() -> None:
     assert (headings[11], headings[13], headings[16]) == (-170.0, -115.0, -95.0)
 
 
-@pytest.mark.parametrize("order", ["maintain_first", "cast_first"])
-def test_halves_of_different_strategies_are_refused(order: str) -> None:
-    ns = fresh_namespace()
-    nodes = [StrategyIIMaintain(namespace=ns), StrategyIIICast(namespace=ns)]
-    if order == "cast_first":
-        nodes.reverse()
-    with pytest.raises(StrategyMismatchError, match="same strategy"):
-        TreeHarness(py_trees.composites.Selector("pair", memory=False, children=nodes))
+@pytest.mark.parametrize("spec", BEHAVIOURS, ids=lambda s: s.key)
+def test_each_half_declares_its_partner(spec: BehaviourSpec) -> None:
+    # The pairing is data that `cptbt validate` checks (tests/core/test_bad_missions.py).
+    partner = "reacquire_plume" if spec.family == "maintain_plume" else "maintain_plume"
+    assert spec.contract.pairs_with == ((partner, spec.variant),)
 
 
 def test_schedule_must_be_ordered() -> None:

@@ -19,7 +19,7 @@ speed_mps: 1.5
 behaviours:
   - safety: {variant: oparea}
   - declare_source: {variant: upflow_cluster}
-  - maintain_plume: {variant: track_in_out, lambda_s: 8.5, beta_deg: 10}
+  - maintain_plume: {variant: track_in_out, beta_deg: 10}
   - reacquire_plume: {variant: cloverleaf, d_leaf_m: 15, repeats: 3}
   - find_plume: {variant: billiard}
   - move_to_field: {variant: go_to}

@@ -103,7 +103,7 @@ def _geodetic_mission(extra: str = "") -> str:
     home = FRAME.to_geodetic(-100, 60)
     return (
         "name: geo\nframe: geodetic\nop_area:\n  corners:\n" + corners + "\n"
-        "  x_axis_bearing_deg: 133\n"
+        "  x_axis_bearing_deg: 136.5\n"
         f"home: [{home.lat_deg:.10f}, {home.lon_deg:.10f}]\n"
         "behaviours:\n  - safety: {}\n" + extra
     )
@@ -112,11 +112,11 @@ def _geodetic_mission(extra: str = "") -> str:
 def test_geodetic_mission_gives_the_same_oparea_as_its_n_e_corners() -> None:
     m = loads_mission(_geodetic_mission(), "geo.yaml", REG)
     area = m.op_area_geometry()
-    ref = OpArea.from_ne_corners(CORNERS_NE, 133)
+    ref = OpArea.from_ne_corners(CORNERS_NE, 136.5)
     for a, b in [(area.xmin, ref.xmin), (area.xmax, ref.xmax), (area.ymin, ref.ymin),
                  (area.ymax, ref.ymax)]:
         assert a == pytest.approx(b, abs=1e-3)
-    assert area.frame.x_bearing_deg == 133
+    assert area.frame.x_bearing_deg == 136.5
     home = m.to_xy(m.home)
     expected = ref.frame.ne_to_xy(-100, 60)
     assert (home.x, home.y) == pytest.approx((expected.x, expected.y), abs=1e-3)

@@ -36,7 +36,7 @@ def test_good_mission_loads_with_defaults_and_priorities() -> None:
         "safety", "maintain_plume", "find_plume", "move_to_field"
     ]
     assert m.entries()[2].params.active_at == (1.0, 2.0)
-    assert m.threshold == 0.2 and m.flow_window_s == 100
+    assert m.perception.threshold == 0.2 and m.perception.flow_window_s == 100
     area = m.op_area_geometry()
     assert (area.xmin, area.xmax, area.ymin, area.ymax) == (0, 100, -50, 50)
 
@@ -75,12 +75,12 @@ BAD = [
     ("unknown behaviour", lambda s: s.replace("- safety: {}", "- safty: {}"),
      "m.yaml:10: behaviours[0]:", "did you mean 'safety'"),
     ("unknown variant", lambda s: s.replace("variant: scripted", "variant: scriptd"),
-     "m.yaml:12: behaviours[2]:", "did you mean 'scripted'"),
+     "m.yaml:12: behaviours[2].find_plume.variant:", "did you mean 'scripted'"),
     ("unknown param", lambda s: s.replace("{heading_deg: 180}", "{headin_deg: 180}"),
      "m.yaml:11: behaviours[1].maintain_plume.headin_deg:", "unknown key"),
     ("bad param type", lambda s: s.replace("active_at: [1, 2]", "active_at: soon"),
      "m.yaml:12: behaviours[2].find_plume.active_at:", "valid tuple"),
-    ("behaviour twice", lambda s: s + "  - safety: {}\n", "m.yaml:1: (top):", "listed twice"),
+    ("behaviour twice", lambda s: s + "  - safety: {}\n", "m.yaml:14: behaviours[4].safety:", "listed twice"),
     ("entry not a mapping", lambda s: s.replace("- safety: {}", "- safety"),
      "m.yaml:10: behaviours[0]:", "one mapping"),
     ("duplicate key", lambda s: s.replace("cycle_hz: 10", "cycle_hz: 10\ncycle_hz: 5"),
@@ -91,7 +91,7 @@ BAD = [
     ("not a mapping", lambda s: "- just\n- a list\n", "m.yaml:1: (top):", "mapping"),
     ("empty file", lambda s: "", "m.yaml:1: (top):", "empty"),
     ("planning area not aligned", lambda s: s.replace("[100, 50]", "[101, 50]"),
-     "m.yaml:1: (top):", "axis-aligned"),
+     "m.yaml:4: op_area.corners:", "axis-aligned"),
 ]
 
 

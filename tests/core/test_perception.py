@@ -5,14 +5,14 @@ import math
 import pytest
 
 from cptbt.frames import OpArea
-from cptbt.perception import Perception
+from cptbt.perception import Perception, PerceptionSettings
 from cptbt.types import Pose
 
 AREA = OpArea(0, 100, -50, 50)
 
 
 def make(lambda_s: float = 2.0) -> Perception:
-    return Perception(AREA, threshold=0.2, lambda_s=lambda_s, flow_window_s=100.0)
+    return Perception(AREA, PerceptionSettings(threshold=0.2, lambda_s=lambda_s, flow_window_s=100))
 
 
 def test_cycle_takes_the_max_of_its_samples_and_thresholds() -> None:

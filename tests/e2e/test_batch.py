@@ -123,7 +123,7 @@ def test_sweep_of_variants_and_bad_sweep(tmp_path: Path) -> None:
     assert "unknown variant 'nope'" in bad.stderr
 
 
-def test_report_handles_oracle_rows_and_failures(tmp_path: Path) -> None:
+def test_report_handles_arrival_rows_and_failures(tmp_path: Path) -> None:
     from cptbt.batch.report import write_report
 
     base = {"config": 0, "replicate": 0, "mission": "m", "start_y": 0.0, "error_m": None,

@@ -54,7 +54,7 @@ def test_tree_prints_the_subsumption_order_and_writes_dot(tmp_path: Path) -> Non
 def test_behaviours_lists_parameters_with_defaults() -> None:
     res = cptbt("behaviours")
     assert res.returncode == 0, res.stderr
-    assert re.search(r"lambda_s = 8\.5", res.stdout)
+    assert re.search(r"beta_deg = 10", res.stdout)
     assert "cloverleaf (default)" in res.stdout
     listing = json.loads(cptbt("behaviours", "--json").stdout)
     assert {"family", "variant", "params"} <= listing[0].keys()
@@ -72,7 +72,7 @@ def test_schema_is_json_schema_naming_every_family() -> None:
 def test_bad_mission_is_one_line_per_problem_exit_2_no_traceback(tmp_path: Path) -> None:
     text = (ROOT / "missions/tro2006_msn007.yaml").read_text()
     bad = tmp_path / "bad.yaml"
-    bad.write_text(text.replace("lambda_s: 8.5", "lambda_s: -1").replace(
+    bad.write_text(text.replace("beta_deg: 10}", "beta_deg: -1}").replace(
         "flow_speed_mps: 0.1", "flow_speed_mps: 0.1\n  flow: {noise_std_mps: -3}"))
     for cmd in (("validate", str(bad)), ("tree", str(bad)), ("run", str(bad))):
         res = cptbt(*cmd)
@@ -81,7 +81,7 @@ def test_bad_mission_is_one_line_per_problem_exit_2_no_traceback(tmp_path: Path)
         lines = res.stderr.strip().splitlines()
         assert lines and all(line.startswith(f"{bad}:") for line in lines), lines
     res = cptbt("validate", str(bad))
-    assert any("maintain_plume.lambda_s" in line for line in res.stderr.splitlines())
+    assert any("maintain_plume.beta_deg" in line for line in res.stderr.splitlines())
 
 
 def test_environment_override_error_names_its_line(tmp_path: Path) -> None:
