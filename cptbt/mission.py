@@ -429,7 +429,7 @@ def mission_model(
 ) -> type[MissionBase]:
     """The full mission model for a registry (and, in the application layer, an environment)."""
     item = _item_model(registry)
-    env: Any = (environment, Field(default_factory=environment)) if environment else (Any, None)
+    env: Any = (environment | None, None) if environment else (Any, None)
     items: Any = list[item]  # type: ignore[valid-type]
     return create_model(
         "Mission",

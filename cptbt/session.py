@@ -15,6 +15,7 @@ command limits by the vehicle.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 from cptbt.link import (
@@ -96,16 +97,44 @@ class AmpSession:
             self.phases.fire("amp_enable", t)
             self.t_amp_start = t
             self._next_tick = t
+        if self.in_override and t + self._period < self._next_tick:
+            # The vehicle's clock stepped back (a reset or correction): cycle on from now rather
+            # than stay silent until the old schedule comes round again.
+            self._next_tick = t
         if self.in_override and not self._give_back_due() and t + 1e-9 >= self._next_tick:
-            self._next_tick += self._period
+            # One tick per due cycle; after a forward jump the schedule restarts from now
+            # instead of ticking repeatedly to catch up.
+            self._next_tick = max(self._next_tick + self._period, t + 1e-9)
             self._tick(t)
             self._give_back_due()
 
     # -- internals --------------------------------------------------------------------------
+    def _sane(self, s: VehicleState) -> VehicleState | None:
+        """A state with its faults repaired from the previous one; None if nothing is usable.
+
+        A non-finite clock keeps the previous time; a non-finite position or heading keeps the
+        previous fix (the planner's perception does the same), so one bad report can neither end
+        the override through the 30 m rule nor reach the planner.
+        """
+        prev = self.state
+        fixes: dict[str, float] = {}
+        for key in ("t_s", "x_m", "y_m", "heading_deg"):
+            if not math.isfinite(getattr(s, key)):
+                if prev is not None:
+                    fixes[key] = getattr(prev, key)
+                elif key == "heading_deg":
+                    fixes[key] = 0.0
+                else:
+                    return None
+        return dataclasses.replace(s, **fixes) if fixes else s
+
     def _handle(self, msg: object) -> None:
         if isinstance(msg, VehicleState):
-            self.state = msg
-            self._follow_vehicle_mode(msg)
+            state = self._sane(msg)
+            if state is None:
+                return
+            self.state = state
+            self._follow_vehicle_mode(state)
         elif isinstance(msg, FlowSample):
             self.planner.add_flow(msg.t_s, msg.vx_mps, msg.vy_mps)
         elif isinstance(msg, ConcentrationSample):

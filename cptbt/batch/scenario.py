@@ -12,7 +12,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from cptbt.mission import Coord, MissionBase
+from cptbt.mission import Coord, MissionBase, Problem
 from cptbt.sim.world import EnvironmentParams, EnvPreset
 
 Overrides = dict[str, Any]
@@ -21,7 +21,7 @@ Overrides = dict[str, Any]
 class Environment(BaseModel):
     """A simulated environment for a mission."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     preset: EnvPreset = Field(
         default="tro_ocean",
@@ -29,7 +29,9 @@ class Environment(BaseModel):
         "/ 'ab_large_meander' (1 m/s, 100 x 100 m)",
     )
     source: Coord | None = Field(
-        default=None, description="True source position in the mission frame (default: preset's)"
+        default=None, description="True source position in the mission frame (required: the "
+        "presets' own sources lie in their own areas, not in yours); inside the OpArea unless "
+        "the mission lists 'source' in allow_outside"
     )
     flow_toward_deg: float | None = Field(
         default=None,
@@ -44,7 +46,7 @@ class Environment(BaseModel):
     launch_heading_deg: float = Field(
         default=0.0, description="Vehicle heading at t = 0 (mission-frame convention)"
     )
-    seed: int = Field(default=0, description="Seed of every random draw of a run")
+    seed: int = Field(default=0, ge=0, description="Seed of every random draw of a run")
     dt_s: float | None = Field(default=None, gt=0, description="Vehicle step, s")
     plume_dt_s: float | None = Field(default=None, gt=0, description="Flow and plume step, s")
     warm_up_s: float | None = Field(default=None, ge=0, description="Plume spin-up, s")
@@ -64,9 +66,44 @@ def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
 
 
 def environment_of(mission: MissionBase) -> Environment:
-    """The mission's environment section (defaults when it has none)."""
+    """The mission's environment section.
+
+    Raises:
+        ValueError: the mission has none (check :func:`problems` first for a located message).
+    """
     env = mission.environment
-    return env if isinstance(env, Environment) else Environment.model_validate(env or {})
+    if env is None:
+        raise ValueError(f"mission {mission.name} has no environment section to simulate")
+    return env if isinstance(env, Environment) else Environment.model_validate(env)
+
+
+def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
+    """What stops the mission's environment from being simulated, as (key path, message).
+
+    Args:
+        mission: a validated mission.
+        simulate: a run is asked for, so the section must exist.
+    """
+    env = mission.environment
+    if env is None:
+        if not simulate:
+            return []
+        return [(("environment",), "a simulated run needs an 'environment:' section giving the "
+                                   "true 'source:' (see missions/tro2006_msn007.yaml)")]
+    env = environment_of(mission)
+    if env.source is None:
+        return [(("environment", "source"), "required: the true source in the mission frame "
+                                            "(cptbt does not guess one for your OpArea)")]
+    if mission.frame == "geodetic" and not (-90 < env.source[0] < 90
+                                            and -180 <= env.source[1] <= 180):
+        return [(("environment", "source"), "not [latitude, longitude]")]
+    area = mission.op_area_geometry()
+    src = mission.to_xy(env.source)
+    if "source" not in mission.allow_outside and not area.contains(src.x, src.y):
+        return [(("environment", "source"),
+                 f"{area.distance_outside(src.x, src.y):.1f} m outside the OpArea (list 'source' "
+                 "in allow_outside if that is intended)")]
+    return []
 
 
 def to_sim_params(mission: MissionBase, seed: int | None = None) -> EnvironmentParams:

@@ -74,7 +74,7 @@ def _starts(args: argparse.Namespace, mission: Any) -> list[tuple[float, float]]
 
 def cmd_batch(args: argparse.Namespace) -> int:
     """Fly a mission from many starts and plume realisations; resumable, reproducible."""
-    mission = load(args.mission)
+    mission = load(args.mission, simulate=True)
     try:
         sweeps = [Sweep.parse(s) for s in args.sweep]
         starts = _starts(args, mission)

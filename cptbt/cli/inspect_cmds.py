@@ -10,7 +10,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from cptbt.loader import MissionError, format_errors, load_mission, parse_yaml
+from cptbt.loader import MissionError, format_errors, format_problems, load_mission, parse_yaml
 from cptbt.mission import MissionBase, mission_model
 from cptbt.planner import Planner
 from cptbt.registry import default_registry
@@ -26,8 +26,12 @@ def environment_model() -> type[BaseModel] | None:
     return Environment
 
 
-def load(path: str) -> MissionBase:
+def load(path: str, simulate: bool = False) -> MissionBase:
     """Load a mission with the installed behaviours and check its simulator settings too.
+
+    Args:
+        path: the mission file.
+        simulate: the caller will simulate it, so it must have an ``environment:`` section.
 
     Raises:
         MissionError: one ``FILE:LINE: path: message`` line per problem.
@@ -35,11 +39,15 @@ def load(path: str) -> MissionBase:
     env = environment_model()
     mission = load_mission(path, default_registry(), env)
     if env is not None:
-        from cptbt.batch.scenario import check
+        from cptbt.batch.scenario import check, problems
 
-        error = check(mission)
-        if error is not None:
+        found = problems(mission, simulate)
+        error = check(mission) if mission.environment is not None and not found else None
+        if found or error is not None:
             data, lines = parse_yaml(Path(path).read_text(encoding="utf-8"), path)
+            if found:
+                raise MissionError(format_problems(found, lines, path))
+            assert error is not None
             section = data.get("environment") or {}
             raise MissionError(format_errors(error, section, lines, path, ("environment",)))
     return mission

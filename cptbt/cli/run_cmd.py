@@ -56,7 +56,7 @@ def _fmt(v: float | None, unit: str = "") -> str:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a mission with one vehicle; write summary.json, a trace and trajectory.png."""
-    mission = load(args.mission)
+    mission = load(args.mission, simulate=True)
     params = to_sim_params(mission, args.seed)
     seed = params.seed
     out = Path(args.out or f"runs/{mission.name}-seed{seed}")
