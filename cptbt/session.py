@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 from cptbt.link import (
     CommandRefused,
@@ -117,7 +118,7 @@ class AmpSession:
         the override through the 30 m rule nor reach the planner.
         """
         prev = self.state
-        fixes: dict[str, float] = {}
+        fixes: dict[str, Any] = {}
         for key in ("t_s", "x_m", "y_m", "heading_deg"):
             if not math.isfinite(getattr(s, key)):
                 if prev is not None:
