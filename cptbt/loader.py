@@ -50,42 +50,55 @@ class _Walk:
         self.source = source
         self.lines: dict[Loc, int] = {}
         self.values = 0
+        self.seen: set[int] = set()
         self.on_path: set[int] = set()
 
     def fail(self, line: int, path: Loc, msg: str) -> MissionError:
         return MissionError([f"{self.source}:{line}: {dotted(path)}: {msg}"])
 
-    def walk(self, node: yaml.Node, path: Loc) -> None:
+    def walk(self, node: yaml.Node, path: Loc, alias_at: Loc | None = None) -> None:
+        """Record lines under ``path``; ``alias_at`` is where an alias expansion began."""
+        if id(node) in self.seen and alias_at is None:
+            alias_at = path  # a value reached a second time: this key holds an alias
+        self.seen.add(id(node))
         line = node.start_mark.line + 1
+        self.lines.setdefault(path, line)
         self.values += 1
         if self.values > MAX_VALUES:
-            raise self.fail(line, path, f"more than {MAX_VALUES} values once aliases are "
-                                        "expanded: refused (alias bomb?)")
+            at = alias_at if alias_at is not None else path
+            raise self.fail(self.lines.get(at, line), at, f"more than {MAX_VALUES} values once "
+                            "aliases are expanded: refused (an alias bomb?)")
         if len(path) > MAX_DEPTH:
             raise self.fail(line, path, f"nested deeper than {MAX_DEPTH} levels")
-        self.lines.setdefault(path, line)
         if not isinstance(node, yaml.MappingNode | yaml.SequenceNode):
             return
         if id(node) in self.on_path:
-            raise self.fail(line, path, "an alias refers to a value that contains it")
+            raise self.fail(self.lines.get(path, line), path,
+                            "an alias refers to a value that contains it")
         self.on_path.add(id(node))
         if isinstance(node, yaml.MappingNode):
-            seen: dict[Any, int] = {}
+            keys: dict[Any, int] = {}
             for key_node, value_node in node.value:
                 key_line = key_node.start_mark.line + 1
                 if not isinstance(key_node, yaml.ScalarNode):
                     kind = "list" if isinstance(key_node, yaml.SequenceNode) else "mapping"
                     raise self.fail(key_line, path, f"a key must be a plain word, not a {kind}")
                 key = key_node.value
-                if key in seen:
+                if key in keys:
                     raise self.fail(key_line, (*path, key),
-                                    f"duplicate key (first at line {seen[key]})")
-                seen[key] = key_line
-                self.walk(value_node, (*path, key))
-                self.lines[(*path, key)] = key_line
+                                    f"duplicate key (first at line {keys[key]})")
+                keys[key] = key_line
+                if alias_at is None:
+                    self.lines[(*path, key)] = key_line
+                self.walk(value_node, (*path, key), alias_at)
         else:
             for i, item in enumerate(node.value):
-                self.walk(item, (*path, i))
+                if alias_at is None:
+                    # An alias's node carries the line of its anchor; use the list's own line.
+                    aliased = id(item) in self.seen
+                    line_i = self.lines[path] if aliased else item.start_mark.line + 1
+                    self.lines.setdefault((*path, i), line_i)
+                self.walk(item, (*path, i), alias_at)
         self.on_path.discard(id(node))
 
 
@@ -123,9 +136,10 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
     if size > MAX_BYTES:
         raise MissionError([f"{source}:1: (file): {size} bytes; a mission file may have at most "
                             f"{MAX_BYTES}"])
-    loader = yaml.SafeLoader(text)
+    loader: yaml.SafeLoader | None = None
     try:
         _check_depth(text, source)
+        loader = yaml.SafeLoader(text)
         node = loader.get_single_node()
         if node is None:
             raise MissionError([f"{source}:1: (top): the file is empty"])
@@ -148,7 +162,8 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
     except (RecursionError, ValueError, OverflowError) as exc:  # e.g. a 5000-digit integer
         raise MissionError([f"{source}:1: (yaml): cannot read: {exc}"]) from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
     return data, walk.lines
 
 

@@ -170,6 +170,8 @@ class MissionBase(BaseModel):
         except ValueError as exc:
             return [(("op_area", "corners"), str(exc))]
         out += self._rectangle_problems(area)
+        if out:
+            return out  # places are judged against a sound OpArea
         for key in ("start", "home"):
             coord = getattr(self, key)
             if coord is None or key in self.allow_outside:
@@ -255,18 +257,21 @@ class MissionBase(BaseModel):
                             f"behaviour listed twice (first at behaviours[{first[e.family]}])"))
             first.setdefault(e.family, i)
         chosen = {e.family: e.variant for e in entries}
+        paired: set[str] = set()  # a mismatched pair is reported once, at its first half
         for i, e in enumerate(entries):
             loc: Loc = ("behaviours", i, e.family, "variant")
             for family, variant in e.contract.pairs_with:
-                if family in chosen and chosen[family] != variant:
+                if family in chosen and chosen[family] != variant and family not in paired:
+                    paired.add(e.family)
                     out.append((loc, f"{e.family} {e.variant} must be paired with {family} "
                                      f"{variant}, not {chosen[family]}"))
             why = e.contract.check(e.params, self.perception) if e.contract.check else None
             if why:
                 out.append((("behaviours", i, e.family), why))
-            if e.contract.needs_flow and self.perception.flow_source == "none":
-                out.append((loc, f"{e.family} {e.variant} needs a flow estimate, but "
-                                 "perception.flow_source is 'none'"))
+        needy = [f"{e.family} {e.variant}" for e in entries if e.contract.needs_flow]
+        if needy and self.perception.flow_source == "none":
+            out.append((("perception", "flow_source"),
+                        f"'none', but {', '.join(needy)} steer by the flow estimate"))
         return out
 
     # -- geometry --------------------------------------------------------------------------

@@ -1,0 +1,199 @@
+"""A corpus of malformed, hostile and borderline missions: each gets one precise line, exit 2.
+
+Every case edits the valid ``data/corpus_base.yaml`` (or builds a hostile file from scratch) and
+runs ``cptbt validate`` in-process; the assertion is the whole promise of the gate: exit status 2,
+exactly one line on stderr, ``FILE:LINE: path: message`` with the line of the offending key and
+its path, no traceback, and a message that says what is wrong.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from cptbt.cli import main
+
+BASE = (Path(__file__).parent / "data" / "corpus_base.yaml").read_text(encoding="utf-8")
+Edit = Callable[[str], str]
+
+
+def sub(old: str, new: str) -> Edit:
+    def edit(text: str) -> str:
+        assert old in text, old
+        return text.replace(old, new, 1)
+
+    return edit
+
+
+def whole(text: str) -> Edit:
+    return lambda _: text
+
+
+def bomb(levels: int = 10, width: int = 9) -> str:
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x]"]
+    for i in range(1, levels):
+        refs = ", ".join([f"*a{i - 1}"] * width)
+        lines.append(f"a{i}: &a{i} [{refs}]")
+    return "\n".join(lines) + "\n"
+
+
+AB_PAIRS = sub("maintain_plume: {variant: track_in_out, beta_deg: 10}",
+               "maintain_plume: {variant: strategy_3}")
+
+# (id, edit, line, path, fragment of the message)
+CASES: list[tuple[str, Edit, int, str, str]] = [
+    # -- the loader cannot be made to explode ------------------------------------------------
+    ("alias bomb", whole(bomb()), 5, "a4[5]", "more than 50000 values"),
+    ("self alias", whole("name: x\nloop: &s [*s]\n"), 2, "loop[0]", "contains it"),
+    ("nul byte", sub("name: corpus_base", "name: corpus\0base"), 1, "(yaml)", "NUL byte"),
+    ("complex key", sub("speed_mps: 1.5", "? [a, b]\n: 1"), 7, "(top)", "plain word"),
+    ("deep nesting", whole("x: " + "[" * 3000 + "]" * 3000 + "\n"), 1, "(yaml)",
+     "nested deeper than 40"),
+    ("huge file", whole("description: '" + "x" * 1_100_000 + "'\n"), 1, "(file)", "at most"),
+    ("5000-digit integer", sub("seed: 3", "seed: " + "9" * 5000), 1, "(yaml)", "cannot read"),
+    ("unsafe tag", sub("name: corpus_base", "name: !!python/object/apply:os.getcwd []"), 1,
+     "(yaml)", "constructor"),
+    ("duplicate key", sub("cycle_hz: 1", "cycle_hz: 1\ncycle_hz: 2"), 9, "cycle_hz",
+     "duplicate key (first at line 8)"),
+    # -- names and paths ---------------------------------------------------------------------
+    ("path in name", sub("name: corpus_base", "name: ../../../../tmp/pwned"), 1, "name",
+     "should match pattern"),
+    ("empty name", sub("name: corpus_base", "name: ''"), 1, "name", "should match pattern"),
+    # -- finite numbers only -----------------------------------------------------------------
+    ("nan speed", sub("speed_mps: 1.5", "speed_mps: .nan"), 7, "speed_mps", "finite number"),
+    ("inf time limit", sub("time_limit_s: 1800", "time_limit_s: .inf"), 9, "time_limit_s",
+     "finite number"),
+    ("1e309 home", sub("home: [-90, 0]", "home: [-90, 1e309]"), 6, "home[1]", "finite number"),
+    ("nan cycle", sub("cycle_hz: 1", "cycle_hz: .nan"), 8, "cycle_hz", "finite number"),
+    ("inf param", sub("beta_deg: 10}", "beta_deg: .inf}"), 17,
+     "behaviours[2].maintain_plume.beta_deg", "finite number"),
+    ("inf flow speed", sub("flow_speed_mps: 0.1", "flow_speed_mps: .inf"), 30,
+     "environment.flow_speed_mps", "finite number"),
+    ("nan corner", sub("[100, -50], [100, 50]", "[100, -50], [.nan, 50]"), 4,
+     "op_area.corners[1][0]", "finite number"),
+    ("negative seed", sub("seed: 3", "seed: -1"), 31, "environment.seed",
+     "greater than or equal to 0"),
+    ("negative flow gate",
+     sub("flow_window_s: 100", "flow_window_s: 100\n  max_flow_speed_mps: -1"), 14,
+     "perception.max_flow_speed_mps", "greater than 0"),
+    ("zero success radius", sub("time_limit_s: 1800", "time_limit_s: 1800\nevaluation: "
+                                "{success_radius_m: 0}"), 10, "evaluation.success_radius_m",
+     "greater than 0"),
+    # -- the OpArea is a rectangle consistent with its bearing -------------------------------
+    ("kite", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
+                 "[[100, 0], [0, 50], [-100, 0], [0, -50]]"), 4, "op_area.corners",
+     "not a rectangle"),
+    ("trapezium", sub("[-100, 50], [-100, -50]]", "[-100, 80], [-100, -80]]"), 4,
+     "op_area.corners", "not a rectangle"),
+    ("collinear", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
+                      "[[0, 0], [10, 0], [20, 0], [30, 0]]"), 4, "op_area.corners", ""),
+    ("repeated corner", sub("[-100, 50], [-100, -50]]", "[-100, 50], [-100, 50]]"), 4,
+     "op_area.corners", "distinct"),
+    ("bearing off the sides", sub("  corners: [[100, -50], [100, 50], [-100, 50], [-100, -50]]",
+                                  "  corners: [[100, -50], [100, 50], [-100, 50], [-100, -50]]"
+                                  "\n  x_axis_bearing_deg: 30"), 5, "op_area.x_axis_bearing_deg",
+     "not parallel"),
+    # -- places inside the OpArea ------------------------------------------------------------
+    ("start outside", sub("start: [-80, 20]", "start: [-180, 20]"), 5, "start",
+     "80.0 m outside the OpArea"),
+    ("home outside", sub("home: [-90, 0]", "home: [-90, 70]"), 6, "home", "outside the OpArea"),
+    ("source outside", sub("source: [60, 0]", "source: [160, 0]"), 28, "environment.source",
+     "outside the OpArea"),
+    ("source missing", sub("  source: [60, 0]\n", ""), 26, "environment.source", "required"),
+    # -- vehicle limits ----------------------------------------------------------------------
+    ("cruise beyond limits", sub("speed_mps: 1.5", "speed_mps: 3.5"), 7, "speed_mps",
+     "outside the vehicle's limits"),
+    ("override beyond limits", sub("{variant: go_to}", "{variant: go_to, speed_mps: 0.1}"), 20,
+     "behaviours[5].move_to_field.speed_mps", "outside the vehicle's limits"),
+    ("amp depth beyond limits", sub("amp_depth_m: 3", "amp_depth_m: 80"), 24,
+     "mission_a.amp_depth_m", "deeper than the vehicle's limit"),
+    # -- geodetic ----------------------------------------------------------------------------
+    ("latitude out of range", lambda s: geodetic(s).replace("[32.981, -118.537]",
+                                                            "[95.0, -118.537]", 1),
+     4, "op_area.corners[0]", "not [latitude, longitude]"),
+    ("longitude out of range", lambda s: geodetic(s).replace("home: [32.9802, -118.5368]",
+                                                             "home: [32.9805, 218.5]"),
+     6, "home", "not [latitude, longitude]"),
+    # -- behaviours --------------------------------------------------------------------------
+    ("behaviour twice", sub("  - find_plume: {variant: billiard}",
+                            "  - find_plume: {variant: billiard}\n  - safety: {}"), 20,
+     "behaviours[5].safety", "listed twice (first at behaviours[0])"),
+    ("AB halves mismatched", lambda s: AB_PAIRS(s).replace(
+        "reacquire_plume: {variant: cloverleaf}", "reacquire_plume: {variant: strategy_1}"), 17,
+     "behaviours[2].maintain_plume.variant", "must be paired with reacquire_plume strategy_3"),
+    ("AB half with cloverleaf", AB_PAIRS, 17, "behaviours[2].maintain_plume.variant",
+     "not cloverleaf"),
+    ("flow needed", sub("flow_window_s: 100", "flow_window_s: 100\n  flow_source: none"), 14,
+     "perception.flow_source", "declare_source upflow_cluster, maintain_plume track_in_out"),
+    ("counter-turn never turns", sub("{variant: track_in_out, beta_deg: 10}",
+                                     "{variant: counter_turn, hold_s: 10}"), 17,
+     "behaviours[2].maintain_plume", "set perception.lambda_s above hold_s"),
+    ("variant not a name", sub("{variant: cloverleaf}", "{variant: [a, b]}"), 18,
+     "behaviours[3]", "variant must be a name"),
+    ("no behaviours", whole("name: x\nop_area: {corners: [[0, 0], [0, 9], [9, 9], [9, 0]]}\n"
+                            "home: [1, 1]\nbehaviours: []\n"), 4, "behaviours", "at least 1"),
+    # -- unknown and moved keys --------------------------------------------------------------
+    ("unknown top key", sub("speed_mps: 1.5", "speed_mps: 1.5\nbehaviors: []"), 8,
+     "behaviors", "did you mean 'behaviours'"),
+    ("unknown param", sub("beta_deg: 10}", "beta_dge: 10}"), 17,
+     "behaviours[2].maintain_plume.beta_dge", "did you mean 'beta_deg'"),
+    ("unknown perception key", sub("  threshold: 0.2", "  treshold: 0.2"), 11,
+     "perception.treshold", "did you mean 'threshold'"),
+    ("unknown environment key", sub("  seed: 3", "  sead: 3"), 31, "environment.sead",
+     "did you mean 'seed'"),
+    ("unknown mission_a key", sub("  amp_enable_s: 10", "  amp_enable_sec: 10"), 23,
+     "mission_a.amp_enable_sec", "did you mean 'amp_enable_s'"),
+    ("old top-level threshold", sub("cycle_hz: 1", "cycle_hz: 1\nthreshold: 0.2"), 9,
+     "threshold", "moved to perception.threshold"),
+    ("old lambda on maintain", sub("beta_deg: 10}", "beta_deg: 10, lambda_s: 8.5}"), 17,
+     "behaviours[2].maintain_plume.lambda_s", "moved to perception.lambda_s"),
+    ("old oracle", sub("{variant: upflow_cluster}", "{variant: oracle, radius_m: 1}"), 16,
+     "behaviours[1].declare_source.variant", "evaluation: {criterion: arrival"),
+]
+
+
+def geodetic(text: str) -> str:
+    """The base mission in latitude/longitude (a small area off San Clemente Island)."""
+    text = text.replace("frame: ne", "frame: geodetic")
+    text = text.replace("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
+                        "[[32.981, -118.537], [32.981, -118.536], [32.979, -118.536], "
+                        "[32.979, -118.537]]")
+    text = text.replace("start: [-80, 20]", "start: [32.9795, -118.5366]")
+    text = text.replace("home: [-90, 0]", "home: [32.9805, -118.5375]")
+    text = text.replace("home: [32.9805, -118.5375]", "home: [32.9802, -118.5368]")
+    text = text.replace("waypoints: [[-90, 0], [-50, 0]]",
+                        "waypoints: [[32.9802, -118.5368], [32.9804, -118.5368]]")
+    return text.replace("source: [60, 0]", "source: [32.9805, -118.5365]")
+
+
+def test_the_base_and_its_geodetic_form_are_valid(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    for name, text in (("base.yaml", BASE), ("geo.yaml", geodetic(BASE))):
+        path = tmp_path / name
+        path.write_text(text, encoding="utf-8")
+        assert main(["validate", str(path)]) == 0, capsys.readouterr().err
+
+
+def test_the_corpus_is_large_enough() -> None:
+    assert len(CASES) >= 40
+
+
+@pytest.mark.parametrize(("edit", "line", "path", "fragment"),
+                         [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_bad_mission_gives_one_precise_line(  # type: ignore[no-untyped-def]
+    tmp_path: Path, capsys, edit: Edit, line: int, path: str, fragment: str
+) -> None:
+    mission = tmp_path / "m.yaml"
+    mission.write_text(edit(BASE), encoding="utf-8")
+    status = main(["validate", str(mission)])
+    out = capsys.readouterr()
+    lines = out.err.strip().splitlines()
+    assert status == 2, out
+    assert len(lines) == 1, lines
+    assert "Traceback" not in out.err
+    match = re.match(rf"{re.escape(str(mission))}:(\d+): (\S+): (.*)", lines[0])
+    assert match, lines[0]
+    assert (int(match[1]), match[2]) == (line, path), lines[0]
+    assert fragment in match[3], lines[0]
