@@ -105,7 +105,9 @@ class AmpSession:
         if self.in_override and not self._give_back_due() and t + 1e-9 >= self._next_tick:
             # One tick per due cycle; after a forward jump the schedule restarts from now
             # instead of ticking repeatedly to catch up.
-            self._next_tick = max(self._next_tick + self._period, t + 1e-9)
+            self._next_tick += self._period
+            if self._next_tick <= t:
+                self._next_tick = t + self._period
             self._tick(t)
             self._give_back_due()
 

@@ -7,6 +7,8 @@ vehicle's own reports then lead to ``return_to_break_off``, ``mission_a.resumed`
 
 from __future__ import annotations
 
+import math
+
 import pytest
 from conftest import scripted_registry
 from transitions import MachineError
@@ -231,3 +233,35 @@ def test_limits_and_spec_validation() -> None:
 
 def test_fake_link_satisfies_the_protocol() -> None:
     assert isinstance(FakeLink(), VehicleLink)
+
+
+def test_a_clock_step_back_does_not_silence_the_amp() -> None:
+    s, link, planner = session()
+    into_override(s, link)
+    for t in (101.0, 102.0, 103.0):
+        step(s, link, state(t))
+    ticks = len(planner.ticks)
+    for t in (53.0, 54.0, 55.0):  # the vehicle clock stepped back 50 s
+        step(s, link, state(t))
+        assert s.ticked and isinstance(link.sent[-1], HeadingSpeedCommand)
+    assert len(planner.ticks) == ticks + 3 and s.in_override
+
+
+def test_a_forward_clock_jump_ticks_once_not_a_burst() -> None:
+    s, link, planner = session()
+    into_override(s, link)
+    step(s, link, state(101.0))
+    ticks = len(planner.ticks)
+    step(s, link, state(160.0))
+    step(s, link, state(160.2))  # same cycle: no catch-up burst of 59 ticks
+    assert len(planner.ticks) == ticks + 1
+
+
+@pytest.mark.parametrize("bad", [math.inf, math.nan, -math.inf])
+def test_a_non_finite_fix_neither_ends_the_override_nor_reaches_the_planner(bad: float) -> None:
+    s, link, _ = session()
+    into_override(s, link)
+    step(s, link, state(101.0, "override", x=bad))
+    assert s.in_override and s.state is not None and s.state.x_m == 50
+    step(s, link, VehicleState(math.nan, 50, 0, 0.0, 1.5, 3.0, "override", 0))
+    assert s.in_override and s.t == 101.0
