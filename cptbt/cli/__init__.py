@@ -34,9 +34,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _optional_command_modules() -> list[Any]:
-    """Command groups that need the simulator (present in a full install)."""
-    from cptbt.cli import batch_cmd, run_cmd
-
+    """Command groups that need the simulator (absent when it cannot be imported)."""
+    try:
+        from cptbt.cli import batch_cmd, run_cmd
+    except ImportError:  # the planner alone: validate, tree, behaviours, schema still work
+        return []
     return [run_cmd, batch_cmd]
 
 
