@@ -86,7 +86,7 @@ class FlowParams(BaseModel):
     stronger boundary noise.
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     preset: FlowPreset = "ocean"
     mean_speed_mps: float = Field(default=0.1, ge=0.0, description="Mean flow speed, m/s.")

@@ -67,7 +67,7 @@ class PlumeParams(BaseModel):
     The source position is given separately.
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     preset: PlumePreset = "ocean"
     release_rate_hz: float = Field(

@@ -54,7 +54,7 @@ class NoiseBank:
 class FluorometerParams(BaseModel):
     """Concentration sensor settings (TRO: 9 Hz; AB eqs. 1–2 filter and threshold)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     rate_hz: float = Field(default=9.0, gt=0.0, description="Sample rate, Hz.")
     alpha_per_s: float | None = Field(
@@ -121,7 +121,7 @@ class Fluorometer:
 class ADCPParams(BaseModel):
     """Flow sensor settings (TRO: 0.5 Hz, flow relative to earth)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     rate_hz: float = Field(default=0.5, gt=0.0, description="Sample rate, Hz.")
     noise_std_mps: float = Field(
@@ -151,7 +151,7 @@ class ADCP:
 class NavigationParams(BaseModel):
     """Position estimate settings: slow dead-reckoning drift reset by LBL fixes (TRO V)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     drift_std_m: float = Field(
         default=3.0, ge=0.0, description="Stationary std of the drift, per axis, m."

@@ -30,7 +30,7 @@ def wrap_deg(a: NDArray[np.float64]) -> NDArray[np.float64]:
 class VehicleParams(BaseModel):
     """Vehicle dynamics settings (defaults: REMUS, TRO)."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     heading_mode: Literal["first_order", "turn_radius"] = "turn_radius"
     heading_gain_per_s: float = Field(

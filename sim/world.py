@@ -51,7 +51,7 @@ class EnvironmentParams(BaseModel):
     ~0.1 m/s flow toward compass ~135° → +2° in the planning frame.
     """
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     area_m: tuple[float, float, float, float] = Field(
         default=(-127.0, 127.0, -56.0, 56.0),
@@ -71,7 +71,7 @@ class EnvironmentParams(BaseModel):
         ge=0.0,
         description="Plume spin-up before t = 0, s; None = time to cross the domain.",
     )
-    seed: int | None = Field(default=0, description="Seed for all streams when none are passed in.")
+    seed: int | None = Field(default=0, ge=0, description="Seed for all streams when none are passed in.")
 
     @model_validator(mode="after")
     def _check(self) -> EnvironmentParams:
