@@ -71,7 +71,9 @@ class EnvironmentParams(BaseModel):
         ge=0.0,
         description="Plume spin-up before t = 0, s; None = time to cross the domain.",
     )
-    seed: int | None = Field(default=0, ge=0, description="Seed for all streams when none are passed in.")
+    seed: int | None = Field(
+        default=0, ge=0, description="Seed for all streams when none are passed in."
+    )
 
     @model_validator(mode="after")
     def _check(self) -> EnvironmentParams:
