@@ -110,14 +110,14 @@ class MissionBase(BaseModel):
         description="Mission identifier: letters, digits, '.', '_' and '-' (it names output "
         "folders)",
     )
-    description: str = Field(default="", max_length=10_000)
+    description: str = Field(default="", max_length=10_000, description="Free text")
     frame: Literal["ne", "planning", "geodetic"] = Field(
         default="ne",
         description="Frame of every coordinate in this file: 'ne' = [north, east] metres; "
         "'planning' = [x, y] metres of an OpArea aligned with x = north; 'geodetic' = "
         "[latitude, longitude] decimal degrees (WGS-84)",
     )
-    op_area: OpAreaSpec
+    op_area: OpAreaSpec = Field(description="The operating area: a rectangle (SPEC §1)")
     home: Coord = Field(description="Where the vehicle goes after declaring, in the mission frame")
     start: Coord | None = Field(
         default=None, description="Move-to-field goal and the vehicle's starting point"
@@ -434,7 +434,9 @@ def mission_model(
 ) -> type[MissionBase]:
     """The full mission model for a registry (and, in the application layer, an environment)."""
     item = _item_model(registry)
-    env: Any = (environment | None, None) if environment else (Any, None)
+    about = "The simulated environment: preset, true source, flow (simulation only)"
+    env: Any = (environment | None, Field(default=None, description=about)) if environment else (
+        Any, Field(default=None, description=about))
     items: Any = list[item]  # type: ignore[valid-type]
     return create_model(
         "Mission",

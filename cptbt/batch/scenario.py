@@ -8,14 +8,28 @@ frame. Any simulator setting can be overridden by name under ``flow``, ``plume``
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema
 
 from cptbt.mission import Coord, MissionBase, Problem
+from cptbt.schema import partial_schema
+from cptbt.sim.flow import FlowParams
+from cptbt.sim.plume import PlumeParams
+from cptbt.sim.sensors import ADCPParams, FluorometerParams, NavigationParams
+from cptbt.sim.vehicle import VehicleParams
 from cptbt.sim.world import EnvironmentParams, EnvPreset
 
 Overrides = dict[str, Any]
+
+# Partial overrides of the simulator's models, typed in the JSON Schema by those models (the
+# merged result is validated by the models themselves, see to_sim_params).
+FlowOverrides = Annotated[Overrides, WithJsonSchema(partial_schema(FlowParams))]
+PlumeOverrides = Annotated[Overrides, WithJsonSchema(partial_schema(PlumeParams))]
+VehicleOverrides = Annotated[Overrides, WithJsonSchema(partial_schema(VehicleParams))]
+FluorometerOverrides = Annotated[Overrides, WithJsonSchema(partial_schema(FluorometerParams))]
+ADCPOverrides = Annotated[Overrides, WithJsonSchema(partial_schema(ADCPParams))]
+NavigationOverrides = Annotated[Overrides, WithJsonSchema(partial_schema(NavigationParams))]
 
 
 class Environment(BaseModel):
@@ -50,12 +64,24 @@ class Environment(BaseModel):
     dt_s: float | None = Field(default=None, gt=0, description="Vehicle step, s")
     plume_dt_s: float | None = Field(default=None, gt=0, description="Flow and plume step, s")
     warm_up_s: float | None = Field(default=None, ge=0, description="Plume spin-up, s")
-    flow: Overrides = Field(default_factory=dict, description="Flow model overrides")
-    plume: Overrides = Field(default_factory=dict, description="Plume model overrides")
-    vehicle: Overrides = Field(default_factory=dict, description="Vehicle model overrides")
-    fluorometer: Overrides = Field(default_factory=dict, description="Fluorometer overrides")
-    adcp: Overrides = Field(default_factory=dict, description="ADCP overrides")
-    navigation: Overrides = Field(default_factory=dict, description="Navigation error overrides")
+    flow: FlowOverrides = Field(
+        default_factory=dict, description="Flow model overrides"
+    )
+    plume: PlumeOverrides = Field(
+        default_factory=dict, description="Plume model overrides"
+    )
+    vehicle: VehicleOverrides = Field(
+        default_factory=dict, description="Vehicle model overrides"
+    )
+    fluorometer: FluorometerOverrides = Field(
+        default_factory=dict, description="Fluorometer overrides"
+    )
+    adcp: ADCPOverrides = Field(
+        default_factory=dict, description="ADCP overrides"
+    )
+    navigation: NavigationOverrides = Field(
+        default_factory=dict, description="Navigation error overrides"
+    )
 
 
 def _merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:

@@ -11,9 +11,10 @@ from typing import Any
 from pydantic import BaseModel
 
 from cptbt.loader import MissionError, format_errors, format_problems, load_mission, parse_yaml
-from cptbt.mission import MissionBase, mission_model
+from cptbt.mission import MissionBase
 from cptbt.planner import Planner
 from cptbt.registry import default_registry
+from cptbt.schema import mission_json_schema
 from cptbt.tree import render_ascii, render_dot
 
 
@@ -144,9 +145,7 @@ def cmd_behaviours(args: argparse.Namespace) -> int:
 
 def cmd_schema(args: argparse.Namespace) -> int:
     """Print the JSON Schema of mission files (for editor completion and validation)."""
-    model = mission_model(default_registry(), environment_model())
-    schema = model.model_json_schema()
-    schema["title"] = "cptbt mission"
+    schema = mission_json_schema(default_registry(), environment_model())
     json.dump(schema, sys.stdout, indent=2)
     print()
     return 0
