@@ -27,7 +27,8 @@ from cptbt.registry import default_registry
 class Sweep:
     """One swept setting: mission paths (joined by '+' on the command line) and their values.
 
-    A path is a top-level mission field (``speed_mps``), ``environment.<field>``, or
+    A path is a top-level mission field (``speed_mps``), a field of a section
+    (``perception.lambda_s``, ``environment.flow_speed_mps``, ``evaluation.success_radius_m``), or
     ``<family>.<param>`` of a behaviour. Setting ``<family>.variant`` replaces that behaviour's
     parameters with the new variant's defaults.
     """
@@ -64,10 +65,10 @@ def apply_setting(data: dict[str, Any], path: str, value: Any) -> None:
             raise ValueError(f"sweep path {path!r}: no such mission field")
         data[head] = value
         return
-    if head == "environment":
-        env = data.setdefault("environment", {}) or {}
-        data["environment"] = env
-        node = env
+    if head in ("environment", "perception", "evaluation", "mission_a"):
+        section = data.setdefault(head, {}) or {}
+        data[head] = section
+        node = section
         *parents, leaf = rest.split(".")
         for p in parents:
             node = node.setdefault(p, {})
