@@ -34,10 +34,8 @@ from cptbt.mission import MissionBase
 from cptbt.mission_a import MissionASpec
 from cptbt.phases import MissionPhases
 from cptbt.planner import Planner
+from cptbt.policy import give_back_trigger
 from cptbt.types import Command
-
-RELINQUISH_OUTSIDE_M = 30.0
-"""TRO II: the AMP gives control back when the vehicle is this far outside the OpArea."""
 
 
 class AmpSession:
@@ -177,18 +175,16 @@ class AmpSession:
             return True
         assert self.state is not None and self.t_amp_start is not None
         t = self.state.t_s
-        trigger, detail = None, ""
-        outside = self.planner.op_area.distance_outside(self.state.x_m, self.state.y_m)
-        if self.planner.done:
-            trigger = "declared_home"
-        elif t - self.t_amp_start + 1e-9 >= self.mission.time_limit_s:
-            trigger, detail = "amp_time_limit", f"{self.mission.time_limit_s:g} s"
-        elif outside > RELINQUISH_OUTSIDE_M:
-            trigger, detail = "outside_op_area", f"{outside:.1f} m outside"
-        if trigger is None:
+        due = give_back_trigger(
+            self.planner.done,
+            t - self.t_amp_start,
+            self.mission.time_limit_s,
+            self.planner.op_area.distance_outside(self.state.x_m, self.state.y_m),
+        )
+        if due is None:
             return False
         self.link.send(OverrideRelease())
-        self.phases.fire(trigger, t, detail)
+        self.phases.fire(due[0], t, due[1])
         return True
 
     def _tick(self, t: float) -> None:

@@ -2,7 +2,9 @@
 
 The simulator steps every vehicle and puff as arrays; the only per-vehicle Python work is feeding
 and ticking each vehicle's planner at its cycle rate, which is where the planner's own cost lies.
-Vehicles that share a world share one plume realisation, as AB's 100 searchers did.
+Vehicles that share a world share one plume realisation, as AB's 100 searchers did. Each run ends
+by the one stop policy (:func:`cptbt.policy.give_back_trigger`) or, under the ``arrival``
+criterion, on reaching the true source; rows are kept by a :class:`Recorder`.
 """
 
 from __future__ import annotations
@@ -10,44 +12,92 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
+from cptbt.batch.outcome import Outcome, outcome_of
+from cptbt.batch.recorder import PATH_COLUMNS, TRACE_COLUMNS, Recorder
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
+from cptbt.policy import give_back_trigger
 from cptbt.sim.world import EnvironmentParams, World
 from cptbt.types import Point
 
-RELINQUISH_OUTSIDE_M = 30.0
-"""TRO II: the AMP gives control back when the vehicle is this far outside the OpArea."""
-
-TRACE_COLUMNS = (
-    "t", "x", "y", "heading", "x_est", "y_est", "heading_est", "concentration", "detected",
-    "flow_vx", "flow_vy", "active", "cmd_heading", "cmd_speed",
-)
+TRACE = ("t", "x", "y", "heading", "x_est", "y_est", "heading_est", "concentration", "detected",
+         "flow_vx", "flow_vy", "active", "cmd_heading", "cmd_speed")
+"""Columns of a run's trace, in order."""
+assert set(TRACE) == {*PATH_COLUMNS, *TRACE_COLUMNS, "detected", "active"}
 
 
 @dataclass
 class VehicleRun:
-    """What one vehicle did: its planner, events and (optionally) its per-tick trace."""
+    """What one vehicle did: its planner, events, and its rows in a :class:`Recorder`.
+
+    Attributes:
+        planner: the vehicle's planner (closed when the run ends).
+        start: where the recorded part of the run began (planning frame, true position).
+        recorder: the rows the measures use (the AMP's cycles).
+        index: this vehicle's row in ``recorder``.
+        period_s: the planning cycle.
+        trace_recorder: every row of a traced run (for phased runs, Mission A's too).
+        outcome: how the AMP's part ended.
+        t_end: when it ended (mission clock).
+        t1: first detection; t3: declaration.
+        distance_at_end_m: the vehicle's true distance to the true source when it ended.
+        declared: the declared source (planning frame).
+        lost_contacts: the perception's lost-contact points at the end.
+    """
 
     planner: Planner
     start: tuple[float, float]
-    outcome: str | None = None
+    recorder: Recorder
+    index: int
+    period_s: float
+    trace_recorder: Recorder | None = None
+    outcome: Outcome | None = None
     t_end: float = math.nan
     t1: float | None = None
     t3: float | None = None
-    error_at_end_m: float = math.nan
+    distance_at_end_m: float = math.nan
     declared: Point | None = None
     lost_contacts: tuple[Point, ...] = ()
-    time_in: dict[str, float] = field(default_factory=dict)
-    trace: dict[str, list[Any]] | None = None
-    path_t: list[float] = field(default_factory=list)
-    path_true: list[tuple[float, float]] = field(default_factory=list)
-    path_est: list[tuple[float, float]] = field(default_factory=list)
-    detections: list[tuple[float, float]] = field(default_factory=list)
+
+    @property
+    def path_t(self) -> NDArray[np.float64]:
+        """Time of each recorded cycle."""
+        return self.recorder.column("t", self.index)
+
+    @property
+    def path_true(self) -> NDArray[np.float64]:
+        """True positions, (k, 2)."""
+        return self.recorder.xy(self.index)
+
+    @property
+    def path_est(self) -> NDArray[np.float64]:
+        """Navigation estimates, (k, 2)."""
+        return self.recorder.xy(self.index, estimated=True)
+
+    @property
+    def detections(self) -> NDArray[np.float64]:
+        """Estimated positions of the detecting cycles, (m, 2)."""
+        return self.path_est[self.recorder.column("detected", self.index)]
+
+    @property
+    def time_in(self) -> dict[str, float]:
+        """Seconds in each behaviour ('none': no output)."""
+        return self.recorder.time_in(self.index, self.period_s)
+
+    @property
+    def trace(self) -> dict[str, Any] | None:
+        """Every traced row as columns, or None when not traced."""
+        rec = self.trace_recorder
+        if rec is None:
+            return None
+        table = rec.table(self.index, extra=("phase",) if len(rec.phases) > 1 else ())
+        return {c: table[c] for c in (*TRACE, *(["phase"] if "phase" in table else []))}
 
 
 def simulate(
@@ -66,27 +116,27 @@ def simulate(
         The runs, the world at the end (for plume snapshots) and the wall time spent.
     """
     wall0 = time.perf_counter()
-    xy = np.array([[s[0], s[1]] for s in starts], dtype=float)
+    n = len(starts)
+    xy = np.array([[s[0], s[1]] for s in starts], dtype=float).reshape(n, 2)
     heading = np.array([s[2] for s in starts], dtype=float)
     world = World(params, xy, heading, env_rng=env_rng, vehicle_rngs=vehicle_rngs)
     world.warm_up()
     source = Point(*params.source_xy_m)
     arrival = mission.evaluation.criterion == "arrival"
     radius = mission.evaluation.success_radius_m
-    runs = [
-        VehicleRun(Planner(mission), (s[0], s[1]),
-                   trace={c: [] for c in TRACE_COLUMNS} if trace else None)
-        for s in starts
-    ]
     limit = mission.time_limit_s if time_limit_s is None else time_limit_s
     period = 1.0 / mission.cycle_hz
-    area = runs[0].planner.op_area
-    n = len(runs)
+    rec = Recorder(n, math.ceil(limit / period) + 4, trace=trace)
+    runs = [
+        VehicleRun(Planner(mission), (s[0], s[1]), rec, i, period, rec if trace else None)
+        for i, s in enumerate(starts)
+    ]
+    area = runs[0].planner.op_area if runs else None
     cmd_heading = np.full(n, np.nan)
     cmd_speed = np.full(n, np.nan)
-    active = list(range(n))
+    active = np.arange(n)
     next_tick = 0.0
-    while active:
+    while len(active):
         out = world.step()
         t = out.t_s
         if out.fluorometer is not None:
@@ -98,8 +148,13 @@ def simulate(
         if t + 1e-9 < next_tick:
             continue
         next_tick += period
-        still = []
-        for i in active:
+        m = len(active)
+        detected = np.zeros(m, dtype=bool)
+        codes = np.zeros(m, dtype=np.int16)
+        extra = {c: np.full(m, np.nan) for c in ("concentration", "flow_vx", "flow_vy")} \
+            if trace else {}
+        keep = np.ones(m, dtype=bool)
+        for j, i in enumerate(active):
             run = runs[i]
             pl = run.planner
             ex, ey = float(out.nav_xy[i, 0]), float(out.nav_xy[i, 1])
@@ -109,44 +164,43 @@ def simulate(
             assert p is not None
             if cmd is not None:
                 cmd_heading[i], cmd_speed[i] = cmd.heading_deg, cmd.speed_mps
-            name = pl.active or "none"
-            run.time_in[name] = run.time_in.get(name, 0.0) + period
-            tx, ty = float(out.true_xy[i, 0]), float(out.true_xy[i, 1])
-            run.path_t.append(t)
-            run.path_true.append((tx, ty))
-            run.path_est.append((ex, ey))
-            if p.detected:
-                run.detections.append((ex, ey))
-                if run.t1 is None:
-                    run.t1 = t
-            if run.trace is not None:
-                flow = p.flow
-                row = (t, tx, ty, float(out.true_heading_deg[i]), ex, ey, p.pose.heading_deg,
-                       p.concentration, p.detected, flow.vx if flow else math.nan,
-                       flow.vy if flow else math.nan, pl.active or "",
-                       cmd.heading_deg if cmd else math.nan, cmd.speed_mps if cmd else math.nan)
-                for col, value in zip(TRACE_COLUMNS, row, strict=True):
-                    run.trace[col].append(value)
+            detected[j] = p.detected
+            codes[j] = rec.code(pl.active)
+            if trace:
+                extra["concentration"][j] = p.concentration
+                if p.flow is not None:
+                    extra["flow_vx"][j], extra["flow_vy"][j] = p.flow.vx, p.flow.vy
+            if p.detected and run.t1 is None:
+                run.t1 = t
             if run.t3 is None and pl.declared_source is not None:
                 run.t3 = t
+            d_true = math.hypot(float(out.true_xy[i, 0]) - source.x,
+                                float(out.true_xy[i, 1]) - source.y)
             outcome = None
-            if arrival and math.hypot(tx - source.x, ty - source.y) <= radius:
-                outcome = "found"  # AB appendix: success on reaching the source
-            elif pl.done:
-                outcome = "declared"
-            elif area.distance_outside(ex, ey) > RELINQUISH_OUTSIDE_M:
-                outcome = "relinquished"
-            elif t >= limit:
-                outcome = "declared" if pl.declared_source is not None else "timeout"
+            if arrival and d_true <= radius:
+                outcome = Outcome.FOUND  # AB appendix: success on reaching the source
+            else:
+                assert area is not None
+                due = give_back_trigger(pl.done, t, limit, area.distance_outside(ex, ey))
+                if due is not None:
+                    outcome = outcome_of(due[0], pl.declared_source is not None)
             if outcome is not None:
-                run.outcome, run.t_end = outcome, t
-                run.error_at_end_m = math.hypot(tx - source.x, ty - source.y)
+                run.outcome, run.t_end, run.distance_at_end_m = outcome, t, d_true
                 run.declared = pl.declared_source
                 run.lost_contacts = p.lost_contacts
-                cmd_speed[i] = 0.0
-            else:
-                still.append(i)
-        active = still
+                keep[j] = False
+        values: dict[str, Any] = {
+            "t": t, "x": out.true_xy[active, 0], "y": out.true_xy[active, 1],
+            "x_est": out.nav_xy[active, 0], "y_est": out.nav_xy[active, 1],
+        }
+        if trace:
+            values |= extra | {
+                "heading": out.true_heading_deg[active], "heading_est": out.nav_heading_deg[active],
+                "cmd_heading": cmd_heading[active], "cmd_speed": cmd_speed[active],
+            }
+        rec.add(active, values, detected, codes)
+        cmd_speed[active[~keep]] = 0.0
+        active = active[keep]
         world.set_commands(cmd_heading, cmd_speed)
     for run in runs:
         run.planner.close()

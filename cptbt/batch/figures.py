@@ -84,8 +84,8 @@ def trajectory_figure(
     ax.add_patch(plt.Rectangle((area.xmin, area.ymin), area.xmax - area.xmin,
                                area.ymax - area.ymin, fill=False, lw=1.5, ec="black"))
     trace = run.trace or {}
-    xs_true = np.asarray(trace.get("x", [p[0] for p in run.path_true]))
-    ys_true = np.asarray(trace.get("y", [p[1] for p in run.path_true]))
+    xs_true = np.asarray(trace.get("x", run.path_true[:, 0]))
+    ys_true = np.asarray(trace.get("y", run.path_true[:, 1]))
     actives = list(trace.get("active", ["none"] * len(xs_true)))
     phases = trace.get("phase")
     if phases is not None:
@@ -106,8 +106,8 @@ def trajectory_figure(
             seg = slice(start, min(i + 1, len(xs_true)))
             ax.plot(xs_true[seg], ys_true[seg], color=colour, ls=ls, lw=1.6, label=label)
             start = i
-    if run.detections:
-        d = np.asarray(run.detections)
+    if len(run.detections):
+        d = run.detections
         ax.plot(d[:, 0], d[:, 1], "x", color="black", ms=4, mew=1, label="detection (est.)")
     if run.lost_contacts:
         lc = np.asarray([(p.x, p.y) for p in run.lost_contacts])

@@ -15,7 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from cptbt.batch.engine import TRACE_COLUMNS, VehicleRun
+from cptbt.batch.engine import VehicleRun
+from cptbt.batch.outcome import Outcome, outcome_of
+from cptbt.batch.recorder import Recorder
 from cptbt.batch.scenario import environment_of, planning_angle
 from cptbt.batch.sim_link import LinkFaults, SimVehicleLink
 from cptbt.mission import MissionBase
@@ -24,16 +26,6 @@ from cptbt.planner import Planner
 from cptbt.session import AmpSession
 from cptbt.sim.world import EnvironmentParams, World
 from cptbt.types import Point
-
-PHASED_TRACE_COLUMNS = (*TRACE_COLUMNS, "phase")
-
-_OUTCOME = {
-    "declared_home": "declared",
-    "arrival": "found",
-    "amp_time_limit": "timeout",
-    "outside_op_area": "relinquished",
-    "watchdog_timeout": "watchdog",
-}
 
 
 @dataclass
@@ -103,15 +95,16 @@ def simulate_phased(
     session = AmpSession(mission, planner, link)
     arrival = mission.evaluation.criterion == "arrival"
     radius = mission.evaluation.success_radius_m
-    run = VehicleRun(planner, (x0, y0))
-    rows: dict[str, list[Any]] | None = (
-        {c: [] for c in PHASED_TRACE_COLUMNS} if trace else None
-    )
     cap = spec.duration_limit_s if max_time_s is None else min(max_time_s, spec.duration_limit_s)
     period = 1.0 / mission.cycle_hz
+    amp_rows = Recorder(1, math.ceil(mission.time_limit_s / period) + 4)
+    rows = Recorder(1, math.ceil(cap / period) + 4, trace=True) if trace else None
+    run = VehicleRun(planner, (x0, y0), amp_rows, 0, period, rows)
+    one = np.zeros(1, dtype=np.intp)
     phase_time: dict[str, float] = {}
     next_row = 0.0
     resumed_at = None
+    ended: PhaseChange | None = None
     session.update()
     while True:
         phase_before = session.phases.state
@@ -122,21 +115,21 @@ def simulate_phased(
         ex, ey = float(out.nav_xy[0, 0]), float(out.nav_xy[0, 1])
         phase_time[phase_before] = phase_time.get(phase_before, 0.0) + world.params.dt_s
         ticked = session.ticked
-        if session.t_amp_start is not None and run.outcome is None and ticked:
-            _record_amp(run, planner, t, (tx, ty), (ex, ey))
-        ended = _amp_end(session.phases.timeline) if run.outcome is None else None
-        if (arrival and run.outcome is None and session.in_override
-                and math.hypot(tx - source.x, ty - source.y) <= radius):
-            # AB appendix: success on reaching the source (the AMP is not told; it flies on).
-            ended = PhaseChange(t, session.phases.state, session.phases.state, "arrival")
-        if ended is not None:
-            outcome = _OUTCOME.get(ended.trigger, "mission_ended")
-            if outcome == "timeout" and planner.declared_source is not None:
-                outcome = "declared"
-            run.outcome, run.t_end = outcome, ended.t_s
-            run.error_at_end_m = math.hypot(tx - source.x, ty - source.y)
-            run.declared = planner.declared_source
-            run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
+        values: dict[str, Any] = {"t": t, "x": tx, "y": ty, "x_est": ex, "y_est": ey}
+        if session.t_amp_start is not None and ended is None and ticked:
+            _record_amp(run, planner, t, values)
+        if ended is None:
+            ended = _amp_end(session.phases.timeline)
+            if (ended is None and arrival and session.in_override
+                    and math.hypot(tx - source.x, ty - source.y) <= radius):
+                # AB appendix: success on reaching the source (the AMP is not told; it flies on).
+                ended = PhaseChange(t, session.phases.state, session.phases.state, "arrival")
+            if ended is not None:
+                run.outcome = outcome_of(ended.trigger, planner.declared_source is not None)
+                run.t_end = ended.t_s
+                run.distance_at_end_m = math.hypot(tx - source.x, ty - source.y)
+                run.declared = planner.declared_source
+                run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
         if resumed_at is None and session.phases.state == "mission_a.resumed":
             resumed_at = (ex, ey)
         grid_due = t + 1e-9 >= next_row
@@ -144,16 +137,16 @@ def simulate_phased(
             next_row += period * max(1, math.floor((t + 1e-9 - next_row) / period) + 1)
         if rows is not None and (ticked or (grid_due and not session.in_override)):
             # under override a row per planner tick; otherwise one per cycle period
-            _record_row(rows, out, planner if ticked else None, session.phases.state)
+            _record_row(rows, one, out, planner if ticked else None, session.phases.state, values)
         if session.phases.state == "post_mission" or t + 1e-9 >= cap:
             break
     if run.outcome is None:
-        run.outcome = "amp_not_enabled" if session.t_amp_start is None else "amp_running"
+        amp_on = session.t_amp_start is not None
+        run.outcome = Outcome.AMP_RUNNING if amp_on else Outcome.AMP_NOT_ENABLED
         run.t_end = session.t
         run.declared = planner.declared_source
-    run.trace = rows
-    if run.path_true:
-        run.start = run.path_true[0]
+    if amp_rows.count[0]:
+        run.start = (float(run.path_true[0, 0]), float(run.path_true[0, 1]))
     planner.close()
     result = PhasedRun(
         amp=run,
@@ -180,47 +173,40 @@ def _amp_end(timeline: list[PhaseChange]) -> PhaseChange | None:
     return None
 
 
-def _record_amp(
-    run: VehicleRun,
-    planner: Planner,
-    t: float,
-    true_xy: tuple[float, float],
-    est_xy: tuple[float, float],
-) -> None:
+def _record_amp(run: VehicleRun, planner: Planner, t: float, values: dict[str, Any]) -> None:
     p = planner.percept
     assert p is not None
-    name = planner.active or "none"
-    run.time_in[name] = run.time_in.get(name, 0.0) + 1.0 / planner.mission.cycle_hz
-    run.path_t.append(t)
-    run.path_true.append(true_xy)
-    run.path_est.append(est_xy)
-    if p.detected:
-        run.detections.append(est_xy)
-        if run.t1 is None:
-            run.t1 = t
+    rec = run.recorder
+    rec.add(np.zeros(1, dtype=np.intp), values, p.detected, rec.code(planner.active))
+    if p.detected and run.t1 is None:
+        run.t1 = t
     if run.t3 is None and planner.declared_source is not None:
         run.t3 = t
 
 
 def _record_row(
-    rows: dict[str, list[Any]], out: Any, planner: Planner | None, phase: str
+    rows: Recorder,
+    one: Any,
+    out: Any,
+    planner: Planner | None,
+    phase: str,
+    values: dict[str, Any],
 ) -> None:
     p = planner.percept if planner is not None else None
     cmd = planner.command if planner is not None else None
     flow = p.flow if p is not None else None
-    row = (
-        out.t_s, float(out.true_xy[0, 0]), float(out.true_xy[0, 1]),
-        float(out.true_heading_deg[0]), float(out.nav_xy[0, 0]), float(out.nav_xy[0, 1]),
-        float(out.nav_heading_deg[0]),
-        p.concentration if p is not None else math.nan,
-        bool(p.detected) if p is not None else False,
-        flow.vx if flow else math.nan, flow.vy if flow else math.nan,
-        (planner.active or "") if planner is not None else "",
-        cmd.heading_deg if cmd else math.nan, cmd.speed_mps if cmd else math.nan,
-        phase,
-    )
-    for col, value in zip(PHASED_TRACE_COLUMNS, row, strict=True):
-        rows[col].append(value)
+    row = values | {
+        "heading": float(out.true_heading_deg[0]),
+        "heading_est": float(out.nav_heading_deg[0]),
+        "concentration": p.concentration if p is not None else math.nan,
+        "flow_vx": flow.vx if flow else math.nan,
+        "flow_vy": flow.vy if flow else math.nan,
+        "cmd_heading": cmd.heading_deg if cmd else math.nan,
+        "cmd_speed": cmd.speed_mps if cmd else math.nan,
+    }
+    active = rows.code(planner.active) if planner is not None else 0
+    rows.add(one, row, bool(p.detected) if p is not None else False, active,
+             rows.phase_code(phase))
 
 
 def phase_summary(result: PhasedRun, mission: MissionBase) -> dict[str, Any]:

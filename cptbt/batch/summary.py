@@ -1,12 +1,16 @@
-"""The measures of one run (SPEC §11; TRO V, Tables III–IV; AB 3)."""
+"""The measures of one run (SPEC §11; TRO V, Tables III–IV; AB 3), as one typed summary."""
 
 from __future__ import annotations
 
-import itertools
 import math
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from cptbt.batch.engine import VehicleRun
+from cptbt.batch.outcome import judge
 from cptbt.mission import MissionBase
 from cptbt.types import Point
 
@@ -14,11 +18,13 @@ NEAR_SOURCE_M = 13.0
 """TRO V: t2 is the first time within 13 m of the declared source."""
 
 
-def _path_length(points: list[tuple[float, float]]) -> float:
-    return sum(math.dist(a, b) for a, b in itertools.pairwise(points))
+def _path_length(points: NDArray[np.float64]) -> float:
+    if len(points) < 2:
+        return 0.0
+    return float(np.hypot(*np.diff(points, axis=0).T).sum())
 
 
-def _where(mission: MissionBase, p: Point | None) -> dict[str, float] | None:
+def where(mission: MissionBase, p: Point | None) -> dict[str, float] | None:
     """A planning point in planning, N-E and (when the mission has a geodetic anchor) lat/lon."""
     if p is None:
         return None
@@ -30,6 +36,50 @@ def _where(mission: MissionBase, p: Point | None) -> dict[str, float] | None:
     return out
 
 
+@dataclass
+class RunSummary:
+    """One run's summary: outcome and verdict, times t0–t3, T_F T_T T_D, paths D0–D3, errors.
+
+    ``success`` and ``false_declaration`` judge the run by the mission's ``evaluation`` section
+    (:func:`cptbt.batch.outcome.judge`); every time is the mission clock, s; every distance m.
+    """
+
+    mission: str
+    seed: int | None
+    outcome: str
+    success: bool
+    false_declaration: bool
+    criterion: str
+    success_radius_m: float
+    start: dict[str, float]
+    declared_source: dict[str, float] | None
+    true_source: dict[str, float] | None
+    error_m: float | None
+    t0: float
+    t1: float | None
+    t2: float | None
+    t3: float | None
+    T_F: float | None
+    T_T: float | None
+    T_D: float | None
+    T_total: float | None
+    D0: float | None
+    D1: float | None
+    D2: float | None
+    D3: float | None
+    D1_over_D0: float | None
+    detections: int
+    lost_contacts: int
+    sim_time_s: float
+    wall_time_s: float
+    time_in_behaviour_s: dict[str, float] = field(default_factory=dict)
+    time_share: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain data for ``summary.json`` and the results table."""
+        return asdict(self)
+
+
 def summarise(
     run: VehicleRun,
     mission: MissionBase,
@@ -37,66 +87,66 @@ def summarise(
     seed: int | None,
     wall_time_s: float,
     t0: float = 0.0,
-) -> dict[str, Any]:
-    """One run's summary: outcome, times t0–t3, T_F T_T T_D, path lengths D0–D3, errors.
+) -> RunSummary:
+    """One run's :class:`RunSummary`.
 
     Readings chosen where SPEC is silent: times and D0 use the navigation estimate, as the AMP
     saw it (the declared source is in that frame); path lengths D1–D3 use the true track, so LBL
     jumps do not count as distance travelled; ``error_m`` is the declared source against the true
-    source (for the oracle, the vehicle's distance to the source when it stopped). ``t0`` is the
-    start of Mission B (the AMP take-over; 0 when the AMP drives from launch).
+    source (under the arrival criterion with no declaration, the vehicle's distance to the source
+    when it stopped). ``t0`` is the start of Mission B (the AMP take-over; 0 when the AMP drives
+    from launch).
     """
     t1, t3 = run.t1, run.t3
     declared = run.declared
+    path_t, est, true = run.path_t, run.path_est, run.path_true
     t2 = None
     i1 = i2 = i3 = None
     if t1 is not None:
-        i1 = run.path_t.index(t1)
+        i1 = int(np.searchsorted(path_t, t1))
     if declared is not None and i1 is not None and t3 is not None:
-        i3 = run.path_t.index(t3)
-        for i in range(i1, i3 + 1):
-            x, y = run.path_est[i]
-            if math.hypot(x - declared.x, y - declared.y) <= NEAR_SOURCE_M:
-                i2, t2 = i, run.path_t[i]
-                break
-        if i2 is None:  # declared before ever passing within 13 m of the spot
-            i2, t2 = i3, t3
+        i3 = int(np.searchsorted(path_t, t3))
+        near = np.hypot(est[i1 : i3 + 1, 0] - declared.x, est[i1 : i3 + 1, 1] - declared.y)
+        hits = np.flatnonzero(near <= NEAR_SOURCE_M)
+        # Declared before ever passing within 13 m of the spot: t2 = t3.
+        i2 = i1 + int(hits[0]) if len(hits) else i3
+        t2 = float(path_t[i2])
 
     def span(a: float | None, b: float | None) -> float | None:
         return None if a is None or b is None else b - a
 
     d0 = d1 = d2 = None
     if declared is not None and i1 is not None:
-        ex, ey = run.path_est[i1]
-        d0 = math.hypot(declared.x - ex, declared.y - ey)
+        d0 = math.hypot(declared.x - est[i1, 0], declared.y - est[i1, 1])
     if i1 is not None and i2 is not None and i3 is not None:
-        d1 = _path_length(run.path_true[i1 : i2 + 1])
-        d2 = _path_length(run.path_true[i2 : i3 + 1])
-    if run.outcome == "found":
-        error = run.error_at_end_m
-    elif declared is not None:
-        error = math.hypot(declared.x - source.x, declared.y - source.y)
-    else:
-        error = None
-    total_time = sum(run.time_in.values()) or 1.0
-    return {
-        "mission": mission.name,
-        "seed": seed,
-        "outcome": run.outcome,
-        "start": {"x": run.start[0], "y": run.start[1]},
-        "declared_source": _where(mission, declared),
-        "true_source": _where(mission, source),
-        "error_m": error,
-        "t0": t0, "t1": t1, "t2": t2, "t3": t3,
-        "T_F": span(t0, t1), "T_T": span(t1, t2), "T_D": span(t2, t3),
-        "T_total": span(t0, t3) if t3 is not None else span(t0, run.t_end),
-        "D0": d0, "D1": d1, "D2": d2,
-        "D3": None if d1 is None or d2 is None else d1 + d2,
-        "D1_over_D0": None if not d0 or d1 is None else d1 / d0,
-        "detections": len(run.detections),
-        "lost_contacts": len(run.lost_contacts),
-        "sim_time_s": run.t_end,
-        "wall_time_s": wall_time_s,
-        "time_in_behaviour_s": dict(sorted(run.time_in.items())),
-        "time_share": {k: v / total_time for k, v in sorted(run.time_in.items())},
-    }
+        d1 = _path_length(true[i1 : i2 + 1])
+        d2 = _path_length(true[i2 : i3 + 1])
+    assert run.outcome is not None, "summarise a finished run"
+    verdict = judge(run.outcome, declared, source, run.distance_at_end_m, mission.evaluation)
+    time_in = run.time_in
+    total_time = sum(time_in.values()) or 1.0
+    return RunSummary(
+        mission=mission.name,
+        seed=seed,
+        outcome=str(run.outcome),
+        success=verdict.success,
+        false_declaration=verdict.false_declaration,
+        criterion=mission.evaluation.criterion,
+        success_radius_m=mission.evaluation.success_radius_m,
+        start={"x": run.start[0], "y": run.start[1]},
+        declared_source=where(mission, declared),
+        true_source=where(mission, source),
+        error_m=verdict.error_m,
+        t0=t0, t1=t1, t2=t2, t3=t3,
+        T_F=span(t0, t1), T_T=span(t1, t2), T_D=span(t2, t3),
+        T_total=span(t0, t3) if t3 is not None else span(t0, run.t_end),
+        D0=d0, D1=d1, D2=d2,
+        D3=None if d1 is None or d2 is None else d1 + d2,
+        D1_over_D0=None if not d0 or d1 is None else d1 / d0,
+        detections=len(run.detections),
+        lost_contacts=len(run.lost_contacts),
+        sim_time_s=run.t_end,
+        wall_time_s=wall_time_s,
+        time_in_behaviour_s=dict(sorted(time_in.items())),
+        time_share={k: v / total_time for k, v in sorted(time_in.items())},
+    )

@@ -48,7 +48,9 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
     rows = []
     for i, run in enumerate(runs):
         row = {"config": task.config, **task.coords, "replicate": task.replicate, "start": i}
-        row.update(flatten(summarise(run, mission, source, task.root_seed, wall / len(runs))))
+        row.update(flatten(
+            summarise(run, mission, source, task.root_seed, wall / len(runs)).to_dict()
+        ))
         row["success"] = run.outcome in SUCCESS
         rows.append(row)
     return rows

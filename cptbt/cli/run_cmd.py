@@ -66,11 +66,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     if mission.mission_a is not None:  # the AMP as a guest inside the vehicle's Mission A
         phased, world, wall = simulate_phased(mission, params, trace=True)
         run, waypoints = phased.amp, phased.waypoints
-        summary = summarise(run, mission, source, seed, wall, t0=phased.t_amp_start or 0.0)
+        summary = summarise(run, mission, source, seed, wall,
+                            t0=phased.t_amp_start or 0.0).to_dict()
         summary["phases"] = phase_summary(phased, mission)
     else:
         (run,), world, wall = simulate(mission, params, [launch_pose(mission)], trace=True)
-        summary = summarise(run, mission, source, seed, wall)
+        summary = summarise(run, mission, source, seed, wall).to_dict()
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     trace_path = write_trace(run, out)
     figure = None

@@ -42,7 +42,7 @@ def test_strategy_3_finds_the_source_from_a_near_start(seed: int) -> None:
     params = to_sim_params(mission, seed)
     (run,), _, _ = simulate(mission, params, [(30.0, 0.0, 180.0)], time_limit_s=150.0)
     assert run.outcome == "found"
-    assert run.error_at_end_m <= 1.0
+    assert run.distance_at_end_m <= 1.0
     assert run.t_end < 150.0
     # Found by tracking the plume, not by the billiard stumbling on the source; 10 m up-flow in
     # 40-50 s: Strategy III's ~0.2-0.3 m/s up-flow progress in this plume.

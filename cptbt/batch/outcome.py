@@ -1,0 +1,92 @@
+"""How a run ends and how it is judged: one outcome enum and one verdict for every runner.
+
+The run ends on a give-back trigger (:func:`cptbt.policy.give_back_trigger`), on the vehicle's
+watchdog, or — for ``evaluation.criterion: arrival`` — when the vehicle reaches the true source.
+The *verdict* then compares what the planner did with the simulator's truth (SPEC §11): a
+declaration within ``evaluation.success_radius_m`` of the true source is a success, one beyond it
+a *false declaration*; under ``arrival`` only reaching the source counts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+
+from cptbt.mission import EvaluationSpec
+from cptbt.types import Point
+
+
+class Outcome(StrEnum):
+    """How a run (the AMP's part of it) ended."""
+
+    FOUND = "found"
+    """Arrival criterion: the vehicle came within the success radius of the true source."""
+    DECLARED = "declared"
+    """The planner declared a source (and reached home, or the time ran out after declaring)."""
+    TIMEOUT = "timeout"
+    """The AMP time limit, no declaration."""
+    RELINQUISHED = "relinquished"
+    """More than 30 m outside the OpArea (TRO II)."""
+    WATCHDOG = "watchdog"
+    """The vehicle heard no accepted command for its watchdog time and took control back."""
+    MISSION_ENDED = "mission_ended"
+    """The vehicle's own mission ended during the override."""
+    AMP_NOT_ENABLED = "amp_not_enabled"
+    """The run stopped before the AMP took over."""
+    AMP_RUNNING = "amp_running"
+    """The run stopped (simulation cap) with the AMP still in control."""
+
+
+_BY_TRIGGER = {
+    "declared_home": Outcome.DECLARED,
+    "arrival": Outcome.FOUND,
+    "amp_time_limit": Outcome.TIMEOUT,
+    "outside_op_area": Outcome.RELINQUISHED,
+    "watchdog_timeout": Outcome.WATCHDOG,
+}
+
+
+def outcome_of(trigger: str, declared: bool) -> Outcome:
+    """The outcome of the trigger that ended the AMP's control.
+
+    A time-out after a declaration (on the way home) counts as declared.
+    """
+    outcome = _BY_TRIGGER.get(trigger, Outcome.MISSION_ENDED)
+    if outcome is Outcome.TIMEOUT and declared:
+        return Outcome.DECLARED
+    return outcome
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """A run judged against the true source.
+
+    Attributes:
+        success: the evaluation's criterion was met.
+        false_declaration: a declaration farther than the success radius from the true source.
+        error_m: the declared source's distance to the true one; under ``arrival``, the
+            vehicle's distance when it stopped if it declared nothing. None if neither applies.
+    """
+
+    success: bool
+    false_declaration: bool
+    error_m: float | None
+
+
+def judge(
+    outcome: Outcome,
+    declared: Point | None,
+    source: Point,
+    distance_at_end_m: float,
+    evaluation: EvaluationSpec,
+) -> Verdict:
+    """Judge one run by the mission's ``evaluation`` section."""
+    radius = evaluation.success_radius_m
+    error = None if declared is None else math.hypot(declared.x - source.x,
+                                                     declared.y - source.y)
+    false = error is not None and error > radius
+    if evaluation.criterion == "arrival":
+        success = outcome is Outcome.FOUND
+        return Verdict(success, false, error if error is not None else distance_at_end_m)
+    return Verdict(error is not None and not false, false, error)
