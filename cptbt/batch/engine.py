@@ -32,6 +32,31 @@ TRACE = ("t", "x", "y", "heading", "x_est", "y_est", "heading_est", "concentrati
 assert set(TRACE) == {*PATH_COLUMNS, *TRACE_COLUMNS, "detected", "active"}
 
 
+@dataclass(frozen=True)
+class PlumeSnapshot:
+    """The plume's concentration on a grid at one moment (for figures).
+
+    Attributes:
+        xs, ys: grid axes, planning frame, m.
+        conc: concentration, (len(ys), len(xs)).
+        t_s: mission time of the snapshot.
+    """
+
+    xs: NDArray[np.float64]
+    ys: NDArray[np.float64]
+    conc: NDArray[np.float64]
+    t_s: float
+
+    @classmethod
+    def of(cls, world: World, grid: tuple[NDArray[np.float64], NDArray[np.float64]]
+           ) -> PlumeSnapshot:
+        """The world's plume now, on the grid ``(xs, ys)``."""
+        xs, ys = grid
+        gx, gy = np.meshgrid(xs, ys)
+        conc = world.concentration_at(np.column_stack([gx.ravel(), gy.ravel()]))
+        return cls(xs, ys, conc.reshape(gx.shape), world.t_s)
+
+
 @dataclass
 class VehicleRun:
     """What one vehicle did: its planner, events, and its rows in a :class:`Recorder`.
@@ -49,6 +74,7 @@ class VehicleRun:
         distance_at_end_m: the vehicle's true distance to the true source when it ended.
         declared: the declared source (planning frame).
         lost_contacts: the perception's lost-contact points at the end.
+        plume: the plume when the source was declared (or the run ended), if asked for.
     """
 
     planner: Planner
@@ -64,6 +90,7 @@ class VehicleRun:
     distance_at_end_m: float = math.nan
     declared: Point | None = None
     lost_contacts: tuple[Point, ...] = ()
+    plume: PlumeSnapshot | None = None
 
     @property
     def path_t(self) -> NDArray[np.float64]:
@@ -109,8 +136,12 @@ def simulate(
     vehicle_rngs: Sequence[np.random.Generator] | None = None,
     trace: bool = False,
     time_limit_s: float | None = None,
+    plume_grid: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> tuple[list[VehicleRun], World, float]:
     """Fly one planner per start pose (x, y, heading; planning frame) in one shared world.
+
+    With ``plume_grid`` (xs, ys), each run keeps a :class:`PlumeSnapshot` taken when it declared
+    (or, without a declaration, when it ended).
 
     Returns:
         The runs, the world at the end (for plume snapshots) and the wall time spent.
@@ -174,6 +205,8 @@ def simulate(
                 run.t1 = t
             if run.t3 is None and pl.declared_source is not None:
                 run.t3 = t
+                if plume_grid is not None:
+                    run.plume = PlumeSnapshot.of(world, plume_grid)
             d_true = math.hypot(float(out.true_xy[i, 0]) - source.x,
                                 float(out.true_xy[i, 1]) - source.y)
             outcome = None
@@ -188,6 +221,8 @@ def simulate(
                 run.outcome, run.t_end, run.distance_at_end_m = outcome, t, d_true
                 run.declared = pl.declared_source
                 run.lost_contacts = p.lost_contacts
+                if plume_grid is not None and run.plume is None:
+                    run.plume = PlumeSnapshot.of(world, plume_grid)
                 keep[j] = False
         values: dict[str, Any] = {
             "t": t, "x": out.true_xy[active, 0], "y": out.true_xy[active, 1],

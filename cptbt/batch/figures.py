@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -10,6 +11,7 @@ import numpy as np
 
 from cptbt.batch.engine import VehicleRun
 from cptbt.frames import OpArea
+from cptbt.mission import MissionBase
 from cptbt.types import Point
 
 BEHAVIOUR_COLOURS = {
@@ -59,38 +61,92 @@ def pyplot() -> Any:
     return plt
 
 
+def plume_grid(area: OpArea, margin_m: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
+    """A grid over the OpArea (and a margin) for plume snapshots, about 1-2 m per cell."""
+    nx = int(min(400, max(80, (area.xmax - area.xmin + 2 * margin_m) / 1.0)))
+    ny = int(min(300, max(60, (area.ymax - area.ymin + 2 * margin_m) / 1.0)))
+    return (np.linspace(area.xmin - margin_m, area.xmax + margin_m, nx),
+            np.linspace(area.ymin - margin_m, area.ymax + margin_m, ny))
+
+
 def trajectory_figure(
     path: Path,
     run: VehicleRun,
-    area: OpArea,
+    mission: MissionBase,
     source: Point,
-    plume: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
     title: str,
     *,
+    threshold: float | None = None,
     waypoints: Sequence[Point] | None = None,
 ) -> None:
     """The run in the planning frame, drawn as TRO Figs. 10–12 (y positive down).
 
-    With a ``phase`` column in the trace (a phased run), the parts of the track outside the AMP
+    Drawn: the plume when the source was declared (``run.plume``, with its colour bar and time),
+    the OpArea, the track coloured by the active behaviour, detections and lost contacts, the
+    run's start, the mission's start point and home, the true and declared sources, a north arrow
+    with the bearing of +x, and for missions with a geodetic anchor a latitude/longitude
+    graticule. With a ``phase`` column in the trace (a phased run) the parts outside the AMP
     override are drawn dashed (Mission A) or dotted (return to the break-off point), and the
     planned Mission A ``waypoints`` as a light dashed line (TRO Fig. 1).
     """
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(10, 5.2), constrained_layout=True)
-    if plume is not None:
-        xs, ys, conc = plume
-        ax.pcolormesh(xs, ys, conc, cmap="Greys", shading="auto",
-                      vmin=0, vmax=max(float(np.percentile(conc, 99.5)), 1e-9), alpha=0.6)
+    area = mission.op_area_geometry()
+    fig, ax = plt.subplots(figsize=(12.5, 5.6), layout="constrained")
+    snap = run.plume
+    if snap is not None:
+        vmax = max(float(np.percentile(snap.conc, 99.7)), (threshold or 0.0) * 2, 1e-9)
+        mesh = ax.pcolormesh(snap.xs, snap.ys, snap.conc, cmap="Greys", shading="auto",
+                             vmin=0, vmax=vmax, alpha=0.75, rasterized=True)
+        when = "declaration" if run.t3 is not None and abs(snap.t_s - run.t3) < 1e-6 else "end"
+        bar = fig.colorbar(mesh, ax=ax, location="bottom", shrink=0.5, aspect=40, pad=0.02)
+        label = f"plume concentration at t = {snap.t_s:.0f} s ({when})"
+        if threshold is not None:
+            bar.ax.axvline(threshold, color="#d62728", lw=1.5)
+            label += f"; red: detection threshold {threshold:g}"
+        bar.set_label(label, fontsize=8)
     ax.add_patch(plt.Rectangle((area.xmin, area.ymin), area.xmax - area.xmin,
                                area.ymax - area.ymin, fill=False, lw=1.5, ec="black"))
+    _graticule(ax, mission, area)
+    _track(ax, run, waypoints)
+    det = run.detections
+    if len(det):
+        ax.plot(det[:, 0], det[:, 1], "x", color="black", ms=4, mew=1, label="detection (est.)")
+    if run.lost_contacts:
+        lc = np.asarray([(p.x, p.y) for p in run.lost_contacts])
+        ax.plot(lc[:, 0], lc[:, 1], "s", mfc="none", mec="#ff7f0e", ms=6, label="lost contact")
+    ax.plot(*run.start, "o", mfc="white", mec="black", ms=8, label="vehicle at AMP start")
+    if mission.start is not None:
+        st = mission.to_xy(mission.start)
+        ax.plot(st.x, st.y, "D", mfc="none", mec="#1f77b4", ms=8, mew=1.5,
+                label="mission start (move-to-field goal)")
+    home = mission.to_xy(mission.home)
+    ax.plot(home.x, home.y, "^", mfc="#8c564b", mec="black", ms=9, label="home")
+    ax.plot(source.x, source.y, "*", color="gold", mec="black", ms=16, label="true source")
+    if run.declared is not None:
+        ax.plot(run.declared.x, run.declared.y, "o", color="#9467bd", mec="black", ms=9,
+                label="declared source")
+    ax.set_aspect("equal")
+    ax.invert_yaxis()  # TRO draws the planning y axis positive downward
+    _north_arrow(ax, mission, area)
+    bearing = area.frame.x_bearing_deg % 360
+    ax.set_xlabel(f"x (m): the OpArea's long axis, compass bearing {bearing:.1f}°")
+    ax.set_ylabel("y (m), 90° clockwise from x")
+    ax.set_title(title, fontsize=10)
+    fig.legend(loc="outside right upper", fontsize=8, frameon=False)
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
+
+
+def _track(ax: Any, run: VehicleRun, waypoints: Sequence[Point] | None) -> None:
+    """The true track in segments coloured by the active behaviour (or styled by phase)."""
     trace = run.trace or {}
     xs_true = np.asarray(trace.get("x", run.path_true[:, 0]))
     ys_true = np.asarray(trace.get("y", run.path_true[:, 1]))
-    actives = list(trace.get("active", ["none"] * len(xs_true)))
+    actives = list(trace.get("active", run.recorder.active_names(run.index)))
     phases = trace.get("phase")
     if phases is not None:
-        actives = [f"phase:{ph}" if _phase_style(ph) else a for a, ph in zip(actives, phases,
-                                                                            strict=True)]
+        actives = [f"phase:{ph}" if _phase_style(ph) else a
+                   for a, ph in zip(actives, phases, strict=True)]
     if waypoints:
         ax.plot([w.x for w in waypoints], [w.y for w in waypoints], "--", color="#aaaaaa", lw=0.8,
                 marker=".", label="Mission A plan")
@@ -101,27 +157,73 @@ def trajectory_figure(
             name = actives[start] or "none"
             style = _phase_style(name.removeprefix("phase:")) if name.startswith("phase:") else None
             colour, ls, shown = style if style else (_colour(name), "-", name)
+            if shown == "none":
+                shown = "no behaviour output"
             label = None if shown in seen else shown
             seen.add(shown)
             seg = slice(start, min(i + 1, len(xs_true)))
             ax.plot(xs_true[seg], ys_true[seg], color=colour, ls=ls, lw=1.6, label=label)
             start = i
-    if len(run.detections):
-        d = run.detections
-        ax.plot(d[:, 0], d[:, 1], "x", color="black", ms=4, mew=1, label="detection (est.)")
-    if run.lost_contacts:
-        lc = np.asarray([(p.x, p.y) for p in run.lost_contacts])
-        ax.plot(lc[:, 0], lc[:, 1], "s", mfc="none", mec="#ff7f0e", ms=6, label="lost contact")
-    ax.plot(*run.start, "o", mfc="white", mec="black", ms=8, label="start")
-    ax.plot(source.x, source.y, "*", color="gold", mec="black", ms=16, label="true source")
-    if run.declared is not None:
-        ax.plot(run.declared.x, run.declared.y, "o", color="#9467bd", mec="black", ms=9,
-                label="declared source")
-    ax.set_aspect("equal")
-    ax.invert_yaxis()  # TRO draws the planning y axis positive downward
-    ax.set_xlabel("x (m), along the OpArea's long axis")
-    ax.set_ylabel("y (m)")
-    ax.set_title(title)
-    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8, frameon=False)
-    fig.savefig(path, dpi=150)
-    plt.close(fig)
+
+
+def _north_arrow(ax: Any, mission: MissionBase, area: OpArea) -> None:
+    """A north arrow in the OpArea's upper-left corner (planning frame, y drawn down)."""
+    north = math.radians(area.frame.planning_deg(0.0))
+    size = 0.07 * area.diagonal_m
+    x0 = area.xmin + 1.3 * size
+    y0 = area.ymin + 1.3 * size
+    tip = (x0 + size * math.cos(north), y0 + size * math.sin(north))
+    ax.annotate("", xy=tip, xytext=(x0, y0),
+                arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.5})
+    ax.text(x0 + 1.35 * size * math.cos(north), y0 + 1.35 * size * math.sin(north), "N",
+            ha="center", va="center", fontsize=10, fontweight="bold")
+
+
+def _graticule(ax: Any, mission: MissionBase, area: OpArea) -> None:
+    """Lines of constant latitude and longitude, for missions with a geodetic anchor."""
+    local = mission.local_frame()
+    if local is None:
+        return
+    corners = [mission.to_geodetic(Point(x, y)) for x in (area.xmin, area.xmax)
+               for y in (area.ymin, area.ymax)]
+    lats = [g.lat_deg for g in corners if g is not None]
+    lons = [g.lon_deg for g in corners if g is not None]
+    for values, is_lat in ((lats, True), (lons, False)):
+        lo, hi = min(values), max(values)
+        step = _nice_step((hi - lo) / 4)
+        other = (min(lons), max(lons)) if is_lat else (min(lats), max(lats))
+        for v in np.arange(math.ceil(lo / step) * step, hi, step):
+            pts = []
+            for w in np.linspace(*other, 30):
+                lat, lon = (v, w) if is_lat else (w, v)
+                pts.append(area.frame.ne_to_xy(*local.to_ne(float(lat), float(lon))))
+            xs = np.array([p.x for p in pts])
+            ys = np.array([p.y for p in pts])
+            inside = ((xs >= area.xmin) & (xs <= area.xmax) & (ys >= area.ymin)
+                      & (ys <= area.ymax))
+            if inside.sum() < 2:
+                continue
+            ax.plot(xs[inside], ys[inside], color="#4a90d9", lw=0.6, alpha=0.7, zorder=0)
+            # Latitudes labelled where they enter the OpArea, longitudes where they leave it,
+            # so the two sets of labels do not pile up on one edge.
+            k = int(np.flatnonzero(inside)[0 if is_lat else -1])
+            ax.text(xs[k], ys[k], _dm(v, "NS" if is_lat else "EW"), fontsize=6,
+                    color="#2a6099", ha="center", va="center", zorder=1,
+                    bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 0.5})
+
+
+def _nice_step(raw: float) -> float:
+    """A step of 1, 2 or 5 times a power of ten, close to ``raw`` (degrees)."""
+    if raw <= 0:
+        return 1.0
+    exp = math.floor(math.log10(raw))
+    base = raw / 10**exp
+    return float((1 if base < 1.5 else 2 if base < 3.5 else 5) * 10**exp)
+
+
+def _dm(value: float, hemispheres: str) -> str:
+    """Degrees and decimal minutes, as TRO writes positions: 32°58.85'N."""
+    hemi = hemispheres[0] if value >= 0 else hemispheres[1]
+    v = abs(value)
+    d = int(v)
+    return f"{d}°{(v - d) * 60:.3f}'{hemi}"

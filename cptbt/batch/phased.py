@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from cptbt.batch.engine import VehicleRun
+from cptbt.batch.engine import PlumeSnapshot, VehicleRun
 from cptbt.batch.outcome import Outcome, outcome_of
 from cptbt.batch.recorder import Recorder
 from cptbt.batch.scenario import environment_of, planning_angle
@@ -75,6 +75,7 @@ def simulate_phased(
     faults: LinkFaults | None = None,
     trace: bool = False,
     max_time_s: float | None = None,
+    plume_grid: tuple[Any, Any] | None = None,
 ) -> tuple[PhasedRun, World, float]:
     """Fly a mission with a ``mission_a`` section until post-mission (or ``max_time_s``).
 
@@ -117,7 +118,7 @@ def simulate_phased(
         ticked = session.ticked
         values: dict[str, Any] = {"t": t, "x": tx, "y": ty, "x_est": ex, "y_est": ey}
         if session.t_amp_start is not None and ended is None and ticked:
-            _record_amp(run, planner, t, values)
+            _record_amp(run, planner, t, values, world, plume_grid)
         if ended is None:
             ended = _amp_end(session.phases.timeline)
             if (ended is None and arrival and session.in_override
@@ -130,6 +131,8 @@ def simulate_phased(
                 run.distance_at_end_m = math.hypot(tx - source.x, ty - source.y)
                 run.declared = planner.declared_source
                 run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
+                if plume_grid is not None and run.plume is None:
+                    run.plume = PlumeSnapshot.of(world, plume_grid)
         if resumed_at is None and session.phases.state == "mission_a.resumed":
             resumed_at = (ex, ey)
         grid_due = t + 1e-9 >= next_row
@@ -173,7 +176,8 @@ def _amp_end(timeline: list[PhaseChange]) -> PhaseChange | None:
     return None
 
 
-def _record_amp(run: VehicleRun, planner: Planner, t: float, values: dict[str, Any]) -> None:
+def _record_amp(run: VehicleRun, planner: Planner, t: float, values: dict[str, Any],
+                world: World, grid: tuple[Any, Any] | None) -> None:
     p = planner.percept
     assert p is not None
     rec = run.recorder
@@ -182,6 +186,8 @@ def _record_amp(run: VehicleRun, planner: Planner, t: float, values: dict[str, A
         run.t1 = t
     if run.t3 is None and planner.declared_source is not None:
         run.t3 = t
+        if grid is not None:
+            run.plume = PlumeSnapshot.of(world, grid)
 
 
 def _record_row(

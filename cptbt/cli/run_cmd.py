@@ -8,10 +8,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from cptbt.batch.engine import VehicleRun, simulate
-from cptbt.batch.figures import trajectory_figure
+from cptbt.batch.engine import PlumeSnapshot, VehicleRun, simulate
+from cptbt.batch.figures import plume_grid, trajectory_figure
 from cptbt.batch.phased import phase_summary, simulate_phased
 from cptbt.batch.scenario import launch_pose, to_sim_params
 from cptbt.batch.summary import summarise
@@ -63,28 +61,30 @@ def cmd_run(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     source = Point(*params.source_xy_m)
     waypoints = None
+    grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
     if mission.mission_a is not None:  # the AMP as a guest inside the vehicle's Mission A
-        phased, world, wall = simulate_phased(mission, params, trace=True)
+        phased, world, wall = simulate_phased(mission, params, trace=True, plume_grid=grid)
         run, waypoints = phased.amp, phased.waypoints
         summary = summarise(run, mission, source, seed, wall,
                             t0=phased.t_amp_start or 0.0).to_dict()
         summary["phases"] = phase_summary(phased, mission)
     else:
-        (run,), world, wall = simulate(mission, params, [launch_pose(mission)], trace=True)
+        (run,), world, wall = simulate(mission, params, [launch_pose(mission)], trace=True,
+                                       plume_grid=grid)
         summary = summarise(run, mission, source, seed, wall).to_dict()
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     trace_path = write_trace(run, out)
     figure = None
-    if not args.no_figure:
-        area = run.planner.op_area
-        xs = np.linspace(area.xmin - 10, area.xmax + 10, 260)
-        ys = np.linspace(area.ymin - 10, area.ymax + 10, 120)
-        gx, gy = np.meshgrid(xs, ys)
-        conc = world.concentration_at(np.column_stack([gx.ravel(), gy.ravel()])).reshape(gx.shape)
+    if grid is not None:
+        if run.plume is None:
+            run.plume = PlumeSnapshot.of(world, grid)
         figure = out / "trajectory.png"
-        trajectory_figure(figure, run, area, source, (xs, ys, conc),
-                          f"{mission.name} (seed {seed}): {summary['outcome']}",
-                          waypoints=waypoints)
+        variants = ", ".join(f"{e.family.split('_')[0]} {e.variant}" for e in mission.entries()
+                             if e.family in ("declare_source", "maintain_plume",
+                                             "reacquire_plume", "find_plume"))
+        trajectory_figure(figure, run, mission, source,
+                          f"{mission.name} (seed {seed}): {summary['outcome']}\n{variants}",
+                          threshold=mission.perception.threshold, waypoints=waypoints)
     if not args.quiet:
         s = summary
         print(f"{mission.name}, seed {seed}: {s['outcome']} after {_fmt(s['sim_time_s'], ' s')} "
