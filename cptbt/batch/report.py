@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -49,8 +50,49 @@ def _fmt(v: Any, digits: int = 1) -> str:
     return f"{v:.{digits}f}" if isinstance(v, float) else str(v)
 
 
-def write_report(rows: Rows, out: Path) -> list[Path]:
-    """Write every figure and table that fits the study; returns the paths written."""
+@dataclass(frozen=True)
+class StudyGeometry:
+    """What the maps draw besides the results: the OpArea, the source and the mean flow.
+
+    Planning frame; ``flow_deg`` is the direction the flow moves toward. Saved in ``study.json``
+    so ``cptbt plot`` can redraw the maps from the folder alone.
+    """
+
+    area: tuple[float, float, float, float]
+    source: tuple[float, float]
+    flow_deg: float | None = None
+
+    def to_data(self) -> dict[str, Any]:
+        """For ``study.json``."""
+        return {"area": list(self.area), "source": list(self.source), "flow_deg": self.flow_deg}
+
+    @classmethod
+    def from_data(cls, data: dict[str, Any] | None) -> StudyGeometry | None:
+        """From ``study.json`` (None if absent or malformed)."""
+        try:
+            assert data is not None
+            return cls(tuple(data["area"]), tuple(data["source"]), data.get("flow_deg"))
+        except (AssertionError, KeyError, TypeError, ValueError):
+            return None
+
+
+def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval of a proportion (95% by default); (nan, nan) for n = 0."""
+    if n == 0:
+        return math.nan, math.nan
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None) -> list[Path]:
+    """Write every figure and table that means something for the study; the paths written.
+
+    Skipped where they would mislead: maps need starts spread in x and y, the start-x line
+    needs starts along one line, the rate chart needs two configurations or more, and the
+    error histogram needs declarations judged by distance (not AB's arrival criterion).
+    """
     if not rows:
         return []
     out = Path(out)
@@ -61,11 +103,10 @@ def write_report(rows: Rows, out: Path) -> list[Path]:
         groups[_config_label(r, sweep_cols)].append(r)
     written: list[Path | None] = [_tables(groups, out / "tables.md")]
     plt = pyplot()
-    written.append(_map(groups, out / "time_to_source_map.png", plt))
-    line = _line(groups, out / "time_vs_start_x.png", plt)
-    if line:
-        written.append(line)
-    written.append(_outcomes(groups, out / "success_and_error.png", plt))
+    written.append(_map(groups, out / "time_to_source_map.png", plt, geometry))
+    written.append(_line(groups, out / "time_vs_start.png", plt))
+    written.append(_rates(groups, out / "success_and_false_declarations.png", plt))
+    written.append(_distributions(groups, out / "error_and_td_share.png", plt))
     return [p for p in written if p is not None]
 
 
@@ -82,53 +123,103 @@ def _per_start(rows: Rows) -> dict[tuple[float, float], Rows]:
     return by
 
 
-def _map(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
+def _edges(centres: list[float]) -> np.ndarray:
+    """Cell edges around sorted cell centres."""
+    c = np.asarray(centres, dtype=float)
+    mid = (c[1:] + c[:-1]) / 2
+    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
+
+
+def _map(groups: dict[str, Rows], path: Path, plt: Any,
+         geometry: StudyGeometry | None) -> Path | None:
     """Mean time to source over start positions (AB Figs. 6 and 11), one panel per config.
 
-    As in AB, a search that fails counts with the time it ran (the 300 s limit in AB).
+    A heat map on the real aspect ratio, planning frame with y drawn down (as TRO and AB draw
+    it), with the OpArea, the true source and the mean flow; contours are added on grids of at
+    least 10 × 10 starts. As in AB, a search that fails counts with the time it ran.
     """
+    first = next(iter(groups.values()))
+    xs_all = sorted({float(r["start_x"]) for r in first})
+    ys_all = sorted({float(r["start_y"]) for r in first})
+    if len(xs_all) < 2 or len(ys_all) < 2:
+        return None  # one start, or starts along a line: the line plot says it
     n = len(groups)
-    fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.6), squeeze=False, constrained_layout=True)
+    fig, axes = plt.subplots(1, n, figsize=(6.0 * n, 5.0), squeeze=False, layout="constrained")
+    vmax = max(_mean([_search_time(r) for r in rows]) for rows in groups.values())
     for ax, (label, rows) in zip(axes[0], groups.items(), strict=True):
         by = _per_start(rows)
         xs = sorted({k[0] for k in by})
         ys = sorted({k[1] for k in by})
         grid = np.full((len(ys), len(xs)), np.nan)
-        succ = np.full_like(grid, np.nan)
+        counts = np.zeros(grid.shape, dtype=int)
         for (x, y), runs in by.items():
             grid[ys.index(y), xs.index(x)] = _mean([_search_time(r) for r in runs])
-            succ[ys.index(y), xs.index(x)] = np.mean([bool(r["success"]) for r in runs])
-        if len(xs) > 1 and len(ys) > 1:
-            im = ax.contourf(xs, ys, grid, levels=12, cmap="viridis")
-            fig.colorbar(im, ax=ax, label="mean time to source (s), failures at the limit")
-            ax.invert_yaxis()
-        else:
-            ax.plot(xs if len(xs) > 1 else ys, grid.ravel(), "o-")
-            ax.set_ylabel("mean time to source (s)")
-        rate = np.nanmean(succ)
-        ax.set_title(f"{label}\nsuccess {rate:.1%} over {len(rows)} runs", fontsize=9)
+            counts[ys.index(y), xs.index(x)] = len(runs)
+        limit = max(float(r.get("sim_time_s") or 0) for r in rows)
+        im = ax.pcolormesh(_edges(xs), _edges(ys), grid, cmap="viridis", vmin=0,
+                           vmax=max(vmax, limit, 1.0), shading="flat")
+        if len(xs) >= 10 and len(ys) >= 10:
+            ax.contour(xs, ys, grid, levels=6, colors="white", linewidths=0.6, alpha=0.7)
+        if grid.size <= 64:
+            for (x, y), runs in by.items():
+                ax.text(x, y, f"n={len(runs)}", ha="center", va="center", fontsize=6,
+                        color="white")
+        fig.colorbar(im, ax=ax, shrink=0.8,
+                     label="mean time to source (s); a failure counts as the time it ran")
+        if geometry is not None:
+            x0, x1, y0, y1 = geometry.area
+            ax.add_patch(plt.Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ec="black",
+                                       lw=1.2))
+            ax.plot(*geometry.source, "*", color="gold", mec="black", ms=15, label="source")
+            if geometry.flow_deg is not None:
+                size = 0.12 * min(x1 - x0, y1 - y0)
+                th = math.radians(geometry.flow_deg)
+                cx, cy = x0 + 1.5 * size, y0 + 1.2 * size
+                ax.annotate("", xy=(cx + size * math.cos(th), cy + size * math.sin(th)),
+                            xytext=(cx, cy),
+                            arrowprops={"arrowstyle": "-|>", "color": "#d62728", "lw": 2})
+                ax.text(cx, cy - 0.3 * size, "mean flow", color="#d62728", fontsize=7,
+                        ha="center")
+        runs_n = sorted(set(counts[counts > 0].ravel().tolist()))
+        per_cell = f"n = {runs_n[0]}" if len(runs_n) == 1 else f"n = {runs_n[0]}–{runs_n[-1]}"
+        ok = sum(bool(r["success"]) for r in rows)
+        lo, hi = wilson(ok, len(rows))
+        ax.set_title(f"{label}\nsuccess {ok / len(rows):.1%} (95% CI {lo:.1%}–{hi:.1%}) of "
+                     f"{len(rows)} runs; {per_cell} per start", fontsize=9)
+        ax.set_aspect("equal")
+        ax.invert_yaxis()
         ax.set_xlabel("start x (m)")
-        if len(ys) > 1:
-            ax.set_ylabel("start y (m)")
+        ax.set_ylabel("start y (m), drawn down")
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path
 
 
 def _line(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
-    """Mean time to source against start x, one curve per config (AB Fig. 10)."""
-    ys = {float(r["start_y"]) for rows in groups.values() for r in rows}
-    if len(ys) != 1:
+    """Mean time to source against the start's x (AB Fig. 10), ± one standard error."""
+    first = next(iter(groups.values()))
+    xs_all = {float(r["start_x"]) for r in first}
+    ys_all = {float(r["start_y"]) for r in first}
+    if len(ys_all) == 1 and len(xs_all) > 1:
+        axis, fixed = "x", f"y = {next(iter(ys_all)):g} m"
+    elif len(xs_all) == 1 and len(ys_all) > 1:
+        axis, fixed = "y", f"x = {next(iter(xs_all)):g} m"
+    else:
         return None
-    fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
-    y = next(iter(ys))
+    fig, ax = plt.subplots(figsize=(7.5, 4.4), layout="constrained")
     for label, rows in groups.items():
-        by = _per_start(rows)
-        xs = sorted({k[0] for k in by})
-        mean = [_mean([_search_time(r) for r in by[(x, y)]]) for x in xs]
-        ax.plot(xs, mean, "o-", ms=3, label=label)
-    ax.set_xlabel("start x (m)")
-    ax.set_ylabel("mean time to source (s), failures at the limit")
+        by: dict[float, list[float]] = defaultdict(list)
+        for r in rows:
+            by[float(r[f"start_{axis}"])].append(_search_time(r))
+        pos = sorted(by)
+        mean = np.array([_mean(by[p]) for p in pos])
+        se = np.array([_sem(by[p]) for p in pos])
+        ns = sorted({len(by[p]) for p in pos})
+        per = f"{ns[0]}" if len(ns) == 1 else f"{ns[0]}–{ns[-1]}"
+        line = ax.plot(pos, mean, "o-", ms=3, label=f"{label} (n = {per} per start)")
+        ax.fill_between(pos, mean - se, mean + se, color=line[0].get_color(), alpha=0.25, lw=0)
+    ax.set_xlabel(f"start {axis} (m), {fixed}")
+    ax.set_ylabel("mean time to source (s) ± 1 SE;\na failure counts as the time it ran")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.savefig(path, dpi=130)
@@ -136,26 +227,59 @@ def _line(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
     return path
 
 
-def _outcomes(groups: dict[str, Rows], path: Path, plt: Any) -> Path:
-    """Success rate, declaration error and T_D share per config."""
-    fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(14, 4), constrained_layout=True)
+def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
+    """Success and false-declaration rates per configuration, with 95% Wilson intervals."""
+    if len(groups) < 2:
+        return None  # one bar says nothing the table does not
     labels = list(groups)
-    rates = [np.mean([bool(r["success"]) for r in groups[k]]) for k in labels]
-    a1.bar(range(len(labels)), rates, color="#2ca02c")
-    a1.set_xticks(range(len(labels)), labels, rotation=20, ha="right", fontsize=8)
-    a1.set_ylim(0, 1)
-    a1.set_ylabel("success rate")
-    for k in labels:
-        err = [r["error_m"] for r in groups[k] if r.get("error_m") is not None]
-        if err:
-            a2.hist(err, bins=30, alpha=0.6, label=k)
-        share = [v for v in map(_td_share, groups[k]) if v is not None]
-        if share:
-            a3.hist(share, bins=20, range=(0, 1), alpha=0.6, label=k)
-    a2.set_xlabel("declaration error (m)")
-    a2.set_ylabel("runs")
-    a3.set_xlabel("T_D / mission time (TRO Table III)")
-    for ax in (a2, a3):
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.4 * len(labels) + 2), 4.2), layout="constrained")
+    pos = np.arange(len(labels))
+    for k, (key, name, colour) in enumerate((("success", "success", "#2ca02c"),
+                                             ("false_declaration", "false declaration",
+                                              "#d62728"))):
+        rate, lo, hi = [], [], []
+        for lab in labels:
+            rows = groups[lab]
+            hits = sum(bool(r.get(key)) for r in rows)
+            a, b = wilson(hits, len(rows))
+            rate.append(hits / len(rows))
+            lo.append(hits / len(rows) - a)
+            hi.append(b - hits / len(rows))
+        ax.bar(pos + (k - 0.5) * 0.38, rate, 0.38, yerr=[lo, hi], capsize=3, color=colour,
+               label=f"{name} (95% Wilson CI)")
+    ax.set_xticks(pos, [f"{lab}\nn = {len(groups[lab])}" for lab in labels], fontsize=8)
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("rate")
+    ax.legend(fontsize=8)
+    ax.grid(axis="y", alpha=0.3)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
+    """Declaration error and T_D share (TRO Table III) histograms, where they exist."""
+    judged = {k: rows for k, rows in groups.items()
+              if any(r.get("criterion", "declaration") == "declaration" for r in rows)}
+    err = {k: [float(r["error_m"]) for r in rows if r.get("error_m") is not None
+               and r.get("t3") is not None] for k, rows in judged.items()}
+    share = {k: [v for v in map(_td_share, rows) if v is not None] for k, rows in judged.items()}
+    if not any(err.values()) and not any(share.values()):
+        return None
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
+    radius = next((float(r["success_radius_m"]) for rows in judged.values() for r in rows
+                   if r.get("success_radius_m") is not None), None)
+    for k in judged:
+        if err[k]:
+            a1.hist(err[k], bins=30, alpha=0.6, label=f"{k} (n = {len(err[k])})")
+        if share[k]:
+            a2.hist(share[k], bins=20, range=(0, 1), alpha=0.6, label=f"{k} (n = {len(share[k])})")
+    if radius is not None:
+        a1.axvline(radius, color="#d62728", ls="--", lw=1, label=f"success radius {radius:g} m")
+    a1.set_xlabel("declaration error (m)")
+    a2.set_xlabel("T_D / mission time to declaration (TRO Table III)")
+    for ax in (a1, a2):
+        ax.set_ylabel("runs")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
     fig.savefig(path, dpi=130)
@@ -170,6 +294,11 @@ def _td_share(row: dict[str, Any]) -> float | None:
     return float(row["T_D"]) / float(row["t3"])
 
 
+def _sem(values: list[Any]) -> float:
+    v = [float(x) for x in values if x is not None and not (isinstance(x, float) and math.isnan(x))]
+    return float(np.std(v, ddof=1) / math.sqrt(len(v))) if len(v) > 1 else math.nan
+
+
 def _mean(values: list[Any]) -> float:
     v = [float(x) for x in values if x is not None and not (isinstance(x, float) and math.isnan(x))]
     return float(np.mean(v)) if v else math.nan
@@ -177,15 +306,19 @@ def _mean(values: list[Any]) -> float:
 
 def _tables(groups: dict[str, Rows], path: Path) -> Path:
     lines = ["# Study results", "", "## Per configuration", "",
-             "| configuration | runs | success | mean time to source (s) | sd (s) "
+             "| configuration | runs | success (95% CI) | false declarations "
+             "| mean time to source (s) | sd (s) "
              "| mean search time, failures at the limit (s) | mean error (m) | max error (m) |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for label, rows in groups.items():
         t = np.array([_time_to_source(r) for r in rows])
         ok = t[np.isfinite(t)]
         err = [r["error_m"] for r in rows if r.get("error_m") is not None]
+        wins = sum(bool(r["success"]) for r in rows)
+        lo, hi = wilson(wins, len(rows))
+        false = sum(bool(r.get("false_declaration")) for r in rows)
         lines.append(
-            f"| {label} | {len(rows)} | {np.mean([bool(r['success']) for r in rows]):.1%} "
+            f"| {label} | {len(rows)} | {wins / len(rows):.1%} ({lo:.1%}–{hi:.1%}) | {false} "
             f"| {_fmt(float(ok.mean()) if ok.size else None)} "
             f"| {_fmt(float(ok.std()) if ok.size > 1 else None)} "
             f"| {_fmt(_mean([_search_time(r) for r in rows]))} "

@@ -123,21 +123,3 @@ def test_sweep_of_variants_and_bad_sweep(tmp_path: Path) -> None:
     assert "unknown variant 'nope'" in bad.stderr
 
 
-def test_report_handles_arrival_rows_and_failures(tmp_path: Path) -> None:
-    from cptbt.batch.report import write_report
-
-    base = {"config": 0, "replicate": 0, "mission": "m", "start_y": 0.0, "error_m": None,
-            "T_F": None, "T_T": None, "T_D": None, "t2": None, "t3": None, "D0": None,
-            "D1": None, "D2": None, "D3": None, "D1_over_D0": None, "sim_time_s": 300.0}
-    rows = [
-        {**base, "start": 0, "start_x": 10.0, "success": True, "t3": 42.0, "error_m": 0.8},
-        {**base, "start": 1, "start_x": 50.0, "success": False},
-        {**base, "start": 0, "start_x": 10.0, "replicate": 1, "success": True, "t3": 40.0,
-         "t2": 30.0, "T_D": 10.0, "error_m": 0.5},
-    ]
-    written = write_report(rows, tmp_path)
-    names = {p.name for p in written}
-    assert {"tables.md", "time_to_source_map.png", "time_vs_start_x.png",
-            "success_and_error.png"} <= names
-    table = (tmp_path / "tables.md").read_text()
-    assert "| m | 3 | 66.7% | 41.0 | 1.0 | 127.3 |" in table  # 42 s, 40 s, and a 300 s failure

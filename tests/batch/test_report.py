@@ -1,0 +1,83 @@
+"""The study report alone: tables, Wilson intervals, and which figures mean something."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from cptbt.batch.report import StudyGeometry, wilson, write_report
+
+BASE: dict[str, Any] = {
+    "config": 0, "replicate": 0, "mission": "m", "start_y": 0.0, "error_m": None, "T_F": None,
+    "T_T": None, "T_D": None, "t2": None, "t3": None, "D0": None, "D1": None, "D2": None,
+    "D3": None, "D1_over_D0": None, "sim_time_s": 300.0, "success_radius_m": 15.0,
+}
+
+
+def line_rows() -> list[dict[str, Any]]:
+    return [
+        {**BASE, "start": 0, "start_x": 10.0, "success": True, "t3": 42.0, "error_m": 0.8},
+        {**BASE, "start": 1, "start_x": 50.0, "success": False},
+        {**BASE, "start": 0, "start_x": 10.0, "replicate": 1, "success": True, "t3": 40.0,
+         "t2": 30.0, "T_D": 10.0, "error_m": 0.5},
+    ]
+
+
+def grid_rows(configs: int = 2) -> list[dict[str, Any]]:
+    rows = []
+    for c in range(configs):
+        for k, (x, y) in enumerate([(x, y) for x in (20.0, 60.0) for y in (-20.0, 20.0)]):
+            for r in range(3):
+                ok = (k + r + c) % 3 != 0
+                rows.append({**BASE, "variant": f"v{c}", "config": c, "replicate": r, "start": k,
+                             "start_x": x, "start_y": y, "success": ok,
+                             "false_declaration": not ok and r == 1,
+                             "t3": 100.0 + 10 * k if ok else None,
+                             "error_m": 3.0 if ok else (40.0 if r == 1 else None)})
+    return [{"variant": r.pop("variant"), **r} for r in rows]
+
+
+@pytest.mark.parametrize(("k", "n", "lo", "hi"), [(2, 3, 0.2077, 0.9385), (0, 10, 0.0, 0.2775),
+                                                   (10, 10, 0.7225, 1.0)])
+def test_wilson_interval(k: int, n: int, lo: float, hi: float) -> None:
+    a, b = wilson(k, n)
+    assert a == pytest.approx(lo, abs=1e-4) and b == pytest.approx(hi, abs=1e-4)
+    assert all(math.isnan(v) for v in wilson(0, 0))
+
+
+def test_starts_along_a_line_give_a_line_plot_and_no_map(tmp_path: Path) -> None:
+    names = {p.name for p in write_report(line_rows(), tmp_path)}
+    assert {"tables.md", "time_vs_start.png", "error_and_td_share.png"} == names
+    table = (tmp_path / "tables.md").read_text()
+    # 42 s and 40 s successes, one 300 s failure; 2 of 3 with its Wilson interval; no false.
+    assert "| m | 3 | 66.7% (20.8%–93.9%) | 0 | 41.0 | 1.0 | 127.3 |" in table
+
+
+def test_a_grid_of_two_configs_gives_maps_rates_and_counts_false_declarations(
+    tmp_path: Path,
+) -> None:
+    geometry = StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0)
+    names = {p.name for p in write_report(grid_rows(), tmp_path, geometry)}
+    assert {"time_to_source_map.png", "success_and_false_declarations.png"} <= names
+    assert "time_vs_start.png" not in names
+    table = (tmp_path / "tables.md").read_text()
+    for config in ("v0", "v1"):  # 8 of 12 succeed; one failure per config is a false one
+        row = next(line for line in table.splitlines() if line.startswith(f"| variant={config} |"))
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        assert cells[1:4] == ["12", "66.7% (39.1%–86.2%)", "1"], cells
+
+
+def test_arrival_runs_get_no_error_histogram(tmp_path: Path) -> None:
+    rows = [{**r, "criterion": "arrival"} for r in line_rows()]
+    names = {p.name for p in write_report(rows, tmp_path)}
+    assert "error_and_td_share.png" not in names
+
+
+def test_geometry_round_trips_through_study_json_data() -> None:
+    g = StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 12.5)
+    assert StudyGeometry.from_data(g.to_data()) == g
+    assert StudyGeometry.from_data(None) is None
+    assert StudyGeometry.from_data({"area": "x"}) is None
