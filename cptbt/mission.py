@@ -8,6 +8,7 @@ knows), so ``cptbt schema`` can print a JSON Schema that covers every installed 
 
 from __future__ import annotations
 
+import logging
 from functools import cache
 from typing import Annotated, Any, Literal, Union
 
@@ -30,6 +31,8 @@ from cptbt.types import Point
 
 Coord = tuple[float, float]
 
+
+log = logging.getLogger(__name__)
 
 FINITE = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 """Every section of a mission: frozen, unknown keys rejected, numbers finite."""
@@ -210,6 +213,10 @@ class MissionBase(BaseModel):
         tol = max(1.0, RECTANGLE_TOL_FRACTION * area.diagonal_m)
         misfit = area.corner_misfit_m(ne)
         if misfit <= tol:
+            if misfit > 0.01:
+                log.info("%s: op_area corners lie up to %.1f m off a rectangle (tolerance %.1f "
+                         "m); the OpArea is the rectangle that encloses them", self.name,
+                         misfit, tol)
             return []
         sides = "/".join(f"{b:.1f}°" for b in sorted({round(b, 1) for b in area.side_bearings(ne)}))
         given = self.op_area.x_axis_bearing_deg

@@ -7,6 +7,7 @@ infinite) are dropped, so a sensor fault degrades to "no detection" instead of c
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import deque
 from typing import Literal
@@ -15,6 +16,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from cptbt.frames import OpArea
 from cptbt.types import Detection, FlowEstimate, Percept, Point, Pose
+
+log = logging.getLogger(__name__)
 
 TIME_EPS_S = 1e-9
 """Tolerance on time comparisons, far below any cycle period."""
@@ -117,6 +120,10 @@ class Perception:
             math.hypot(vx, vy) > self.settings.max_flow_speed_mps
         ):
             self.rejected_flow_samples += 1
+            level = logging.INFO if self.rejected_flow_samples == 1 else logging.DEBUG
+            log.log(level, "flow sample (%g, %g) m/s at t = %g s ignored: not finite or faster "
+                    "than %g m/s (%d so far)", vx, vy, t, self.settings.max_flow_speed_mps,
+                    self.rejected_flow_samples)
             return
         self._flows.append((self._clock(t), vx, vy))
 
@@ -146,6 +153,8 @@ class Perception:
             if math.isfinite(t):
                 self._offset += target - now
             self.clock_corrections += 1
+            log.info("cycle time %g s is not after the previous cycle (%g s on the planner "
+                     "clock): taken as %g s", t, self._t_prev, target)
             now = target
         elif math.isfinite(self._t_prev):
             self._period = min(now - self._t_prev, 60.0)

@@ -16,6 +16,7 @@ command limits by the vehicle.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from typing import Any
 
@@ -36,6 +37,8 @@ from cptbt.phases import MissionPhases
 from cptbt.planner import Planner
 from cptbt.policy import give_back_trigger
 from cptbt.types import Command
+
+log = logging.getLogger(__name__)
 
 
 class AmpSession:
@@ -99,6 +102,8 @@ class AmpSession:
         if self.in_override and t + self._period < self._next_tick:
             # The vehicle's clock stepped back (a reset or correction): cycle on from now rather
             # than stay silent until the old schedule comes round again.
+            log.warning("vehicle clock stepped back to %g s (next cycle was due at %g s): "
+                        "cycling on from now", t, self._next_tick)
             self._next_tick = t
         if self.in_override and not self._give_back_due() and t + 1e-9 >= self._next_tick:
             # One tick per due cycle; after a forward jump the schedule restarts from now
@@ -121,6 +126,8 @@ class AmpSession:
         fixes: dict[str, Any] = {}
         for key in ("t_s", "x_m", "y_m", "heading_deg"):
             if not math.isfinite(getattr(s, key)):
+                log.info("vehicle state with %s = %s ignored for that field", key,
+                         getattr(s, key))
                 if prev is not None:
                     fixes[key] = getattr(prev, key)
                 elif key == "heading_deg":
