@@ -27,6 +27,7 @@ from cptbt.mission_a import MissionASpec
 from cptbt.node import BehaviourParams, Contract
 from cptbt.perception import PerceptionSettings
 from cptbt.registry import BehaviourSpec, Registry, UnknownBehaviourError
+from cptbt.study_spec import StudySpec
 from cptbt.types import Point
 
 Coord = tuple[float, float]
@@ -150,6 +151,11 @@ class MissionBase(BaseModel):
         description="The vehicle's own pre-programmed mission and when the AMP takes over "
         "(SPEC §9); without it the AMP drives from t = 0",
     )
+    study: StudySpec | None = Field(
+        default=None,
+        description="A Monte Carlo study of this mission (cptbt batch); command-line flags "
+        "override it",
+    )
 
     @model_validator(mode="after")
     def _cross_field(self, info: ValidationInfo) -> MissionBase:
@@ -184,6 +190,7 @@ class MissionBase(BaseModel):
                 out.append(((key,), f"{area.distance_outside(p.x, p.y):.1f} m outside the OpArea "
                              f"(list '{key}' in allow_outside if that is intended)"))
         out += self._limit_problems()
+        out += self._study_problems(area)
         out += self._behaviour_problems()
         return out
 
@@ -252,6 +259,18 @@ class MissionBase(BaseModel):
             if depth is not None and depth > lim.max_depth_m:
                 out.append((("mission_a", key), f"{depth:g} m is deeper than the vehicle's limit "
                                                  f"{lim.max_depth_m:g} m (mission_a.limits)"))
+        return out
+
+    def _study_problems(self, area: OpArea) -> list[Problem]:
+        if self.study is None or not self.study.starts or "start" in self.allow_outside:
+            return []
+        out: list[Problem] = []
+        for i, c in enumerate(self.study.starts):
+            p = self.to_xy(c)
+            if not area.contains(p.x, p.y):
+                out.append((("study", "starts", i),
+                            f"{area.distance_outside(p.x, p.y):.1f} m outside the OpArea (list "
+                            "'start' in allow_outside if that is intended)"))
         return out
 
     def _behaviour_problems(self) -> list[Problem]:

@@ -30,6 +30,8 @@ class Planner:
         mission: a validated mission.
         registry: where its behaviours are found (default: installed entry points).
         namespace: blackboard namespace (default: a fresh one).
+        start: the move-to-field goal, planning frame (default: the mission's ``start``); a study
+            gives each vehicle its own.
     """
 
     def __init__(
@@ -38,6 +40,7 @@ class Planner:
         registry: Registry | None = None,
         *,
         namespace: str | None = None,
+        start: Point | None = None,
     ) -> None:
         self.mission = mission
         self.registry = registry or default_registry()
@@ -47,7 +50,8 @@ class Planner:
         self.context = MissionContext(
             op_area=self.op_area,
             home=mission.to_xy(mission.home),
-            start=mission.to_xy(mission.start) if mission.start is not None else None,
+            start=start if start is not None else (
+                mission.to_xy(mission.start) if mission.start is not None else None),
             speed_mps=mission.speed_mps,
         )
         self.namespace = namespace or f"/cptbt/p{next(_ids)}"

@@ -1,0 +1,79 @@
+"""The ``study:`` section of a mission: a Monte Carlo study as a file, not a command line.
+
+It says where the searches start (a grid over the OpArea, a line of starts along x, or a list of
+points in the mission's own frame), how many plume realisations each start gets, what is swept,
+the time limit, and how a run begins (``start_mode``). ``cptbt batch MISSION`` reads it; every
+command-line flag overrides the matching key.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+Coord = tuple[float, float]
+
+
+class LineSpec(BaseModel):
+    """Starts along the planning x axis at one y (AB Fig. 10: x from 0 to 100 m, y = 0)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    x_from_m: float = Field(description="First start's x, planning frame, m")
+    x_to_m: float = Field(description="Last start's x (inclusive), m")
+    step_m: float = Field(gt=0, description="Spacing, m")
+    y_m: float = Field(default=0.0, description="The line's y, planning frame, m")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> LineSpec:
+        if self.x_to_m < self.x_from_m:
+            raise ValueError("x_to_m must not be less than x_from_m")
+        if (self.x_to_m - self.x_from_m) / self.step_m >= 100_000:
+            raise ValueError("more than 100000 starts")
+        return self
+
+
+class StudySpec(BaseModel):
+    """A Monte Carlo study of the mission (``cptbt batch``); give one of grid, line or starts."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
+
+    grid: tuple[int, int] | None = Field(
+        default=None, description="[nx, ny]: starts at the centres of an nx × ny grid over the "
+        "OpArea (AB Fig. 11: [10, 10])"
+    )
+    line: LineSpec | None = Field(default=None, description="Starts along x at one y")
+    starts: list[Coord] | None = Field(
+        default=None, min_length=1, max_length=100_000,
+        description="Start points in the mission's frame (N-E, lat/lon or planning)"
+    )
+    runs_per_start: int = Field(
+        default=1, ge=1, le=1_000_000, description="Plume realisations (replicates) per start"
+    )
+    sweeps: dict[str, list[Any]] = Field(
+        default_factory=dict,
+        description="Mission path (joined by '+' to sweep several together) → values, e.g. "
+        "'maintain_plume.variant+reacquire_plume.variant': [strategy_1, strategy_3]",
+    )
+    time_limit_s: float | None = Field(
+        default=None, gt=0, le=7 * 86400, description="Per-run limit (default: the mission's)"
+    )
+    start_mode: Literal["place", "launch"] = Field(
+        default="place",
+        description="'place': each vehicle starts at its start point (AB's searchers); "
+        "'launch': it is launched where the mission launches (environment.launch, else home) and "
+        "move-to-field drives it to its start point",
+    )
+
+    @model_validator(mode="after")
+    def _one_layout(self) -> StudySpec:
+        given = [k for k in ("grid", "line", "starts") if getattr(self, k) is not None]
+        if len(given) > 1:
+            raise ValueError(f"give one of grid, line and starts, not {' and '.join(given)}")
+        if self.grid is not None and not (1 <= self.grid[0] <= 1000 and 1 <= self.grid[1] <= 1000):
+            raise ValueError("grid: each of nx, ny must be between 1 and 1000")
+        for path, values in self.sweeps.items():
+            if not values:
+                raise ValueError(f"sweeps.{path}: no values")
+        return self
