@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
 from pathlib import Path
@@ -14,6 +15,8 @@ from cptbt.batch.phased import phase_summary, simulate_phased
 from cptbt.batch.scenario import launch_pose, to_sim_params
 from cptbt.batch.summary import summarise
 from cptbt.cli.inspect_cmds import load
+from cptbt.loader import dump_mission
+from cptbt.mission import MissionBase
 from cptbt.types import Point
 
 
@@ -23,7 +26,7 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("mission", metavar="MISSION", help="mission YAML file")
     p.add_argument("--seed", type=int, default=None, help="override the environment seed")
     p.add_argument("--out", metavar="DIR", default=None,
-                   help="output folder (default: runs/<mission>-seed<N>)")
+                   help="output folder (default: a new runs/<mission>-<digest>-seed<N>)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.add_argument("--no-figure", action="store_true", help="skip trajectory.png")
     p.set_defaults(func=cmd_run)
@@ -48,6 +51,23 @@ def write_trace(run: VehicleRun, out: Path) -> Path:
     return path
 
 
+def run_folder(mission: MissionBase, seed: int, root: Path = Path("runs")) -> Path:
+    """A new folder ``runs/<mission>-<digest>-seed<N>`` that no earlier run wrote.
+
+    The digest is of the normalised mission (behaviours, variants, parameters and settings),
+    so swapping a variant writes beside the baseline, never over it; a repeat of the same run
+    gets a ``-2``, ``-3``... suffix. The mission name is a safe slug (validated), so the folder
+    is always inside ``root``.
+    """
+    digest = hashlib.sha256(dump_mission(mission).encode("utf-8")).hexdigest()[:8]
+    base = root / f"{mission.name}-{digest}-seed{seed}"
+    out, k = base, 1
+    while out.exists():
+        k += 1
+        out = base.with_name(f"{base.name}-{k}")
+    return out
+
+
 def _fmt(v: float | None, unit: str = "") -> str:
     return "—" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.1f}{unit}"
 
@@ -57,7 +77,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     mission = load(args.mission, simulate=True)
     params = to_sim_params(mission, args.seed)
     seed = params.seed
-    out = Path(args.out or f"runs/{mission.name}-seed{seed}")
+    out = Path(args.out) if args.out else run_folder(mission, seed)
     out.mkdir(parents=True, exist_ok=True)
     source = Point(*params.source_xy_m)
     waypoints = None
@@ -87,12 +107,15 @@ def cmd_run(args: argparse.Namespace) -> int:
                           threshold=mission.perception.threshold, waypoints=waypoints)
     if not args.quiet:
         s = summary
-        print(f"{mission.name}, seed {seed}: {s['outcome']} after {_fmt(s['sim_time_s'], ' s')} "
-              f"simulated ({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
+        verdict = "success" if s["success"] else (
+            "FALSE DECLARATION" if s["false_declaration"] else "no success")
+        print(f"{mission.name}, seed {seed}: {s['outcome']} ({verdict}: {s['criterion']} within "
+              f"{s['success_radius_m']:g} m); the AMP ended at {_fmt(s['sim_time_s'], ' s')} "
+              f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
         if s["declared_source"]:
             d = s["declared_source"]
-            print(f"  declared source N {d['north']:.1f} m, E {d['east']:.1f} m; "
-                  f"error {_fmt(s['error_m'], ' m')}")
+            print(f"  declared at t3 = {_fmt(s['t3'], ' s')}: source N {d['north']:.1f} m, "
+                  f"E {d['east']:.1f} m; error {_fmt(s['error_m'], ' m')}")
         print(f"  T_F {_fmt(s['T_F'], ' s')}  T_T {_fmt(s['T_T'], ' s')}  "
               f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}")
         for c in s.get("phases", {}).get("timeline", []):

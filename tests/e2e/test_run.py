@@ -77,3 +77,15 @@ def test_cptbt_run_writes_summary_trace_and_figure(tmp_path: Path) -> None:
     png = (tmp_path / "trajectory.png").read_bytes()
     assert png.startswith(b"\x89PNG") and len(png) > 20_000
     assert "declared" in res.stdout
+
+
+def test_run_folders_never_overwrite_and_stay_inside_runs(tmp_path: Path) -> None:
+    from cptbt.cli.run_cmd import run_folder
+
+    mission = load_mission(MSN007, default_registry(), Environment)
+    first = run_folder(mission, 7, tmp_path)
+    first.mkdir()
+    second = run_folder(mission, 7, tmp_path)
+    assert second != first and second.parent == tmp_path and second.name.endswith("-2")
+    other = mission.model_copy(update={"speed_mps": 1.2})  # a different setting: its own folder
+    assert run_folder(other, 7, tmp_path).name.split("-")[1] != first.name.split("-")[1]
