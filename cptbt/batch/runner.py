@@ -2,26 +2,36 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import time
-from collections.abc import Callable, Iterator
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from collections.abc import Callable, Generator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
+from cptbt.batch.errors import BatchError
 from cptbt.batch.store import ResultStore
 from cptbt.batch.study import GroupTask
-from cptbt.batch.worker import run_group
+from cptbt.batch.worker import init_worker, run_group
 
 Rows = list[dict[str, Any]]
+Groups = Generator[tuple[GroupTask, Rows], None, None]
+SCHEDULER_TIMEOUT_S = 10.0
 
 
-def _local(tasks: list[GroupTask], workers: int) -> Iterator[tuple[GroupTask, Rows]]:
+def _local(tasks: list[GroupTask], workers: int) -> Groups:
+    workers = min(workers, len(tasks))
     if workers <= 1:
         for task in tasks:
             yield task, run_group(task)
         return
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        pending = {pool.submit(run_group, t): t for t in tasks[: 2 * workers]}
+    # Each worker dies with this process, even when it is killed outright (see init_worker).
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=init_worker,
+                               initargs=(os.getpid(),))
+    try:
+        pending: dict[Future[Rows], GroupTask] = {
+            pool.submit(run_group, t): t for t in tasks[: 2 * workers]}
         queue = list(tasks[2 * workers :])
         while pending:
             finished, _ = wait(pending, return_when=FIRST_COMPLETED)
@@ -30,15 +40,31 @@ def _local(tasks: list[GroupTask], workers: int) -> Iterator[tuple[GroupTask, Ro
                 if queue:
                     nxt = queue.pop(0)
                     pending[pool.submit(run_group, nxt)] = nxt
-                yield task, fut.result()
+                try:
+                    rows = fut.result()
+                except BrokenProcessPool:
+                    raise BatchError("a worker process died (out of memory?); the finished "
+                                     "groups are kept: run the same command again to go on"
+                                     ) from None
+                yield task, rows
+    finally:  # on an error or interrupt, drop the groups not started rather than fly them
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _dask(tasks: list[GroupTask], address: str) -> Iterator[tuple[GroupTask, Rows]]:
+def _dask(tasks: list[GroupTask], address: str,
+          timeout_s: float) -> Groups:
     try:
         from distributed import Client, as_completed
-    except ImportError as exc:  # pragma: no cover - depends on the install
-        raise RuntimeError("--scheduler needs Dask: pip install 'cptbt[cluster]'") from exc
-    with Client(address) as client:
+    except ImportError:  # pragma: no cover - depends on the install
+        raise BatchError("--scheduler needs Dask: pip install 'cptbt[cluster]'") from None
+    if not tasks:
+        return
+    try:
+        client = Client(address, timeout=timeout_s)
+    except (OSError, TimeoutError, ValueError) as exc:
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise BatchError(f"cannot reach the Dask scheduler at {address}: {reason}") from None
+    with client:
         futures = client.map(run_group, tasks, pure=False)
         by_future = dict(zip(futures, tasks, strict=True))
         for fut in as_completed(futures):
@@ -86,33 +112,42 @@ def run_study(
     *,
     workers: int = 1,
     scheduler: str | None = None,
+    scheduler_timeout_s: float = SCHEDULER_TIMEOUT_S,
     quiet: bool = False,
     on_group: Callable[[GroupTask, Rows], None] | None = None,
+    on_rerun: Callable[[str, str], None] | None = None,
 ) -> dict[str, Any]:
     """Run every group not already on disk; each finished group is written at once.
 
+    A part on disk that fails a check (``ResultStore.check``) is run again; ``on_rerun`` hears
+    of each such group, with the reason, before anything runs.
+
     Returns:
-        Counts: groups skipped (resumed) and run, runs, successes, and the wall time.
+        Counts: groups skipped (resumed), run and re-run, runs, successes, and the wall time.
     """
-    done = store.done()
-    todo = [t for t in tasks if t.key not in done]
-    previous = store.rows() if done else []
+    resume = store.check(tasks)
+    for key, reason in resume.rerun.items():
+        if on_rerun is not None:
+            on_rerun(key, reason)
+    todo = [t for t in tasks if t.key not in resume.done]
     runs_per_group = len(tasks[0].starts) if tasks else 0
-    progress = Progress(len(tasks) * runs_per_group, len(previous),
-                        sum(bool(r.get("success")) for r in previous), quiet)
+    progress = Progress(len(tasks) * runs_per_group, resume.runs, resume.successes, quiet)
     t0 = time.perf_counter()
-    source = _dask(todo, scheduler) if scheduler else _local(todo, workers)
+    source = (_dask(todo, scheduler, scheduler_timeout_s) if scheduler
+              else _local(todo, workers))
     try:
         for task, rows in source:
-            store.write_group(task.key, rows)
+            store.write_group(task, rows)
             progress.update(rows)
             if on_group is not None:
                 on_group(task, rows)
     finally:
+        source.close()  # stops the pool now, not when the traceback is freed
         progress.close()
     return {
         "groups_skipped": len(tasks) - len(todo),
         "groups_run": len(todo),
+        "groups_rerun": len(resume.rerun),
         "runs": progress.done,
         "successes": progress.successes,
         "wall_time_s": time.perf_counter() - t0,

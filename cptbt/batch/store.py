@@ -1,17 +1,29 @@
-"""Study results on disk: one part file per finished group, written atomically, and resume.
+"""Study results on disk: one part file per finished group, written atomically, checked on resume.
 
-A group's rows reach disk all at once, by writing a temporary file and renaming it, so an
-interrupted or crashed study keeps every finished group and none half-written; on resume, groups
-whose part exists are skipped, so no run is lost or repeated.
+A group's rows reach disk all at once, by writing a temporary file, syncing it and renaming it,
+so an interrupted or crashed study keeps every finished group and none half-written. Each part
+also carries its group's identity, the study's fingerprint (``integrity``) and a checksum of its
+rows, in the Parquet key-value metadata (or a ``.json`` sidecar beside a CSV part). A resume keeps
+only the parts that pass every check and re-runs the others, saying why: a part that is empty,
+truncated or garbage, changed since it was written, copied from another study, or written by
+other code is never mixed into the results.
 """
 
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
+
+from cptbt.batch.errors import BatchError, CodeChanged
+from cptbt.batch.integrity import fingerprint, rows_checksum
+from cptbt.batch.study import GroupTask
 
 try:  # Parquet when pyarrow is installed (the ``results`` extra), CSV otherwise
     import pyarrow as pa
@@ -19,107 +31,340 @@ try:  # Parquet when pyarrow is installed (the ``results`` extra), CSV otherwise
 except ImportError:  # pragma: no cover - depends on the install
     pa = pq = None
 
-SUFFIX = ".parquet" if pq is not None else ".csv"
+Rows = list[dict[str, Any]]
+META_KEY = "cptbt"
+FORMAT = 1
+# Columns every results table has (the figures and tables are built from them).
+REQUIRED_COLUMNS = ("config", "replicate", "start", "start_x", "start_y", "success")
+
+
+class StudyMismatch(BatchError):
+    """The results folder holds a different study (other mission or options)."""
+
+
+class PartError(Exception):
+    """A part or table that cannot be trusted; the message says why, in a few words."""
+
+
+class _Parquet:
+    suffix = ".parquet"
+
+    def write(self, path: Path, rows: Rows, meta: dict[str, Any]) -> None:
+        if pq is None:  # pragma: no cover - depends on the install
+            raise BatchError("writing Parquet needs pyarrow: pip install 'cptbt[results]'")
+        table = pa.Table.from_pylist(rows)
+        meta = {**meta, "rows": table.num_rows, "sha256": rows_checksum(table.to_pylist())}
+        table = table.replace_schema_metadata({META_KEY: json.dumps(meta)})
+        _atomic_write(path, lambda f: pq.write_table(table, f))
+
+    def read(self, path: Path) -> tuple[Rows, dict[str, Any] | None]:
+        if pq is None:  # pragma: no cover - depends on the install
+            raise BatchError("reading Parquet needs pyarrow: pip install 'cptbt[results]'")
+        _check_not_empty(path)
+        try:
+            table = pq.read_table(path)
+            rows = table.to_pylist()
+        except (pa.ArrowException, OSError, ValueError) as exc:
+            raise PartError(f"unreadable ({_first_line(exc)})") from None
+        raw = (table.schema.metadata or {}).get(META_KEY.encode())
+        return rows, None if raw is None else _parse_meta(raw)
+
+
+class _Csv:
+    suffix = ".csv"
+
+    def write(self, path: Path, rows: Rows, meta: dict[str, Any]) -> None:
+        buffer = io.StringIO(newline="")
+        writer = csv.DictWriter(buffer, fieldnames=_columns(rows))
+        writer.writeheader()
+        writer.writerows(rows)
+        text = buffer.getvalue()
+        seen = _csv_rows(text)  # the checksum is of what a reader will see
+        meta = {**meta, "rows": len(seen), "sha256": rows_checksum(seen)}
+        # Sidecar first: a crash between the two renames leaves a mismatch, never a false match.
+        _atomic_write(_sidecar(path), lambda f: f.write(json.dumps(meta).encode("utf-8")))
+        _atomic_write(path, lambda f: f.write(text.encode("utf-8")))
+
+    def read(self, path: Path) -> tuple[Rows, dict[str, Any] | None]:
+        _check_not_empty(path)
+        try:
+            rows = _csv_rows(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError, csv.Error) as exc:
+            raise PartError(f"unreadable ({_first_line(exc)})") from None
+        sidecar = _sidecar(path)
+        try:
+            raw = sidecar.read_bytes()
+        except FileNotFoundError:
+            return rows, None
+        except OSError as exc:
+            raise PartError(f"unreadable checksum file ({_first_line(exc)})") from None
+        return rows, _parse_meta(raw)
+
+
+_FORMATS: dict[str, _Parquet | _Csv] = {"parquet": _Parquet(), "csv": _Csv()}
+DEFAULT_FORMAT = "parquet" if pq is not None else "csv"
+SUFFIX = _FORMATS[DEFAULT_FORMAT].suffix
+
+
+@dataclass
+class Resume:
+    """What a results folder already holds of a study."""
+
+    done: set[str] = field(default_factory=set)
+    """Keys of the groups whose parts passed every check."""
+    rerun: dict[str, str] = field(default_factory=dict)
+    """Keys of the groups whose parts failed a check, and why."""
+    runs: int = 0
+    successes: int = 0
 
 
 class ResultStore:
-    """The results folder of a study."""
+    """The results folder of a study: ``study.json``, ``parts/`` and the consolidated table."""
 
-    def __init__(self, folder: Path) -> None:
+    def __init__(self, folder: Path, fmt: str = DEFAULT_FORMAT) -> None:
+        """A store in ``folder``, writing ``fmt`` ("parquet" or "csv") files."""
         self.folder = Path(folder)
         self.parts = self.folder / "parts"
+        self.format = _FORMATS[fmt]
+        self.fingerprint = ""
 
-    def open(self, metadata: dict[str, Any], resume: bool = True) -> None:
-        """Create the folder; refuse to mix two different studies in one folder.
+    def open(self, metadata: dict[str, Any], *, study: str, code: str,
+             restart: bool = False) -> None:
+        """Create the folder, or take it up again: refuse to mix studies or code versions.
+
+        Args:
+            metadata: what ``study.json`` records for people (the command, sweeps, seeds).
+            study: the study's identity (``Study.identity()``).
+            code: the code identity (``integrity.code_identity()``).
+            restart: discard the folder's finished groups, e.g. after the code changed.
 
         Raises:
-            FileExistsError: the folder holds a different study's results.
+            StudyMismatch: the folder holds a different study (``restart`` does not help).
+            CodeChanged: the folder's results were made by other code, or its ``study.json``
+                is unreadable, and ``restart`` is false.
+            BatchError: ``folder`` exists and is not a folder.
         """
+        if self.folder.exists() and not self.folder.is_dir():
+            raise BatchError(f"{self.folder} exists and is not a folder")
         self.parts.mkdir(parents=True, exist_ok=True)
         meta = self.folder / "study.json"
-        metadata = json.loads(json.dumps(metadata, default=str))
         if meta.exists():
-            old = json.loads(meta.read_text(encoding="utf-8"))
-            same = {k: v for k, v in old.items() if k != "code_version"} == {
-                k: v for k, v in metadata.items() if k != "code_version"}
-            if not same:
-                raise FileExistsError(
-                    f"{self.folder} holds a different study; choose another --out or remove it")
-            if not resume:
-                for part in self.parts.iterdir():
-                    part.unlink()
-        _atomic_write_text(meta, json.dumps(metadata, indent=2, default=str) + "\n")
+            try:
+                old = json.loads(meta.read_text(encoding="utf-8"))
+                if not isinstance(old, dict):
+                    raise ValueError("not a JSON object")
+            except (ValueError, UnicodeDecodeError) as exc:
+                if not restart:
+                    raise CodeChanged(f"{meta} is unreadable ({_first_line(exc)})") from None
+                old = {}
+            if old and old.get("study") not in (None, study):
+                raise StudyMismatch(
+                    f"{self.folder} holds a different study (other missions or options)")
+            if old and old.get("code") != code and not restart:
+                made_by = old.get("code") or f"an older cptbt ({old.get('code_version', '?')})"
+                raise CodeChanged(f"{self.folder} was made by cptbt {made_by}, this is {code}")
+        if restart:
+            self._discard()
+        self.fingerprint = fingerprint(study, code)
+        record = {**metadata, "study": study, "code": code, "fingerprint": self.fingerprint}
+        text = json.dumps(record, indent=2, default=str) + "\n"
+        _atomic_write(meta, lambda f: f.write(text.encode("utf-8")))
 
-    def done(self) -> set[str]:
-        """Keys of the groups already on disk."""
-        if not self.parts.exists():
-            return set()
-        return {p.name.removesuffix(SUFFIX) for p in self.parts.glob(f"*{SUFFIX}")}
+    def path(self, key: str) -> Path:
+        """The part file of group ``key``."""
+        return self.parts / f"{key}{self.format.suffix}"
 
-    def write_group(self, key: str, rows: list[dict[str, Any]]) -> None:
-        """Write one finished group's rows atomically."""
-        _write_table(rows, self.parts / f"{key}{SUFFIX}")
+    def check(self, tasks: Sequence[GroupTask]) -> Resume:
+        """Which groups are finished on disk, and which parts must be re-run and why."""
+        resume = Resume()
+        for task in tasks:
+            if not self.path(task.key).exists():
+                continue
+            try:
+                rows = self._verified(task)
+            except PartError as exc:
+                resume.rerun[task.key] = str(exc)
+                continue
+            resume.done.add(task.key)
+            resume.runs += len(rows)
+            resume.successes += sum(bool(r.get("success")) for r in rows)
+        return resume
 
-    def rows(self) -> list[dict[str, Any]]:
-        """Every finished run, in group order."""
-        out: list[dict[str, Any]] = []
-        for part in sorted(self.parts.glob(f"*{SUFFIX}")):
-            if pq is not None:
-                out.extend(pq.read_table(part).to_pylist())
-            else:
-                with part.open(newline="", encoding="utf-8") as f:
-                    out.extend(_typed(r) for r in csv.DictReader(f))
+    def write_group(self, task: GroupTask, rows: Rows) -> None:
+        """Write one finished group's rows atomically, with its identity and checksum."""
+        self.format.write(self.path(task.key), rows, {
+            "format": FORMAT, "study": self.fingerprint, "group": task.key,
+            "config": task.config, "replicate": task.replicate,
+        })
+
+    def rows(self, tasks: Sequence[GroupTask] | None = None) -> Rows:
+        """Every run of ``tasks`` (default: of every part in the folder), in group order.
+
+        Raises:
+            BatchError: a part is missing or fails a check.
+        """
+        out: Rows = []
+        if tasks is None:
+            for path in sorted(self.parts.glob(f"*{self.format.suffix}")):
+                out.extend(_read_checked(self.format, path))
+            return out
+        for task in tasks:
+            try:
+                out.extend(self._verified(task))
+            except (PartError, FileNotFoundError) as exc:
+                raise BatchError(f"{self.path(task.key)}: {exc}") from None
         return out
 
-    def consolidate(self) -> Path:
+    def consolidate(self, tasks: Sequence[GroupTask]) -> Path:
         """Write the single results table (``results.parquet`` or ``results.csv``)."""
-        rows = self.rows()
+        rows = self.rows(tasks)
         cols = _columns(rows)
-        path = self.folder / f"results{SUFFIX}"
-        _write_table([{c: r.get(c) for c in cols} for r in rows], path)
+        path = self.folder / f"results{self.format.suffix}"
+        self.format.write(path, [{c: r.get(c) for c in cols} for r in rows],
+                          {"format": FORMAT, "study": self.fingerprint})
         return path
 
+    def _verified(self, task: GroupTask) -> Rows:
+        rows, meta = self.format.read(self.path(task.key))
+        _check_sum(rows, meta)
+        assert meta is not None
+        if meta.get("study") != self.fingerprint:
+            raise PartError("from another study or code version (its fingerprint differs)")
+        if meta.get("group") != task.key:
+            raise PartError(f"holds group {meta.get('group')}, not {task.key}")
+        got = Counter((r.get("config"), r.get("replicate"), r.get("start")) for r in rows)
+        want = Counter((task.config, task.replicate, i) for i in range(len(task.starts)))
+        if got != want:
+            raise PartError(f"its rows are not the {len(task.starts)} runs of group {task.key}")
+        return rows
 
-def load_results(path: Path) -> list[dict[str, Any]]:
-    """Rows of a results table, a results folder, or a folder of parts."""
+    def _discard(self) -> None:
+        """Delete the finished groups and the consolidated table (nothing else in the folder)."""
+        for fmt in _FORMATS.values():
+            for path in self.parts.glob(f"*{fmt.suffix}"):
+                path.unlink()
+                _sidecar(path).unlink(missing_ok=True)
+            (self.folder / f"results{fmt.suffix}").unlink(missing_ok=True)
+            _sidecar(self.folder / f"results{fmt.suffix}").unlink(missing_ok=True)
+
+
+def load_results(path: Path) -> Rows:
+    """Rows of a results table, a results folder, or a folder of parts.
+
+    Raises:
+        BatchError: nothing readable there, a checksum that does not match, or a table that is
+            not a cptbt results table.
+    """
     path = Path(path)
+    if not path.exists():
+        raise BatchError(f"{path} does not exist")
     if path.is_dir():
-        for name in ("results.parquet", "results.csv"):
-            if (path / name).exists():
-                return load_results(path / name)
-        return ResultStore(path).rows()
-    if path.suffix == ".parquet":
-        if pq is None:
-            raise RuntimeError("reading Parquet needs pyarrow: pip install 'cptbt[results]'")
-        return pq.read_table(path).to_pylist()
-    with path.open(newline="", encoding="utf-8") as f:
-        return [_typed(r) for r in csv.DictReader(f)]
-
-
-def _write_table(rows: list[dict[str, Any]], path: Path) -> None:
-    """Write rows as Parquet or CSV: to a temporary file first, then renamed into place."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    if pq is not None:
-        pq.write_table(pa.Table.from_pylist(rows), tmp)
+        for fmt in _FORMATS.values():
+            if (path / f"results{fmt.suffix}").exists():
+                return load_results(path / f"results{fmt.suffix}")
+        rows = []
+        for fmt_name, fmt in _FORMATS.items():
+            if any((path / "parts").glob(f"*{fmt.suffix}")):
+                rows = ResultStore(path, fmt_name).rows()
+                break
+        else:
+            raise BatchError(f"{path} holds no results table (results.parquet or results.csv) "
+                             "and no parts/")
     else:
-        with tmp.open("w", newline="", encoding="utf-8") as f:
-            writer = csv.DictWriter(f, fieldnames=_columns(rows))
-            writer.writeheader()
-            writer.writerows(rows)
+        rows = _read_checked(_FORMATS["parquet" if path.suffix == ".parquet" else "csv"], path)
+    _check_columns(rows, path)
+    return rows
+
+
+def _read_checked(fmt: _Parquet | _Csv, path: Path) -> Rows:
+    """Rows of one table; its checksum is checked if it has one (tables made elsewhere have not).
+    """
+    try:
+        rows, meta = fmt.read(path)
+        if meta is not None:
+            _check_sum(rows, meta)
+    except PartError as exc:
+        raise BatchError(f"{path}: {exc}") from None
+    return rows
+
+
+def _check_sum(rows: Rows, meta: dict[str, Any] | None) -> None:
+    if meta is None:
+        raise PartError("no checksum (written by an older cptbt, or not by cptbt)")
+    if meta.get("sha256") != rows_checksum(rows):
+        raise PartError("checksum mismatch (changed since it was written)")
+
+
+def _check_columns(rows: Rows, path: Path) -> None:
+    if not rows:
+        raise BatchError(f"{path}: no results in it")
+    missing = [c for c in REQUIRED_COLUMNS if any(c not in r for r in rows)]
+    if missing:
+        raise BatchError(f"{path}: not a cptbt results table (no column {', '.join(missing)})")
+    bad = [r for r in rows if not all(isinstance(r[c], int | float) and not isinstance(r[c], bool)
+                                      for c in ("start_x", "start_y"))]
+    if bad:
+        raise BatchError(f"{path}: not a cptbt results table (start_x, start_y not numbers)")
+
+
+def _check_not_empty(path: Path) -> None:
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise PartError(f"unreadable ({_first_line(exc)})") from None
+    if size == 0:
+        raise PartError("empty file")
+
+
+def _parse_meta(raw: bytes) -> dict[str, Any]:
+    try:
+        meta = json.loads(raw)
+    except (ValueError, UnicodeDecodeError):
+        raise PartError("damaged metadata") from None
+    if not isinstance(meta, dict):
+        raise PartError("damaged metadata")
+    return meta
+
+
+def _csv_rows(text: str) -> Rows:
+    rows = []
+    for row in csv.DictReader(io.StringIO(text, newline="")):
+        if None in row:
+            raise ValueError("a row has more fields than the header")
+        rows.append(_typed(row))
+    return rows
+
+
+def _sidecar(path: Path) -> Path:
+    return path.with_name(f"{path.name}.json")
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return text[0] if text else type(exc).__name__
+
+
+def _atomic_write(path: Path, write: Callable[[BinaryIO], object]) -> None:
+    """Write through ``write(binary_file)`` to a temporary file, sync it, rename it into place."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    with tmp.open("wb") as f:
+        write(f)
+        f.flush()
+        os.fsync(f.fileno())
     os.replace(tmp, path)
 
 
-def _columns(rows: list[dict[str, Any]]) -> list[str]:
+def _columns(rows: Rows) -> list[str]:
     cols: dict[str, None] = {}
     for r in rows:
         cols.update(dict.fromkeys(r))
     return list(cols)
 
 
-def _typed(row: dict[str, str]) -> dict[str, Any]:
+def _typed(row: dict[str, str | None]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for k, v in row.items():
-        if v == "":
+        if v == "" or v is None:
             out[k] = None
         elif v in ("True", "False"):
             out[k] = v == "True"
@@ -132,9 +377,3 @@ def _typed(row: dict[str, str]) -> dict[str, Any]:
                 except ValueError:
                     out[k] = v
     return out
-
-
-def _atomic_write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)

@@ -18,9 +18,13 @@ from typing import Any
 import numpy as np
 import yaml
 
+from cptbt.batch.integrity import digest
 from cptbt.loader import dump_mission, loads_mission
 from cptbt.mission import MissionBase, mission_to_data
 from cptbt.registry import default_registry
+
+MAX_STARTS = 100_000
+"""Most starts a study may have: a bound on typos such as ``--starts-x 0:100:0.0001``."""
 
 
 @dataclass(frozen=True)
@@ -40,11 +44,11 @@ class Sweep:
     def parse(cls, text: str) -> Sweep:
         """From ``path[+path...]=v1,v2,...`` (values read as YAML scalars)."""
         if "=" not in text:
-            raise ValueError(f"--sweep {text!r}: expected PATH=V1,V2,...")
+            raise ValueError(f"{text!r}: expected PATH=V1,V2,...")
         left, right = text.split("=", 1)
         values = tuple(yaml.safe_load(v) for v in right.split(",") if v.strip())
         if not values:
-            raise ValueError(f"--sweep {text!r}: no values")
+            raise ValueError(f"{text!r}: no values")
         return cls(tuple(p.strip() for p in left.split("+")), values)
 
     @property
@@ -117,11 +121,33 @@ def grid_starts(mission: MissionBase, nx: int, ny: int) -> list[tuple[float, flo
     return [(float(x), float(y)) for y in ys for x in xs]
 
 
+def line_xs(spec: str) -> list[float]:
+    """The x of each start from ``X0:X1:STEP`` inclusive (AB Fig. 10: 0:100:1).
+
+    Raises:
+        ValueError: not three finite numbers, STEP not positive, X1 before X0, or more than
+            ``MAX_STARTS`` points.
+    """
+    try:
+        x0, x1, step = (float(v) for v in spec.split(":"))
+    except ValueError:
+        raise ValueError(f"{spec!r} is not a range: expected X0:X1:STEP, e.g. 0:100:5") from None
+    if not all(math.isfinite(v) for v in (x0, x1, step)):
+        raise ValueError(f"{spec!r}: X0, X1 and STEP must be finite numbers")
+    if step <= 0:
+        raise ValueError(f"{spec!r}: STEP must be more than 0")
+    if x1 < x0:
+        raise ValueError(f"{spec!r}: X1 must not be less than X0")
+    steps = (x1 - x0) / step + 1e-9  # may be inf for a tiny step: compare before floor()
+    if steps >= MAX_STARTS:
+        raise ValueError(f"{spec!r}: more than {MAX_STARTS} starts")
+    n = math.floor(steps) + 1
+    return [x0 + i * step for i in range(n)]
+
+
 def line_starts(spec: str, y: float = 0.0) -> list[tuple[float, float]]:
-    """Starts ``(x, y)`` for x from ``X0:X1:STEP`` inclusive (AB Fig. 10: 0:100:1)."""
-    x0, x1, step = (float(v) for v in spec.split(":"))
-    n = math.floor((x1 - x0) / step + 1e-9) + 1
-    return [(x0 + i * step, y) for i in range(n)]
+    """Starts ``(x, y)`` for x from ``X0:X1:STEP`` inclusive (see :func:`line_xs`)."""
+    return [(x, y) for x in line_xs(spec)]
 
 
 @dataclass(frozen=True)
@@ -136,6 +162,8 @@ class GroupTask:
     heading_deg: float
     time_limit_s: float | None = None
     coords: dict[str, Any] = field(default_factory=dict)
+    code: str = ""
+    """The code identity (``integrity.code_identity``) the worker must run; empty: unchecked."""
 
     @property
     def key(self) -> str:
@@ -154,13 +182,27 @@ class Study:
     heading_deg: float
     time_limit_s: float | None
 
-    def tasks(self) -> list[GroupTask]:
-        """One task per configuration × replicate."""
+    def tasks(self, code: str = "") -> list[GroupTask]:
+        """One task per configuration × replicate; ``code``: the code identity workers need."""
         return [
             GroupTask(c.index, r, c.mission_yaml, tuple(self.starts), self.root_seed,
-                      self.heading_deg, self.time_limit_s, c.coords)
+                      self.heading_deg, self.time_limit_s, c.coords, code)
             for c in self.configs for r in range(self.runs_per_start)
         ]
+
+    def identity(self) -> str:
+        """SHA-256 of everything the rows depend on but the code: each configuration's
+        normalised mission and sweep coordinates, the starts, replicates, seed, heading and
+        time limit."""
+        return digest({
+            "configs": [{"index": c.index, "coords": c.coords, "mission": c.mission_yaml}
+                        for c in self.configs],
+            "starts": [list(s) for s in self.starts],
+            "runs_per_start": self.runs_per_start,
+            "root_seed": self.root_seed,
+            "heading_deg": self.heading_deg,
+            "time_limit_s": self.time_limit_s,
+        })
 
     @property
     def total_runs(self) -> int:

@@ -2,9 +2,17 @@
 
 from __future__ import annotations
 
+import ctypes
+import os
+import signal
+import sys
+import threading
+import time
 from typing import Any
 
 from cptbt.batch.engine import simulate
+from cptbt.batch.errors import BatchError
+from cptbt.batch.integrity import code_identity
 from cptbt.batch.scenario import Environment, planning_angle, to_sim_params
 from cptbt.batch.study import GroupTask, group_seeds
 from cptbt.batch.summary import summarise
@@ -13,6 +21,46 @@ from cptbt.registry import default_registry
 from cptbt.types import Point
 
 SUCCESS = ("declared", "found")
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+WATCHDOG_PERIOD_S = 0.5
+
+
+def init_worker(main_pid: int) -> None:
+    """Initializer of a local worker process: make it die with the study's main process.
+
+    The main process can die without stopping its pool (``kill -9``, the out-of-memory killer);
+    a worker left behind would fly its groups for nobody and hold a core. On Linux the kernel
+    kills the worker when its parent dies (``PR_SET_PDEATHSIG``); everywhere, a watchdog thread
+    exits the worker once its parent or the main process is gone (the parent is a fork server
+    under the ``forkserver`` start method, which itself exits with the main process).
+
+    Args:
+        main_pid: the process id of the study's main process.
+    """
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    parent = os.getppid()
+    if not _alive(main_pid):  # it died before the line above took effect
+        os._exit(1)
+    threading.Thread(target=_watch, args=(parent, main_pid), daemon=True,
+                     name="cptbt-parent-watchdog").start()
+
+
+def _watch(parent: int, main_pid: int) -> None:
+    while os.getppid() == parent and _alive(main_pid):
+        time.sleep(WATCHDOG_PERIOD_S)
+    os._exit(1)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # it exists, owned by someone else
+        return True
+    return True
 
 
 def flatten(summary: dict[str, Any]) -> dict[str, Any]:
@@ -35,7 +83,15 @@ def flatten(summary: dict[str, Any]) -> dict[str, Any]:
 
 
 def run_group(task: GroupTask) -> list[dict[str, Any]]:
-    """Fly every start of one group in one world; one flat row per run."""
+    """Fly every start of one group in one world; one flat row per run.
+
+    Raises:
+        BatchError: this process runs other code than the study was planned with (a Dask
+            worker with another cptbt installed).
+    """
+    if task.code and task.code != code_identity():
+        raise BatchError(f"a worker runs cptbt {code_identity()} but the study needs "
+                         f"{task.code}: install the same cptbt on every worker")
     mission = loads_mission(task.mission_yaml, f"group {task.key}", default_registry(),
                             Environment)
     params = to_sim_params(mission, task.root_seed)

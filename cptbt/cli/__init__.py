@@ -1,30 +1,58 @@
 """The ``cptbt`` command line: the application layer that composes the planner and simulator.
 
-Every command has ``--help``. Errors in mission files print one ``FILE:LINE: path: message`` line
-each and exit with status 2, never a traceback.
+Every command has ``--help``. No input shows a traceback: a bad argument or mission file prints
+one line per problem and exits with status 2 (mission problems as ``FILE:LINE: path: message``);
+a failure while running (an unwritable output, an unreadable results table, an unreachable
+cluster) prints one ``cptbt: ...`` line and exits with status 1. ``CPTBT_DEBUG=1`` shows the
+traceback of unexpected errors.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import os
 import sys
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NoReturn
 
+from cptbt.batch.errors import BatchError
 from cptbt.cli import inspect_cmds, phases_cmd
+from cptbt.cli.argtypes import UsageError
 from cptbt.loader import MissionError
 from cptbt.registry import RegistryError
 
+EXIT_RUNTIME = 1
 EXIT_USAGE = 2
+DEBUG_ENV = "CPTBT_DEBUG"
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (argparse prints the usage first)."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``PROG: error: MESSAGE`` and exit with status 2."""
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {_one_line(message)} "
+                              f"(see {self.prog} --help)\n")
+
+
+def version() -> str:
+    """The installed distribution's version (the package's own when run from a source tree)."""
+    try:
+        return importlib.metadata.version("cptbt")
+    except importlib.metadata.PackageNotFoundError:
+        from cptbt import __version__
+
+        return __version__
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every sub-command."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="cptbt",
         description="Plan, simulate and study chemical plume tracing missions for an AUV.",
     )
+    parser.add_argument("--version", action="version", version=f"cptbt {version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     inspect_cmds.add_parsers(sub)
     phases_cmd.add_parsers(sub)
@@ -44,24 +72,53 @@ def _optional_command_modules() -> list[Any]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``cptbt`` script; returns the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
     try:
+        parser = build_parser()
+        args = parser.parse_args(argv)  # usage errors exit here, with status 2
         return int(args.func(args) or 0)
     except MissionError as exc:
         for line in exc.problems:
             print(line, file=sys.stderr)
         return EXIT_USAGE
-    except RegistryError as exc:
-        print(f"cptbt: {exc}", file=sys.stderr)
+    except (RegistryError, UsageError) as exc:
+        print(f"cptbt: {_one_line(str(exc))}", file=sys.stderr)
         return EXIT_USAGE
+    except BatchError as exc:
+        print(f"cptbt: {_one_line(str(exc))}", file=sys.stderr)
+        return EXIT_RUNTIME
     except BrokenPipeError:  # e.g. `cptbt run ... | head`: the reader left, nothing to report
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
-        return 1
+        return EXIT_RUNTIME
     except KeyboardInterrupt:
         print("cptbt: interrupted", file=sys.stderr)
         return 130
+    except OSError as exc:  # an unwritable output or unreadable input: the system says why
+        if os.environ.get(DEBUG_ENV):
+            raise
+        print(f"cptbt: {_os_error(exc)}", file=sys.stderr)
+        return EXIT_RUNTIME
+    except Exception as exc:  # a bug: one line, and the way to see more
+        if os.environ.get(DEBUG_ENV):
+            raise
+        print(f"cptbt: internal error: {type(exc).__name__}: {_one_line(str(exc))} "
+              f"(run with {DEBUG_ENV}=1 for the traceback)", file=sys.stderr)
+        return EXIT_RUNTIME
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
+def _os_error(exc: OSError) -> str:
+    """``FILE: reason`` (``FILE -> FILE2: reason`` for a rename) from an OSError."""
+    reason = exc.strerror or _one_line(str(exc)) or type(exc).__name__
+    if exc.filename is None:
+        return reason
+    where = str(exc.filename)
+    if exc.filename2 is not None:
+        where += f" -> {exc.filename2}"
+    return f"{where}: {reason}"
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -14,6 +14,7 @@ from cptbt.batch.figures import plume_grid, trajectory_figure
 from cptbt.batch.phased import phase_summary, simulate_phased
 from cptbt.batch.scenario import launch_pose, to_sim_params
 from cptbt.batch.summary import summarise
+from cptbt.cli import argtypes
 from cptbt.cli.inspect_cmds import load
 from cptbt.loader import dump_mission
 from cptbt.mission import MissionBase
@@ -24,7 +25,8 @@ def add_parsers(sub: Any) -> None:
     """Register ``run``."""
     p = sub.add_parser("run", help="simulate a mission", description=cmd_run.__doc__)
     p.add_argument("mission", metavar="MISSION", help="mission YAML file")
-    p.add_argument("--seed", type=int, default=None, help="override the environment seed")
+    p.add_argument("--seed", type=argtypes.non_negative_int, default=None,
+                   help="override the environment seed")
     p.add_argument("--out", metavar="DIR", default=None,
                    help="output folder (default: a new runs/<mission>-<digest>-seed<N>)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")

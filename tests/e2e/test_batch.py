@@ -73,7 +73,7 @@ def test_killed_study_resumes_without_losing_or_repeating_runs(
         time.sleep(0.05)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
-    finished = ResultStore(tmp_path).done()
+    finished = list(parts.glob("*.parquet"))
     assert 1 <= len(finished) < 3, "kill the study part-way"
     res = batch(tmp_path, "--workers", "2", "--no-plots")
     assert res.returncode == 0, res.stderr
@@ -86,17 +86,17 @@ def test_interrupted_run_keeps_finished_groups(tmp_path: Path) -> None:
     study = Study(configurations(mission, [], MISSION), grid_starts(mission, 1, 1), 3, 5, 0.0,
                   200.0)
     store = ResultStore(tmp_path)
-    store.open({"test": 1})
+    store.open({"test": 1}, study=study.identity(), code="test")
 
     def stop(task, rows):  # type: ignore[no-untyped-def]
         raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
         run_study(study.tasks(), store, quiet=True, on_group=stop)
-    assert len(store.done()) == 1
+    assert len(store.check(study.tasks()).done) == 1
     stats = run_study(study.tasks(), store, quiet=True)
     assert stats["groups_skipped"] == 1 and stats["groups_run"] == 2
-    assert len(store.rows()) == 3
+    assert len(store.rows(study.tasks())) == 3
 
 
 def test_dask_local_cluster_gives_the_same_table(tmp_path: Path, reference: list[dict]) -> None:  # type: ignore[type-arg]

@@ -1,0 +1,71 @@
+"""What makes study results trustworthy on disk: the code's identity and content digests.
+
+A study's *fingerprint* hashes what its results depend on: the normalised mission of every
+configuration, the study's options (starts, replicates, seed, time limit) and the code that flies
+it. Every part file carries the fingerprint and a checksum of its rows, so a resumed study can
+tell its own finished groups from damaged, foreign or stale ones.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib.util
+import json
+from pathlib import Path
+from typing import Any
+
+# The packages whose source shapes a run's rows, and the modules among them that only present
+# the results (changing a figure's label must not force a study to start over).
+CODE_PACKAGES = ("cptbt", "cptbt.batch", "cptbt.behaviours", "cptbt.sim")
+PRESENTATION = frozenset({"cptbt.batch/report.py", "cptbt.batch/figures.py"})
+
+
+def digest(value: Any) -> str:
+    """SHA-256 (hex) of a JSON-able value in canonical form (sorted keys, exact floats)."""
+    text = json.dumps(value, sort_keys=True, separators=(",", ":"), default=repr)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def rows_checksum(rows: list[dict[str, Any]]) -> str:
+    """Checksum of a table's rows as a reader sees them (column order ignored)."""
+    return digest(rows)
+
+
+def _package_dir(name: str) -> Path | None:
+    spec = importlib.util.find_spec(name)
+    locations = spec.submodule_search_locations if spec is not None else None
+    return Path(next(iter(locations))) if locations else None
+
+
+@functools.cache
+def source_hash() -> str:
+    """SHA-256 of the installed source of the code that produces results.
+
+    Files are named by package and file name, so an editable and a regular install of the same
+    source agree. The command line and the figures are left out: they do not change a row.
+    """
+    h = hashlib.sha256()
+    for package in CODE_PACKAGES:
+        folder = _package_dir(package)
+        if folder is None:
+            continue
+        for path in sorted(folder.glob("*.py")):
+            name = f"{package}/{path.name}"
+            if name in PRESENTATION:
+                continue
+            h.update(name.encode("utf-8") + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+@functools.cache
+def code_identity() -> str:
+    """``<version>+src.<hash>``: the package version and a hash of its source (see above)."""
+    from cptbt import __version__
+
+    return f"{__version__}+src.{source_hash()[:16]}"
+
+
+def fingerprint(study_identity: str, code: str) -> str:
+    """The fingerprint of a study (its identity, see ``Study.identity``) flown by ``code``."""
+    return digest({"study": study_identity, "code": code})

@@ -1,0 +1,105 @@
+"""Argument types of the command line: each checks one value at the door, so a bad number is a
+usage error (one line, exit 2) rather than a crash or a silent nonsense study later.
+
+Every function takes the argument's text and returns the parsed value or raises
+``argparse.ArgumentTypeError`` with a message that says what was expected.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from cptbt.batch.study import MAX_STARTS, line_xs
+
+Start = tuple[float, float]
+
+
+def _number(text: str, kind: type[int] | type[float]) -> float:
+    try:
+        return kind(text.strip())
+    except ValueError:
+        name = "an integer" if kind is int else "a number"
+        raise argparse.ArgumentTypeError(f"{text!r} is not {name}") from None
+
+
+def positive_int(text: str) -> int:
+    """An integer ≥ 1 (counts: runs per start, workers)."""
+    value = int(_number(text, int))
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} must be at least 1")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    """An integer ≥ 0 (seeds: ``numpy.random.SeedSequence`` takes no negative entropy)."""
+    value = int(_number(text, int))
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{value} must be 0 or more")
+    return value
+
+
+def finite_float(text: str) -> float:
+    """A finite number (coordinates, m)."""
+    value = float(_number(text, float))
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """A finite number > 0 (durations, s)."""
+    value = finite_float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be more than 0")
+    return value
+
+
+def grid(text: str) -> tuple[int, int]:
+    """``NXxNY`` (or ``N`` for ``NxN``), both at least 1, at most ``MAX_STARTS`` cells."""
+    nx_text, sep, ny_text = text.strip().lower().partition("x")
+    try:
+        nx = int(nx_text)
+        ny = int(ny_text) if sep else nx
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a grid: expected NXxNY, e.g. 10x10") from None
+    if nx < 1 or ny < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: both sides of the grid must be at least 1")
+    if nx * ny > MAX_STARTS:
+        raise argparse.ArgumentTypeError(f"{text!r}: more than {MAX_STARTS} starts")
+    return nx, ny
+
+
+def start_range(text: str) -> list[float]:
+    """``X0:X1:STEP`` with STEP > 0, X0 ≤ X1, all finite: the x of each start, X1 included."""
+    try:
+        return line_xs(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def starts(text: str) -> list[Start]:
+    """``X,Y;X,Y;...``: explicit starts in the planning frame, every coordinate finite."""
+    out: list[Start] = []
+    for item in text.split(";"):
+        if not item.strip():
+            continue
+        parts = item.split(",")
+        if len(parts) != 2:
+            raise argparse.ArgumentTypeError(
+                f"{item.strip()!r} is not a start: expected X,Y (starts are separated by ';')")
+        try:
+            x, y = (finite_float(p) for p in parts)
+        except argparse.ArgumentTypeError as exc:
+            raise argparse.ArgumentTypeError(f"start {item.strip()!r}: {exc}") from None
+        out.append((x, y))
+    if not out:
+        raise argparse.ArgumentTypeError("no starts given: expected X,Y;X,Y")
+    if len(out) > MAX_STARTS:
+        raise argparse.ArgumentTypeError(f"more than {MAX_STARTS} starts")
+    return out
+
+
+class UsageError(Exception):
+    """A command line that parsed but makes no sense (found after parsing); exit status 2."""

@@ -1,0 +1,248 @@
+"""A resumed study trusts only its own intact parts: damaged, foreign and stale results are re-run
+or refused, never mixed in; and a study killed outright leaves no worker behind."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import pyarrow.parquet as pq
+import pytest
+
+from cptbt.batch.store import load_results
+
+try:
+    import psutil
+except ImportError:  # the /proc scan below stands in (Linux)
+    psutil = None
+
+ROOT = Path(__file__).resolve().parents[2]
+MISSION = str(ROOT / "missions/tro2006_msn007.yaml")
+SCRIPT = Path(sys.executable).parent / "cptbt"
+STUDY = ["--grid", "2x1", "--runs-per-start", "2", "--time-limit", "60", "--no-plots"]
+PART = "c000-r00001"
+
+
+def batch(out: Path, *extra: str, seed: int = 3) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([str(SCRIPT), "batch", MISSION, *STUDY, "--seed", str(seed),
+                           "--workers", "1", "--out", str(out), *extra],
+                          capture_output=True, text=True, timeout=300)
+
+
+def table(out: Path) -> list[dict[str, Any]]:
+    rows = load_results(out)
+    for r in rows:
+        r.pop("wall_time_s", None)
+    return sorted(rows, key=lambda r: (r["config"], r["replicate"], r["start"]))
+
+
+def stderr_lines(res: subprocess.CompletedProcess[str]) -> list[str]:
+    assert "Traceback" not in res.stderr
+    return res.stderr.splitlines()
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished study (two groups of two runs), never changed by a test."""
+    out = tmp_path_factory.mktemp("clean")
+    res = batch(out)
+    assert res.returncode == 0, res.stderr
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference(clean: Path) -> list[dict[str, Any]]:
+    rows = table(clean)
+    assert {(r["replicate"], r["start"]) for r in rows} == {(0, 0), (0, 1), (1, 0), (1, 1)}
+    return rows
+
+
+@pytest.fixture
+def study(clean: Path, tmp_path: Path) -> Path:
+    """A copy of the clean study to damage."""
+    out = tmp_path / "study"
+    shutil.copytree(clean, out)
+    return out
+
+
+def test_intact_study_resumes_everything(study: Path, reference: list[dict[str, Any]]) -> None:
+    res = batch(study)
+    assert res.returncode == 0 and stderr_lines(res) == []
+    assert "(2 groups resumed from disk)" in res.stdout
+    assert table(study) == reference
+
+
+def _tamper(part: Path) -> None:
+    """Change one value but keep the part's metadata (and so its recorded checksum)."""
+    t = pq.read_table(part)
+    column = t.column_names.index("sim_time_s")
+    t = t.set_column(column, "sim_time_s", [[v + 1.0 for v in t.column("sim_time_s").to_pylist()]])
+    pq.write_table(t, part)
+
+
+@pytest.mark.parametrize(("damage", "reason"), [
+    (lambda p: p.write_bytes(b""), "empty file"),
+    (lambda p: p.write_bytes(p.read_bytes()[: p.stat().st_size // 2]), "unreadable ("),
+    (lambda p: p.write_bytes(os.urandom(3000)), "unreadable ("),
+    (_tamper, "checksum mismatch (changed since it was written)"),
+    (lambda p: pq.write_table(pq.read_table(p).replace_schema_metadata(None), p),
+     "no checksum (written by an older cptbt, or not by cptbt)"),
+], ids=["empty", "truncated", "garbage", "tampered", "no-checksum"])
+def test_damaged_part_is_rerun_and_said_so(
+    study: Path, reference: list[dict[str, Any]], damage: Any, reason: str
+) -> None:
+    damage(study / "parts" / f"{PART}.parquet")
+    res = batch(study)
+    assert res.returncode == 0, res.stderr
+    (line,) = stderr_lines(res)
+    assert line.startswith(f"cptbt: re-running part {PART}: {reason}"), line
+    assert "(1 groups resumed from disk)" in res.stdout
+    assert table(study) == reference
+
+
+def test_part_of_another_study_is_rerun(
+    study: Path, reference: list[dict[str, Any]], tmp_path: Path
+) -> None:
+    other = tmp_path / "other"
+    assert batch(other, seed=4).returncode == 0
+    shutil.copy(other / "parts" / f"{PART}.parquet", study / "parts" / f"{PART}.parquet")
+    res = batch(study)
+    assert res.returncode == 0, res.stderr
+    assert stderr_lines(res) == [f"cptbt: re-running part {PART}: from another study or code "
+                                 "version (its fingerprint differs)"]
+    assert table(study) == reference
+
+
+def test_part_copied_under_another_groups_name_is_rerun(
+    study: Path, reference: list[dict[str, Any]]
+) -> None:
+    # Before parts knew their group, this gave replicate 0 twice and replicate 1 not at all.
+    parts = study / "parts"
+    shutil.copy(parts / "c000-r00000.parquet", parts / f"{PART}.parquet")
+    res = batch(study)
+    assert res.returncode == 0, res.stderr
+    assert stderr_lines(res) == [
+        f"cptbt: re-running part {PART}: holds group c000-r00000, not {PART}"]
+    assert table(study) == reference
+
+
+def _set_code(study: Path, code: str | None) -> None:
+    meta = study / "study.json"
+    data = json.loads(meta.read_text())
+    if code is None:  # as written before studies had fingerprints
+        for key in ("code", "study", "fingerprint"):
+            del data[key]
+    else:
+        data["code"] = code
+    meta.write_text(json.dumps(data))
+
+
+@pytest.mark.parametrize("code", ["0.0.9+src.0123456789abcdef", None], ids=["other", "older"])
+def test_study_of_other_code_is_refused_without_restart(
+    study: Path, reference: list[dict[str, Any]], code: str | None
+) -> None:
+    _set_code(study, code)
+    before = {p.name: p.read_bytes() for p in (study / "parts").iterdir()}
+    res = batch(study)
+    assert res.returncode == 1
+    (line,) = stderr_lines(res)
+    assert line.startswith(f"cptbt: {study} was made by cptbt ")
+    assert line.endswith("rerun with --restart to discard its results, or choose a new --out")
+    assert {p.name: p.read_bytes() for p in (study / "parts").iterdir()} == before
+
+    res = batch(study, "--restart")
+    assert res.returncode == 0, res.stderr
+    assert stderr_lines(res) == []
+    assert "(0 groups resumed from disk)" in res.stdout
+    assert table(study) == reference
+    assert json.loads((study / "study.json").read_text())["code"] != code
+
+
+def test_unreadable_study_record_needs_restart(
+    study: Path, reference: list[dict[str, Any]]
+) -> None:
+    (study / "study.json").write_text("{not json")
+    (line,) = stderr_lines(res := batch(study))
+    assert res.returncode == 1 and "study.json is unreadable" in line and "--restart" in line
+    assert batch(study, "--restart").returncode == 0
+    assert table(study) == reference
+
+
+def test_folder_of_a_different_study_is_refused_even_with_restart(study: Path) -> None:
+    for extra in ((), ("--restart",)):
+        res = batch(study, *extra, seed=4)
+        assert res.returncode == 1
+        assert stderr_lines(res) == [f"cptbt: {study} holds a different study (other missions "
+                                     "or options): choose another --out or remove it"]
+    assert len(list((study / "parts").iterdir())) == 2
+
+
+# -- workers die with their parent ------------------------------------------------------------
+
+def _descendants(pid: int) -> list[int]:
+    if psutil is None:
+        parents: dict[int, list[int]] = {}
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            parents.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+        out, todo = [], [pid]
+        while todo:
+            kids = parents.get(todo.pop(), [])
+            out += kids
+            todo += kids
+        return out
+    return [p.pid for p in psutil.Process(pid).children(recursive=True)]
+
+
+def _running(pid: int) -> bool:
+    """Alive and not a zombie (an orphan's zombie waits for a reaper that may never come)."""
+    if psutil is None:
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            return False
+        return state != "Z"
+    try:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
+
+
+@pytest.mark.skipif(psutil is None and not Path("/proc/self/stat").exists(),
+                    reason="needs psutil or /proc to see the workers")
+def test_workers_die_when_the_study_is_killed(tmp_path: Path) -> None:
+    proc = subprocess.Popen(
+        [str(SCRIPT), "batch", MISSION, "--grid", "2x1", "--runs-per-start", "20",
+         "--time-limit", "60", "--workers", "2", "--out", str(tmp_path), "--no-plots",
+         "--quiet"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    workers: list[int] = []
+    try:
+        parts = tmp_path / "parts"
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:  # the pool is at work
+            if parts.exists() and any(p.suffix == ".parquet" for p in parts.iterdir()):
+                break
+            time.sleep(0.05)
+        workers = [pid for pid in _descendants(proc.pid) if _running(pid)]
+        assert proc.poll() is None and len(workers) >= 2, "catch the study with its workers"
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait()
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline and any(_running(pid) for pid in workers):
+            time.sleep(0.05)
+        assert not [pid for pid in workers if _running(pid)], "workers outlived the study"
+    finally:
+        proc.kill()
+        for pid in workers:  # do not leave them behind if the test failed
+            if _running(pid):
+                os.kill(pid, signal.SIGKILL)

@@ -1,0 +1,205 @@
+"""The results folder on its own (Parquet and CSV): parts carry their group, study and checksum,
+and every way a part can go wrong is caught, with its reason; no simulation is flown here."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from cptbt.batch.errors import BatchError, CodeChanged
+from cptbt.batch.integrity import code_identity, rows_checksum, source_hash
+from cptbt.batch.store import ResultStore, StudyMismatch, load_results
+from cptbt.batch.study import GroupTask, line_xs
+from cptbt.batch.worker import run_group
+
+FORMATS = ["parquet", "csv"]
+
+
+def tasks(replicates: int = 2, starts: int = 3) -> list[GroupTask]:
+    return [GroupTask(0, r, "name: m", tuple((float(i), 0.0) for i in range(starts)), 1, 0.0)
+            for r in range(replicates)]
+
+
+def rows_of(task: GroupTask) -> list[dict[str, Any]]:
+    return [{"config": task.config, "replicate": task.replicate, "start": i, "start_x": x,
+             "start_y": y, "success": i % 2 == 0, "t3": None if i else 12.5, "error_m": math.nan,
+             "outcome": "declared" if i % 2 == 0 else "timeout"}
+            for i, (x, y) in enumerate(task.starts)]
+
+
+def opened(folder: Path, fmt: str, study: str = "s1", code: str = "c1",
+           restart: bool = False) -> ResultStore:
+    store = ResultStore(folder, fmt)
+    store.open({"note": "test"}, study=study, code=code, restart=restart)
+    return store
+
+
+@pytest.fixture(params=FORMATS)
+def fmt(request: pytest.FixtureRequest) -> str:
+    return str(request.param)
+
+
+def test_written_groups_read_back_and_consolidate(tmp_path: Path, fmt: str) -> None:
+    store = opened(tmp_path, fmt)
+    ts = tasks()
+    for t in ts:
+        store.write_group(t, rows_of(t))
+    resume = store.check(ts)
+    assert resume.done == {"c000-r00000", "c000-r00001"} and resume.rerun == {}
+    assert (resume.runs, resume.successes) == (6, 4)
+    table = store.consolidate(ts)
+    rows = load_results(table)
+    assert len(rows) == 6 and rows[0]["t3"] == 12.5 and rows[1]["t3"] is None
+    assert rows_checksum(load_results(tmp_path)) == rows_checksum(rows)  # NaN != NaN
+    assert not list(tmp_path.rglob(".*.tmp"))
+
+
+def _damage_data(path: Path, fmt: str) -> None:
+    """Change one value of a part, keeping its metadata (so its recorded checksum)."""
+    if fmt == "csv":
+        path.write_text(path.read_text().replace("12.5", "12.0"))
+        return
+    import pyarrow.parquet as pq
+
+    t = pq.read_table(path)
+    i = t.column_names.index("start_x")
+    pq.write_table(t.set_column(i, "start_x", [[9.0, 1.0, 2.0]]), path)
+
+
+@pytest.mark.parametrize(("damage", "reason"), [
+    ("missing", None),
+    ("empty", "empty file"),
+    ("truncated", "unreadable ("),
+    ("garbage", "unreadable ("),
+    ("altered", "checksum mismatch (changed since it was written)"),
+    ("foreign", "from another study or code version (its fingerprint differs)"),
+    ("swapped", "holds group c000-r00000, not c000-r00001"),
+    ("wrong rows", "its rows are not the 3 runs of group c000-r00001"),
+])
+def test_each_damaged_part_is_named_with_its_reason(
+    tmp_path: Path, fmt: str, damage: str, reason: str | None
+) -> None:
+    store = opened(tmp_path / "study", fmt)
+    first, second = tasks()
+    store.write_group(first, rows_of(first))
+    path = store.path(second.key)
+    if damage == "foreign":  # the same group of a study with another seed
+        other = opened(tmp_path / "other", fmt, study="s2")
+        other.write_group(second, rows_of(second))
+        path.write_bytes(other.path(second.key).read_bytes())
+        if fmt == "csv":
+            path.with_name(path.name + ".json").write_bytes(
+                other.path(second.key).with_name(path.name + ".json").read_bytes())
+    elif damage == "swapped":
+        path.write_bytes(store.path(first.key).read_bytes())
+        if fmt == "csv":
+            path.with_name(path.name + ".json").write_bytes(
+                store.path(first.key).with_name(f"{first.key}.csv.json").read_bytes())
+    elif damage == "wrong rows":
+        store.write_group(second, rows_of(second)[:2])
+    elif damage != "missing":
+        store.write_group(second, rows_of(second))
+        data = path.read_bytes()
+        if damage == "empty":
+            path.write_bytes(b"")
+        elif damage == "truncated":
+            path.write_bytes(data[: len(data) // 2])
+        elif damage == "garbage":
+            path.write_bytes(b"\xff\xfe garbage \x00" * 40)
+        elif damage == "altered":
+            _damage_data(path, fmt)
+    if damage == "truncated" and fmt == "csv":  # fewer rows still parse: the checksum tells
+        reason = "checksum mismatch"
+    resume = store.check([first, second])
+    assert resume.done == {first.key}
+    if reason is None:
+        assert resume.rerun == {}
+    else:
+        assert resume.rerun[second.key].startswith(reason), resume.rerun
+        with pytest.raises(BatchError, match=f"{second.key}"):
+            store.rows([first, second])
+
+
+def test_csv_part_without_its_checksum_file_is_rerun(tmp_path: Path) -> None:
+    store = opened(tmp_path, "csv")
+    (task,) = tasks(1)
+    store.write_group(task, rows_of(task))
+    store.path(task.key).with_name(f"{task.key}.csv.json").unlink()
+    assert store.check([task]).rerun == {
+        task.key: "no checksum (written by an older cptbt, or not by cptbt)"}
+
+
+def test_altered_results_table_is_refused_by_plot(tmp_path: Path, fmt: str) -> None:
+    store = opened(tmp_path, fmt)
+    ts = tasks(1)
+    store.write_group(ts[0], rows_of(ts[0]))
+    table = store.consolidate(ts)
+    _damage_data(table, fmt)
+    with pytest.raises(BatchError, match="checksum mismatch"):
+        load_results(tmp_path)
+
+
+def test_results_table_made_elsewhere_loads_without_a_checksum(tmp_path: Path) -> None:
+    table = tmp_path / "mine.csv"
+    table.write_text("config,replicate,start,start_x,start_y,success\n0,0,0,1.5,0,True\n")
+    assert load_results(table) == [{"config": 0, "replicate": 0, "start": 0, "start_x": 1.5,
+                                    "start_y": 0, "success": True}]
+
+
+def test_open_refuses_other_code_and_other_studies(tmp_path: Path, fmt: str) -> None:
+    store = opened(tmp_path, fmt)
+    (task,) = tasks(1)
+    store.write_group(task, rows_of(task))
+    with pytest.raises(CodeChanged, match=f"{tmp_path} was made by cptbt c1, this is c2"):
+        opened(tmp_path, fmt, code="c2")
+    with pytest.raises(StudyMismatch, match="holds a different study"):
+        opened(tmp_path, fmt, study="s2", restart=True)
+    assert store.path(task.key).exists()
+    again = opened(tmp_path, fmt)  # same study, same code: resume
+    assert again.check([task]).done == {task.key}
+    renewed = opened(tmp_path, fmt, code="c2", restart=True)
+    assert not store.path(task.key).exists()
+    assert json.loads((tmp_path / "study.json").read_text())["code"] == "c2"
+    assert renewed.check([task]).done == set()
+
+
+def test_part_of_the_same_study_by_other_code_is_rerun(tmp_path: Path, fmt: str) -> None:
+    (task,) = tasks(1)
+    old = opened(tmp_path / "old", fmt, code="c1")
+    old.write_group(task, rows_of(task))
+    new = opened(tmp_path / "new", fmt, code="c2")
+    new.path(task.key).write_bytes(old.path(task.key).read_bytes())
+    if fmt == "csv":
+        sidecar = f"{task.key}.csv.json"
+        (new.parts / sidecar).write_bytes((old.parts / sidecar).read_bytes())
+    assert "fingerprint differs" in new.check([task]).rerun[task.key]
+
+
+def test_checksum_is_of_values_not_column_order() -> None:
+    a = [{"x": 1.0, "y": math.nan, "z": None}]
+    b = [{"z": None, "y": math.nan, "x": 1.0}]
+    assert rows_checksum(a) == rows_checksum(b)
+    assert rows_checksum(a) != rows_checksum([{"x": 1.0000000000000002, "y": math.nan, "z": None}])
+
+
+def test_code_identity_is_the_version_and_a_source_hash() -> None:
+    from cptbt import __version__
+
+    assert code_identity() == f"{__version__}+src.{source_hash()[:16]}"
+    assert len(source_hash()) == 64
+
+
+def test_worker_running_other_code_refuses_the_group() -> None:
+    task = GroupTask(0, 0, "name: m", ((0.0, 0.0),), 1, 0.0, code="0.0.1+src.other")
+    with pytest.raises(BatchError, match="install the same cptbt on every worker"):
+        run_group(task)
+
+
+def test_line_of_starts_includes_its_end() -> None:
+    assert line_xs("0:100:5") == [5.0 * i for i in range(21)]
+    assert line_xs("0:0.3:0.1") == pytest.approx([0.0, 0.1, 0.2, 0.3])
+    assert line_xs("7:7:1") == [7.0]

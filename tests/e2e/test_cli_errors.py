@@ -1,0 +1,205 @@
+"""The command line never shows a traceback: bad arguments, outputs and inputs give one line.
+
+Usage errors exit with status 2, failures while running with status 1. Each case here was a
+traceback (or a silently accepted nonsense value) before.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.metadata
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from cptbt import cli
+from cptbt.cli import inspect_cmds
+
+ROOT = Path(__file__).resolve().parents[2]
+MISSION = str(ROOT / "missions/tro2006_msn007.yaml")
+SCRIPT = Path(sys.executable).parent / "cptbt"
+
+
+def cptbt(*args: str, **kw: object) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([str(SCRIPT), *args], cwd=ROOT, text=True, capture_output=True,
+                          timeout=120, **kw)  # type: ignore[call-overload]
+
+
+def one_line(res: subprocess.CompletedProcess[str], status: int) -> str:
+    """The single stderr line of a failed command, after checking its status."""
+    assert res.returncode == status, (res.returncode, res.stderr)
+    assert "Traceback" not in res.stderr
+    lines = res.stderr.splitlines()
+    assert len(lines) == 1, lines
+    return lines[0]
+
+
+@pytest.mark.parametrize(("args", "expected"), [
+    (["--grid", "0x3"], "argument --grid: '0x3'"),
+    (["--grid", "3xa"], "is not a grid"),
+    (["--starts-x", "0:100:0"], "STEP must be more than 0"),
+    (["--starts-x", "0:100"], "is not a range"),
+    (["--starts-x", "100:0:5"], "X1 must not be less than X0"),
+    (["--starts-x", "0:1e9:1e-300"], "more than 100000 starts"),
+    (["--starts-x", "0:inf:1"], "finite"),
+    (["--starts", "1,2;3"], "'3' is not a start"),
+    (["--starts", "nan,0"], "'nan' must be a finite number"),
+    (["--starts", "0,1e309"], "must be a finite number"),
+    (["--runs-per-start", "0"], "argument --runs-per-start: 0 must be at least 1"),
+    (["--runs-per-start", "1.5"], "is not an integer"),
+    (["--workers", "0"], "argument --workers: 0 must be at least 1"),
+    (["--time-limit", "nan"], "argument --time-limit: 'nan' must be a finite number"),
+    (["--time-limit", "inf"], "must be a finite number"),
+    (["--time-limit", "-5"], "must be more than 0"),
+    (["--time-limit", "0"], "must be more than 0"),
+    (["--seed", "-1"], "argument --seed: -1 must be 0 or more"),
+    (["--y", "nan"], "must be a finite number"),
+    (["--sweep", "speed_mps"], "expected PATH=V1,V2"),
+    (["--scheduler-timeout", "0"], "must be more than 0"),
+    (["--grid", "2x2", "--starts", "0,0"], "not allowed with argument"),
+])
+def test_bad_batch_argument_is_one_usage_line(
+    tmp_path: Path, args: list[str], expected: str
+) -> None:
+    res = cptbt("batch", MISSION, *args, "--out", str(tmp_path / "out"))
+    line = one_line(res, 2)
+    assert line.startswith("cptbt batch: error: ") and expected in line, line
+    assert not (tmp_path / "out").exists()
+
+
+def test_bad_arguments_of_other_commands_are_one_usage_line() -> None:
+    assert "argument --seed" in one_line(cptbt("run", MISSION, "--seed", "x"), 2)
+    assert "required: COMMAND" in one_line(cptbt(), 2)
+    assert "invalid choice: 'nope'" in one_line(cptbt("nope"), 2)
+    assert "required: --out" in one_line(cptbt("batch", MISSION), 2)
+
+
+def test_a_sweep_path_that_names_nothing_is_a_usage_error(tmp_path: Path) -> None:
+    res = cptbt("batch", MISSION, "--sweep", "nope=1,2", "--out", str(tmp_path))
+    assert "sweep path 'nope': no such mission field" in one_line(res, 2)
+
+
+def test_version_is_the_installed_distribution() -> None:
+    res = cptbt("--version")
+    assert res.returncode == 0, res.stderr
+    assert res.stdout == f"cptbt {importlib.metadata.version('cptbt')}\n"
+
+
+def _without_root_powers() -> None:  # pragma: no cover - runs in the child
+    """Drop the capabilities that let root write into any folder (for the child we exec)."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    for cap in (1, 2, 3):  # CAP_DAC_OVERRIDE, CAP_DAC_READ_SEARCH, CAP_FOWNER
+        if libc.prctl(24, cap, 0, 0, 0) != 0:  # PR_CAPBSET_DROP
+            raise OSError(ctypes.get_errno(), "prctl(PR_CAPBSET_DROP)")
+
+
+def test_read_only_out_is_one_line_exit_1(tmp_path: Path) -> None:
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    root = hasattr(os, "geteuid") and os.geteuid() == 0
+    if root and not sys.platform.startswith("linux"):
+        pytest.skip("root writes into read-only folders; dropping that power needs Linux")
+    try:
+        res = cptbt("batch", MISSION, "--out", str(ro), "--no-plots",
+                    preexec_fn=_without_root_powers if root else None)
+    finally:
+        ro.chmod(0o755)
+    assert one_line(res, 1) == f"cptbt: {ro / 'parts'}: Permission denied"
+
+
+@pytest.mark.parametrize(("out", "expected"), [
+    ("/proc/cptbt-test/out", "/proc/cptbt-test: No such file or directory"),
+    ("FILE", "FILE exists and is not a folder"),
+    ("FILE/below", "FILE/below/parts: Not a directory"),
+])
+def test_unusable_out_is_one_line_exit_1(tmp_path: Path, out: str, expected: str) -> None:
+    regular = tmp_path / "a-file"
+    regular.write_text("not a folder")
+    res = cptbt("batch", MISSION, "--out", out.replace("FILE", str(regular)), "--no-plots")
+    assert one_line(res, 1) == "cptbt: " + expected.replace("FILE", str(regular))
+    assert regular.read_text() == "not a folder"
+
+
+def test_dot_into_a_missing_folder_is_one_line_exit_1(tmp_path: Path) -> None:
+    dot = tmp_path / "missing" / "tree.dot"
+    for cmd in ("tree", "phases"):
+        line = one_line(cptbt(cmd, MISSION, "--dot", str(dot)), 1)
+        assert line == f"cptbt: {dot}: No such file or directory"
+
+
+@pytest.mark.parametrize("content", [b"", b"garbage\x00\xff" * 50, b"PAR1" + b"\0" * 64])
+def test_plot_of_garbage_parquet_is_one_line_exit_1(tmp_path: Path, content: bytes) -> None:
+    table = tmp_path / "results.parquet"
+    table.write_bytes(content)
+    line = one_line(cptbt("plot", str(table)), 1)
+    assert line.startswith(f"cptbt: {table}: ") and ("unreadable" in line or "empty" in line)
+    line = one_line(cptbt("plot", str(tmp_path)), 1)  # the folder holding it
+    assert line.startswith(f"cptbt: {table}: ")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results.parquet"]
+
+
+@pytest.mark.parametrize(("content", "expected"), [
+    ("", "empty file"),
+    ("config,replicate\n", "no results in it"),
+    ("config,replicate\n0,0\n",
+     "not a cptbt results table (no column start, start_x, start_y, success)"),
+    ("a,b\n1,2,3\n", "unreadable (a row has more fields than the header)"),
+])
+def test_plot_of_garbage_csv_is_one_line_exit_1(
+    tmp_path: Path, content: str, expected: str
+) -> None:
+    table = tmp_path / "results.csv"
+    table.write_text(content)
+    assert one_line(cptbt("plot", str(table)), 1) == f"cptbt: {table}: {expected}"
+
+
+def test_plot_of_a_folder_without_results_is_one_line_exit_1(tmp_path: Path) -> None:
+    line = one_line(cptbt("plot", str(tmp_path)), 1)
+    assert line == f"cptbt: {tmp_path} holds no results table (results.parquet or " \
+                   "results.csv) and no parts/"
+    assert "does not exist" in one_line(cptbt("plot", str(tmp_path / "nope")), 1)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unreachable_scheduler_fails_fast_with_one_line(tmp_path: Path) -> None:
+    pytest.importorskip("distributed")
+    t0 = time.monotonic()
+    res = cptbt("batch", MISSION, "--scheduler", "tcp://127.0.0.1:1", "--scheduler-timeout",
+                "1", "--out", str(tmp_path), "--no-plots")
+    line = one_line(res, 1)
+    assert line.startswith("cptbt: cannot reach the Dask scheduler at tcp://127.0.0.1:1: ")
+    assert time.monotonic() - t0 < 60
+
+
+def test_unexpected_error_is_one_line_unless_debugging(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def broken(args: object) -> int:
+        raise ZeroDivisionError("division by zero\nsecond line")
+
+    monkeypatch.setattr(inspect_cmds, "cmd_behaviours", broken)
+    monkeypatch.delenv(cli.DEBUG_ENV, raising=False)
+    assert cli.main(["behaviours"]) == 1
+    err = capsys.readouterr().err
+    assert err == ("cptbt: internal error: ZeroDivisionError: division by zero second line "
+                   "(run with CPTBT_DEBUG=1 for the traceback)\n")
+    monkeypatch.setenv(cli.DEBUG_ENV, "1")
+    with pytest.raises(ZeroDivisionError):
+        cli.main(["behaviours"])
+
+
+def test_os_error_is_file_and_reason(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def full(args: object) -> int:
+        raise OSError(28, "No space left on device", "/data/out.parquet")
+
+    monkeypatch.setattr(inspect_cmds, "cmd_schema", full)
+    monkeypatch.delenv(cli.DEBUG_ENV, raising=False)
+    assert cli.main(["schema"]) == 1
+    assert capsys.readouterr().err == "cptbt: /data/out.parquet: No space left on device\n"
