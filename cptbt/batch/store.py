@@ -161,8 +161,11 @@ class ResultStore:
                 raise StudyMismatch(
                     f"{self.folder} holds a different study (other missions or options)")
             if old and old.get("code") != code and not restart:
-                made_by = old.get("code") or f"an older cptbt ({old.get('code_version', '?')})"
-                raise CodeChanged(f"{self.folder} was made by cptbt {made_by}, this is {code}")
+                if old.get("code"):
+                    raise CodeChanged(
+                        f"{self.folder} was made by cptbt {old['code']}, this is {code}")
+                raise CodeChanged(f"{self.folder} was made by an older cptbt "
+                                  f"({old.get('code_version', 'version unknown')})")
         if restart:
             self._discard()
         self.fingerprint = fingerprint(study, code)

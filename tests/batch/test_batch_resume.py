@@ -153,7 +153,8 @@ def test_study_of_other_code_is_refused_without_restart(
     res = batch(study)
     assert res.returncode == 1
     (line,) = stderr_lines(res)
-    assert line.startswith(f"cptbt: {study} was made by cptbt ")
+    made_by = f"cptbt {code}, this is " if code else "an older cptbt ("
+    assert line.startswith(f"cptbt: {study} was made by {made_by}"), line
     assert line.endswith("rerun with --restart to discard its results, or choose a new --out")
     assert {p.name: p.read_bytes() for p in (study / "parts").iterdir()} == before
 
