@@ -33,7 +33,10 @@ def rows_checksum(rows: list[dict[str, Any]]) -> str:
 
 
 def _package_dir(name: str) -> Path | None:
-    spec = importlib.util.find_spec(name)
+    try:
+        spec = importlib.util.find_spec(name)
+    except (ImportError, ValueError):  # blocked or broken: not part of this install's code
+        return None
     locations = spec.submodule_search_locations if spec is not None else None
     return Path(next(iter(locations))) if locations else None
 
