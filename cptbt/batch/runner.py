@@ -47,8 +47,20 @@ def _local(tasks: list[GroupTask], workers: int) -> Groups:
                                      "groups are kept: run the same command again to go on"
                                      ) from None
                 yield task, rows
-    finally:  # on an error or interrupt, drop the groups not started rather than fly them
+    except BaseException:  # an error or Ctrl-C: stop now, not after the groups already queued
+        _kill_workers(pool)
+        raise
+    finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _kill_workers(pool: ProcessPoolExecutor) -> None:
+    terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
+    if terminate is not None:
+        terminate()
+        return
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
 
 
 def _dask(tasks: list[GroupTask], address: str,

@@ -37,6 +37,9 @@ def init_worker(main_pid: int) -> None:
     Args:
         main_pid: the process id of the study's main process.
     """
+    # Ctrl-C reaches the whole process group: the main process alone handles it (it stops the
+    # pool), so a worker waiting for work does not print a traceback.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)

@@ -247,3 +247,29 @@ def test_workers_die_when_the_study_is_killed(tmp_path: Path) -> None:
         for pid in workers:  # do not leave them behind if the test failed
             if _running(pid):
                 os.kill(pid, signal.SIGKILL)
+
+
+def test_ctrl_c_stops_the_study_and_its_workers_at_once(tmp_path: Path) -> None:
+    proc = subprocess.Popen(
+        [str(SCRIPT), "batch", MISSION, "--grid", "3x1", "--runs-per-start", "20",
+         "--time-limit", "900", "--workers", "2", "--out", str(tmp_path), "--no-plots"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # as in a terminal
+    workers: list[int] = []
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None and len(workers) < 2:
+            workers = [pid for pid in _descendants(proc.pid) if _running(pid)]
+            time.sleep(0.05)
+        time.sleep(1.0)  # into the groups
+        t0 = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C: the whole process group
+        _, err = proc.communicate(timeout=60)
+        assert time.monotonic() - t0 < 5, "waited for the queued groups (seconds each)"
+        assert proc.returncode == 130 and err == "cptbt: interrupted\n", err
+        assert not [pid for pid in workers if _running(pid)]
+    finally:
+        proc.kill()
+        for pid in workers:
+            if _running(pid):
+                os.kill(pid, signal.SIGKILL)
