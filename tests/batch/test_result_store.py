@@ -58,6 +58,16 @@ def test_written_groups_read_back_and_consolidate(tmp_path: Path, fmt: str) -> N
     assert not list(tmp_path.rglob(".*.tmp"))
 
 
+def test_parts_of_an_unfinished_study_load_without_a_table(tmp_path: Path, fmt: str) -> None:
+    store = opened(tmp_path, fmt)
+    first, second = tasks()
+    store.write_group(second, rows_of(second))
+    store.write_group(first, rows_of(first))
+    rows = load_results(tmp_path)
+    assert [(r["replicate"], r["start"]) for r in rows] == [(0, 0), (0, 1), (0, 2),
+                                                            (1, 0), (1, 1), (1, 2)]
+
+
 def _damage_data(path: Path, fmt: str) -> None:
     """Change one value of a part, keeping its metadata (so its recorded checksum)."""
     if fmt == "csv":

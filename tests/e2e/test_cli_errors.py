@@ -158,6 +158,14 @@ def test_plot_of_garbage_csv_is_one_line_exit_1(
     assert one_line(cptbt("plot", str(table)), 1) == f"cptbt: {table}: {expected}"
 
 
+def test_plot_of_a_folder_of_garbage_parts_is_one_line_exit_1(tmp_path: Path) -> None:
+    part = tmp_path / "parts" / "c000-r00000.parquet"
+    part.parent.mkdir()
+    part.write_bytes(b"\x00garbage" * 100)
+    line = one_line(cptbt("plot", str(tmp_path)), 1)
+    assert line.startswith(f"cptbt: {part}: unreadable ("), line
+
+
 def test_plot_of_a_folder_without_results_is_one_line_exit_1(tmp_path: Path) -> None:
     line = one_line(cptbt("plot", str(tmp_path)), 1)
     assert line == f"cptbt: {tmp_path} holds no results table (results.parquet or " \
