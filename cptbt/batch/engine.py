@@ -137,8 +137,11 @@ def simulate(
     trace: bool = False,
     time_limit_s: float | None = None,
     plume_grid: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+    goals: Sequence[Point | None] | None = None,
 ) -> tuple[list[VehicleRun], World, float]:
     """Fly one planner per start pose (x, y, heading; planning frame) in one shared world.
+
+    ``goals`` gives each vehicle's move-to-field goal (default: the mission's start).
 
     With ``plume_grid`` (xs, ys), each run keeps a :class:`PlumeSnapshot` taken when it declared
     (or, without a declaration, when it ended).
@@ -158,8 +161,10 @@ def simulate(
     limit = mission.time_limit_s if time_limit_s is None else time_limit_s
     period = 1.0 / mission.cycle_hz
     rec = Recorder(n, math.ceil(limit / period) + 4, trace=trace)
+    goal = list(goals) if goals is not None else [None] * n
     runs = [
-        VehicleRun(Planner(mission), (s[0], s[1]), rec, i, period, rec if trace else None)
+        VehicleRun(Planner(mission, start=goal[i]), (s[0], s[1]), rec, i, period,
+                   rec if trace else None)
         for i, s in enumerate(starts)
     ]
     area = runs[0].planner.op_area if runs else None

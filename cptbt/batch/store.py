@@ -52,7 +52,10 @@ class _Parquet:
     def write(self, path: Path, rows: Rows, meta: dict[str, Any]) -> None:
         if pq is None:  # pragma: no cover - depends on the install
             raise BatchError("writing Parquet needs pyarrow: pip install 'cptbt[results]'")
-        table = pa.Table.from_pylist(rows)
+        # from_pylist takes its columns from the first row: give every row every column, or a
+        # column only later rows have (a behaviour one vehicle never used) would be dropped.
+        cols = _columns(rows)
+        table = pa.Table.from_pylist([{c: r.get(c) for c in cols} for r in rows])
         meta = {**meta, "rows": table.num_rows, "sha256": rows_checksum(table.to_pylist())}
         table = table.replace_schema_metadata({META_KEY: json.dumps(meta)})
         _atomic_write(path, lambda f: pq.write_table(table, f))

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -164,6 +165,16 @@ class GroupTask:
     coords: dict[str, Any] = field(default_factory=dict)
     code: str = ""
     """The code identity (``integrity.code_identity``) the worker must run; empty: unchecked."""
+    start_mode: str = "place"
+    """'place': vehicles start at their start points; 'launch': at the mission's launch point,
+    with their start points as move-to-field goals."""
+    start_ids: tuple[int, ...] | None = None
+    """Each start's index in the study (seeds its vehicle); default 0, 1, 2, ..."""
+
+    @property
+    def ids(self) -> tuple[int, ...]:
+        """The study index of each start of this group."""
+        return self.start_ids if self.start_ids is not None else tuple(range(len(self.starts)))
 
     @property
     def key(self) -> str:
@@ -181,12 +192,13 @@ class Study:
     root_seed: int
     heading_deg: float
     time_limit_s: float | None
+    start_mode: str = "place"
 
     def tasks(self, code: str = "") -> list[GroupTask]:
         """One task per configuration × replicate; ``code``: the code identity workers need."""
         return [
             GroupTask(c.index, r, c.mission_yaml, tuple(self.starts), self.root_seed,
-                      self.heading_deg, self.time_limit_s, c.coords, code)
+                      self.heading_deg, self.time_limit_s, c.coords, code, self.start_mode)
             for c in self.configs for r in range(self.runs_per_start)
         ]
 
@@ -202,6 +214,7 @@ class Study:
             "root_seed": self.root_seed,
             "heading_deg": self.heading_deg,
             "time_limit_s": self.time_limit_s,
+            "start_mode": self.start_mode,
         })
 
     @property
@@ -210,12 +223,17 @@ class Study:
         return len(self.configs) * self.runs_per_start * len(self.starts)
 
 
-def group_seeds(root_seed: int, replicate: int, n: int) -> tuple[np.random.Generator,
-                                                                 list[np.random.Generator]]:
-    """The environment generator of a replicate and one generator per start, by position."""
+def group_seeds(root_seed: int, replicate: int, ids: int | Sequence[int]
+                ) -> tuple[np.random.Generator, list[np.random.Generator]]:
+    """The environment generator of a replicate and one generator per start, by its index.
+
+    ``ids`` are the starts' indices in the study (or their count, for 0..n-1): a vehicle's
+    stream depends on its own index only, so one row can be flown again alone.
+    """
     env = np.random.default_rng(np.random.SeedSequence(root_seed, spawn_key=(replicate, 0)))
+    index = range(ids) if isinstance(ids, int) else ids
     vehicles = [
         np.random.default_rng(np.random.SeedSequence(root_seed, spawn_key=(replicate, 1, i)))
-        for i in range(n)
+        for i in index
     ]
     return env, vehicles

@@ -10,17 +10,17 @@ import threading
 import time
 from typing import Any
 
-from cptbt.batch.engine import simulate
+from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.integrity import code_identity
-from cptbt.batch.scenario import Environment, planning_angle, to_sim_params
+from cptbt.batch.scenario import Environment, launch_pose, planning_angle, to_sim_params
 from cptbt.batch.study import GroupTask, group_seeds
 from cptbt.batch.summary import summarise
 from cptbt.loader import loads_mission
+from cptbt.mission import MissionBase
 from cptbt.registry import default_registry
 from cptbt.types import Point
 
-SUCCESS = ("declared", "found")
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 WATCHDOG_PERIOD_S = 0.5
 
@@ -80,13 +80,49 @@ def flatten(summary: dict[str, Any]) -> dict[str, Any]:
                 row[f"{key}_{sub}"] = None
         else:
             row[key] = value
+    # Seconds in each behaviour leaf (time_maintain_plume.track_in_s) and in each family
+    # (time_maintain_plume_s: track-in and track-out together).
     for name, seconds in summary.get("time_in_behaviour_s", {}).items():
-        row[f"time_{name.split('.')[0] if name.count('.') == 1 else name}_s"] = seconds
+        row[f"time_{name}_s"] = seconds
+        family = f"time_{name.split('.')[0]}_s"
+        if name.count(".") >= 1:
+            row[family] = row.get(family, 0.0) + seconds
     return row
+
+
+def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None
+              ) -> tuple[MissionBase, list[VehicleRun], Point, float]:
+    """Fly every start of one group in one shared world (its replicate's plume).
+
+    Under ``start_mode: place`` each vehicle starts at its start point, which is also its
+    move-to-field goal; under ``launch`` every vehicle starts at the mission's launch point
+    (``environment.launch``, else home) and move-to-field drives it to its start point.
+
+    Returns:
+        The group's mission, its runs, the true source and the wall time.
+    """
+    mission = loads_mission(task.mission_yaml, f"group {task.key}", default_registry(),
+                            Environment)
+    params = to_sim_params(mission, task.root_seed)
+    env_rng, vehicle_rngs = group_seeds(task.root_seed, task.replicate, task.ids)
+    heading = planning_angle(mission, task.heading_deg)
+    goals = [Point(x, y) for x, y in task.starts]
+    if task.start_mode == "launch":
+        lx, ly, lh = launch_pose(mission)
+        poses = [(lx, ly, lh) for _ in task.starts]
+    else:
+        poses = [(x, y, heading) for x, y in task.starts]
+    runs, _, wall = simulate(mission, params, poses, env_rng=env_rng,
+                             vehicle_rngs=vehicle_rngs, time_limit_s=task.time_limit_s,
+                             goals=goals, trace=trace, plume_grid=plume_grid)
+    return mission, runs, Point(*params.source_xy_m), wall
 
 
 def run_group(task: GroupTask) -> list[dict[str, Any]]:
     """Fly every start of one group in one world; one flat row per run.
+
+    Each row names everything needed to fly it again alone (``cptbt run --from``): its
+    configuration, replicate and start index, the root seed and the start point.
 
     Raises:
         BatchError: this process runs other code than the study was planned with (a Dask
@@ -95,21 +131,18 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
     if task.code and task.code != code_identity():
         raise BatchError(f"a worker runs cptbt {code_identity()} but the study needs "
                          f"{task.code}: install the same cptbt on every worker")
-    mission = loads_mission(task.mission_yaml, f"group {task.key}", default_registry(),
-                            Environment)
-    params = to_sim_params(mission, task.root_seed)
-    env_rng, vehicle_rngs = group_seeds(task.root_seed, task.replicate, len(task.starts))
-    heading = planning_angle(mission, task.heading_deg)
-    starts = [(x, y, heading) for x, y in task.starts]
-    runs, _, wall = simulate(mission, params, starts, env_rng=env_rng,
-                             vehicle_rngs=vehicle_rngs, time_limit_s=task.time_limit_s)
-    source = Point(*params.source_xy_m)
-    rows = []
-    for i, run in enumerate(runs):
-        row = {"config": task.config, **task.coords, "replicate": task.replicate, "start": i}
-        row.update(flatten(
-            summarise(run, mission, source, task.root_seed, wall / len(runs)).to_dict()
-        ))
-        row["success"] = run.outcome in SUCCESS
-        rows.append(row)
-    return rows
+    mission, runs, source, wall = fly_group(task)
+    return [row_of(task, k, run, mission, source, wall / len(runs))
+            for k, run in enumerate(runs)]
+
+
+def row_of(task: GroupTask, k: int, run: VehicleRun, mission: MissionBase, source: Point,
+           wall_s: float) -> dict[str, Any]:
+    """The results row of the group's ``k``-th start: the one table schema of every study."""
+    i = task.ids[k]
+    row = {"config": task.config, **task.coords, "replicate": task.replicate, "start": i}
+    row.update(flatten(summarise(run, mission, source, task.root_seed, wall_s).to_dict()))
+    x, y = task.starts[k]
+    row.update({"start_x": x, "start_y": y, "start_mode": task.start_mode,
+                "seed_key": f"{task.root_seed}/{task.replicate}/{i}"})
+    return row

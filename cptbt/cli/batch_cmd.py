@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -12,12 +13,15 @@ from typing import Any
 from cptbt import __version__
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import code_identity
-from cptbt.batch.scenario import environment_of
+from cptbt.batch.report import StudyGeometry
+from cptbt.batch.scenario import environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
 from cptbt.batch.study import Study, Sweep, configurations, grid_starts
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
+from cptbt.mission import MissionBase
+from cptbt.study_spec import StudySpec
 
 
 def _sweep(text: str) -> Sweep:
@@ -41,8 +45,15 @@ def add_parsers(sub: Any) -> None:
                        help="explicit starts (planning frame)")
     p.add_argument("--y", type=argtypes.finite_float, default=0.0,
                    help="y of --starts-x (default 0)")
-    p.add_argument("--runs-per-start", type=argtypes.positive_int, default=1, metavar="R",
-                   help="plume realisations per start (default 1)")
+    p.add_argument("--runs-per-start", type=argtypes.positive_int, default=None, metavar="R",
+                   help="plume realisations per start (default: the study section's, else 1)")
+    p.add_argument("--start-mode", choices=("place", "launch"), default=None,
+                   help="place: vehicles start at their start points (AB); launch: at the "
+                   "mission's launch point, driving to them (default: the study section's, "
+                   "else place)")
+    p.add_argument("--amp-only", action="store_true",
+                   help="for a mission with a mission_a section: study the AMP alone, from each "
+                   "start (a study does not fly Mission A)")
     p.add_argument("--sweep", type=_sweep, action="append", default=[], metavar="PATH=V1,V2",
                    help="compare settings, e.g. maintain_plume.variant+reacquire_plume.variant="
                    "strategy_1,strategy_3 (repeatable: the product is run)")
@@ -78,39 +89,81 @@ def _git_version() -> str:
         return __version__
 
 
-def _starts(args: argparse.Namespace, mission: Any) -> list[tuple[float, float]]:
+def _starts(args: argparse.Namespace, mission: MissionBase,
+            spec: StudySpec | None) -> list[tuple[float, float]]:
+    """The study's starts (planning frame): the flags, else the study section, else the
+    mission's start."""
     if args.grid:
         return grid_starts(mission, *args.grid)
     if args.starts_x:
         return [(x, args.y) for x in args.starts_x]
     if args.starts:
-        return list(args.starts)
-    start = mission.start or mission.home
-    p = mission.to_xy(start)
-    return [(p.x, p.y)]
+        return [_planning(mission, c) for c in args.starts]
+    if spec is not None and spec.grid is not None:
+        return grid_starts(mission, *spec.grid)
+    if spec is not None and spec.line is not None:
+        line = spec.line
+        n = int((line.x_to_m - line.x_from_m) / line.step_m + 1e-9) + 1
+        return [(line.x_from_m + k * line.step_m, line.y_m) for k in range(n)]
+    if spec is not None and spec.starts:
+        return [_planning(mission, c) for c in spec.starts]
+    return [_planning(mission, mission.start or mission.home)]
+
+
+def _planning(mission: MissionBase, coord: tuple[float, float]) -> tuple[float, float]:
+    p = mission.to_xy(coord)
+    return p.x, p.y
+
+
+def geometry_of(mission: MissionBase) -> StudyGeometry:
+    """What the study maps draw besides the results: OpArea, true source, mean flow."""
+    area = mission.op_area_geometry()
+    params = to_sim_params(mission)
+    return StudyGeometry((area.xmin, area.xmax, area.ymin, area.ymax), params.source_xy_m,
+                         params.flow.mean_dir_deg)
 
 
 def cmd_batch(args: argparse.Namespace) -> int:
-    """Fly a mission from many starts and plume realisations; resumable, reproducible."""
+    """Fly a mission from many starts and plume realisations; resumable, reproducible.
+
+    The mission's ``study:`` section says where, how often and what to sweep; each flag
+    overrides the matching key.
+    """
     mission = load(args.mission, simulate=True)
-    sweeps: list[Sweep] = args.sweep
+    if mission.mission_a is not None:
+        if not args.amp_only:
+            raise UsageError(
+                f"batch: {args.mission} has a mission_a section, and a study flies the AMP "
+                "alone from each start: pass --amp-only to study it so (or use cptbt run)")
+        mission = mission.model_copy(update={"mission_a": None})
+    spec = mission.study
+    sweeps: list[Sweep] = args.sweep or [
+        Sweep(tuple(p.strip() for p in path.split("+")), tuple(values))
+        for path, values in (spec.sweeps.items() if spec is not None else [])
+    ]
     try:
         configs = configurations(mission, sweeps, args.mission)
     except ValueError as exc:
         raise UsageError(f"batch: {exc}") from None
-    starts = _starts(args, mission)
+    starts = _starts(args, mission, spec)
+    runs_per_start = args.runs_per_start or (spec.runs_per_start if spec else 1)
+    time_limit = args.time_limit or (spec.time_limit_s if spec else None)
+    start_mode = args.start_mode or (spec.start_mode if spec else "place")
     env = environment_of(mission)
     seed = env.seed if args.seed is None else args.seed
-    study = Study(configs, starts, args.runs_per_start, seed, env.launch_heading_deg,
-                  args.time_limit)
+    study = Study(configs, starts, runs_per_start, seed, env.launch_heading_deg, time_limit,
+                  start_mode)
     code = code_identity()
     store = ResultStore(Path(args.out))
+    geometry = geometry_of(mission)
     metadata = {
         "mission": str(args.mission), "mission_name": mission.name,
         "sweeps": {s.name: list(s.values) for s in sweeps},
         "configs": [c.coords for c in configs],
-        "starts": starts, "runs_per_start": args.runs_per_start, "root_seed": seed,
-        "time_limit_s": args.time_limit, "total_runs": study.total_runs,
+        "config_missions": [c.mission_yaml for c in configs],
+        "starts": starts, "runs_per_start": runs_per_start, "root_seed": seed,
+        "time_limit_s": time_limit, "start_mode": start_mode, "total_runs": study.total_runs,
+        "heading_deg": env.launch_heading_deg, "geometry": geometry.to_data(),
         "code_version": _git_version(),
         "seeding": "SeedSequence(root_seed, spawn_key=(replicate, 0)) for the plume; "
                    "(replicate, 1, start) for each vehicle",
@@ -139,17 +192,26 @@ def cmd_batch(args: argparse.Namespace) -> int:
               f"{stats['wall_time_s']:.1f} s wall, {rate:.1f} missions/s")
         print(f"  wrote {table}")
     if not args.no_plots:
-        _plots(table, Path(args.out), args.quiet)
+        _plots(table, Path(args.out), args.quiet, geometry)
     return 0
 
 
-def _plots(results: Path, out: Path, quiet: bool) -> None:
+def _plots(results: Path, out: Path, quiet: bool, geometry: StudyGeometry | None) -> None:
     from cptbt.batch.report import write_report
 
-    written = write_report(load_results(results), out)
+    written = write_report(load_results(results), out, geometry)
     if not quiet:
         for path in written:
             print(f"  wrote {path}")
+
+
+def _saved_geometry(results: Path) -> StudyGeometry | None:
+    """The geometry a study saved in its ``study.json`` (None if there is none)."""
+    meta = (results if results.is_dir() else results.parent) / "study.json"
+    try:
+        return StudyGeometry.from_data(json.loads(meta.read_text(encoding="utf-8"))["geometry"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
@@ -159,6 +221,6 @@ def cmd_plot(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else (results if results.is_dir() else results.parent)
     from cptbt.batch.report import write_report
 
-    for path in write_report(rows, out):
+    for path in write_report(rows, out, _saved_geometry(results)):
         print(f"  wrote {path}")
     return 0

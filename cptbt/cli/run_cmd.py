@@ -10,21 +10,31 @@ from pathlib import Path
 from typing import Any
 
 from cptbt.batch.engine import PlumeSnapshot, VehicleRun, simulate
+from cptbt.batch.errors import BatchError
 from cptbt.batch.figures import plume_grid, trajectory_figure
 from cptbt.batch.phased import phase_summary, simulate_phased
-from cptbt.batch.scenario import launch_pose, to_sim_params
+from cptbt.batch.scenario import Environment, launch_pose, to_sim_params
+from cptbt.batch.store import load_results
+from cptbt.batch.study import GroupTask
 from cptbt.batch.summary import summarise
+from cptbt.batch.worker import fly_group, row_of
 from cptbt.cli import argtypes
+from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
-from cptbt.loader import dump_mission
+from cptbt.loader import dump_mission, loads_mission
 from cptbt.mission import MissionBase
+from cptbt.registry import default_registry
 from cptbt.types import Point
 
 
 def add_parsers(sub: Any) -> None:
     """Register ``run``."""
     p = sub.add_parser("run", help="simulate a mission", description=cmd_run.__doc__)
-    p.add_argument("mission", metavar="MISSION", help="mission YAML file")
+    p.add_argument("mission", metavar="MISSION", nargs="?", help="mission YAML file")
+    p.add_argument("--from", dest="results", metavar="RESULTS",
+                   help="fly one row of a study again (a results folder from cptbt batch)")
+    p.add_argument("--row", type=argtypes.non_negative_int, default=None, metavar="N",
+                   help="with --from: the row of the results table (0-based)")
     p.add_argument("--seed", type=argtypes.non_negative_int, default=None,
                    help="override the environment seed")
     p.add_argument("--out", metavar="DIR", default=None,
@@ -75,7 +85,17 @@ def _fmt(v: float | None, unit: str = "") -> str:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    """Simulate a mission with one vehicle; write summary.json, a trace and trajectory.png."""
+    """Simulate a mission with one vehicle; write summary.json, a trace and trajectory.png.
+
+    With ``--from RESULTS --row N``, fly row N of a study again, alone, with that row's plume,
+    seeds and start, and say whether it came out the same, bit for bit.
+    """
+    if args.results is not None or args.row is not None:
+        if args.results is None or args.row is None or args.mission is not None:
+            raise UsageError("run: give MISSION, or --from RESULTS with --row N (not both)")
+        return refly(args)
+    if args.mission is None:
+        raise UsageError("run: give a MISSION file (or --from RESULTS --row N)")
     mission = load(args.mission, simulate=True)
     params = to_sim_params(mission, args.seed)
     seed = params.seed
@@ -126,3 +146,62 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"  time in behaviours: {share}")
         print(f"  wrote {out / 'summary.json'}, {trace_path}" + (f", {figure}" if figure else ""))
     return 0
+
+
+COMPARED_AWAY = ("wall_time_s",)
+"""Columns a re-flown row may differ in: how long the computer took."""
+
+
+def refly(args: argparse.Namespace) -> int:
+    """``cptbt run --from RESULTS --row N``: one study row flown again, alone, and compared."""
+    results = Path(args.results)
+    rows = load_results(results)
+    if args.row >= len(rows):
+        raise UsageError(f"run: --row {args.row}: the table has {len(rows)} rows (0-based)")
+    row = rows[args.row]
+    folder = results if results.is_dir() else results.parent
+    try:
+        meta = json.loads((folder / "study.json").read_text(encoding="utf-8"))
+        mission_yaml = meta["config_missions"][int(row["config"])]
+    except (OSError, ValueError, KeyError, IndexError, TypeError):
+        raise BatchError(f"{folder}: its study.json does not say how its rows were flown (a "
+                         "study from an older cptbt?); run the study again") from None
+    task = GroupTask(
+        int(row["config"]), int(row["replicate"]), mission_yaml,
+        ((float(row["start_x"]), float(row["start_y"])),), int(meta["root_seed"]),
+        float(meta.get("heading_deg", 0.0)), meta.get("time_limit_s"),
+        start_mode=str(row.get("start_mode") or meta.get("start_mode", "place")),
+        start_ids=(int(row["start"]),),
+    )
+    mission = loads_mission(mission_yaml, f"{folder}/study.json", default_registry(),
+                            Environment)
+    grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
+    mission, (run,), source, wall = fly_group(task, trace=True, plume_grid=grid)
+    summary = summarise(run, mission, source, task.root_seed, wall).to_dict()
+    again = row_of(task, 0, run, mission, source, wall)
+    diff = sorted(k for k, v in again.items() if k in row and k not in COMPARED_AWAY
+                  and not _same(v, row[k]))
+    out = Path(args.out) if args.out else run_folder(mission, task.root_seed).with_name(
+        f"{mission.name}-row{args.row}-{task.key}")
+    out.mkdir(parents=True, exist_ok=True)
+    summary["refly"] = {"results": str(results), "row": args.row, "same_as_study": not diff,
+                        "differs_in": diff}
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    write_trace(run, out)
+    if grid is not None:
+        trajectory_figure(out / "trajectory.png", run, mission, source,
+                          f"{mission.name}, study row {args.row} ({task.key}, start "
+                          f"{row['start']}): {summary['outcome']}",
+                          threshold=mission.perception.threshold)
+    if not args.quiet:
+        same = "the same as the study's row, bit for bit" if not diff else (
+            f"DIFFERENT from the study's row in {', '.join(diff)}")
+        print(f"row {args.row} of {results} flown again: {summary['outcome']}, {same}")
+        print(f"  wrote {out}")
+    return 0 if not diff else 1
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, float) and isinstance(b, float):
+        return a == b or (math.isnan(a) and math.isnan(b))
+    return bool(a == b)

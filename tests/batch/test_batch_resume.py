@@ -31,7 +31,7 @@ PART = "c000-r00001"
 
 
 def batch(out: Path, *extra: str, seed: int = 3) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(SCRIPT), "batch", MISSION, *STUDY, "--seed", str(seed),
+    return subprocess.run([str(SCRIPT), "batch", MISSION, "--amp-only", *STUDY, "--seed", str(seed),
                            "--workers", "1", "--out", str(out), *extra],
                           capture_output=True, text=True, timeout=300)
 
@@ -223,7 +223,7 @@ def _running(pid: int) -> bool:
                     reason="needs psutil or /proc to see the workers")
 def test_workers_die_when_the_study_is_killed(tmp_path: Path) -> None:
     proc = subprocess.Popen(
-        [str(SCRIPT), "batch", MISSION, "--grid", "2x1", "--runs-per-start", "20",
+        [str(SCRIPT), "batch", MISSION, "--amp-only", "--grid", "2x1", "--runs-per-start", "20",
          "--time-limit", "60", "--workers", "2", "--out", str(tmp_path), "--no-plots",
          "--quiet"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     workers: list[int] = []
@@ -251,7 +251,7 @@ def test_workers_die_when_the_study_is_killed(tmp_path: Path) -> None:
 
 def test_ctrl_c_stops_the_study_and_its_workers_at_once(tmp_path: Path) -> None:
     proc = subprocess.Popen(
-        [str(SCRIPT), "batch", MISSION, "--grid", "3x1", "--runs-per-start", "20",
+        [str(SCRIPT), "batch", MISSION, "--amp-only", "--grid", "3x1", "--runs-per-start", "20",
          "--time-limit", "900", "--workers", "2", "--out", str(tmp_path), "--no-plots"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # as in a terminal

@@ -23,7 +23,8 @@ ARGS = ["--grid", "2x2", "--runs-per-start", "3", "--time-limit", "400", "--seed
 
 
 def batch(out: Path, *extra: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(SCRIPT), "batch", MISSION, *ARGS, "--out", str(out), *extra],
+    return subprocess.run([str(SCRIPT), "batch", MISSION, "--amp-only",
+                               *ARGS, "--out", str(out), *extra],
                           capture_output=True, text=True, timeout=600)
 
 
@@ -62,7 +63,8 @@ def test_two_workers_give_the_same_table(tmp_path: Path, reference: list[dict]) 
 def test_killed_study_resumes_without_losing_or_repeating_runs(
     tmp_path: Path, reference: list[dict]  # type: ignore[type-arg]
 ) -> None:
-    proc = subprocess.Popen([str(SCRIPT), "batch", MISSION, *ARGS, "--out", str(tmp_path),
+    proc = subprocess.Popen([str(SCRIPT), "batch", MISSION, "--amp-only",
+                                 *ARGS, "--out", str(tmp_path),
                              "--workers", "1", "--no-plots"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     parts = tmp_path / "parts"
@@ -110,14 +112,16 @@ def test_dask_local_cluster_gives_the_same_table(tmp_path: Path, reference: list
 
 def test_sweep_of_variants_and_bad_sweep(tmp_path: Path) -> None:
     res = subprocess.run(
-        [str(SCRIPT), "batch", MISSION, "--runs-per-start", "1", "--time-limit", "120",
+        [str(SCRIPT), "batch", MISSION, "--amp-only",
+             "--runs-per-start", "1", "--time-limit", "120",
          "--sweep", "reacquire_plume.variant=cloverleaf,three_point", "--out", str(tmp_path),
          "--workers", "1", "--quiet"],
         capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr
     rows = load_results(tmp_path)
     assert sorted(r["reacquire_plume.variant"] for r in rows) == ["cloverleaf", "three_point"]
-    bad = subprocess.run([str(SCRIPT), "batch", MISSION, "--sweep", "reacquire_plume.variant=nope",
+    bad = subprocess.run([str(SCRIPT), "batch", MISSION, "--amp-only",
+                              "--sweep", "reacquire_plume.variant=nope",
                           "--out", str(tmp_path / "x")], capture_output=True, text=True)
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
     assert "unknown variant 'nope'" in bad.stderr

@@ -65,7 +65,7 @@ def one_line(res: subprocess.CompletedProcess[str], status: int) -> str:
 def test_bad_batch_argument_is_one_usage_line(
     tmp_path: Path, args: list[str], expected: str
 ) -> None:
-    res = cptbt("batch", MISSION, *args, "--out", str(tmp_path / "out"))
+    res = cptbt("batch", MISSION, "--amp-only", *args, "--out", str(tmp_path / "out"))
     line = one_line(res, 2)
     assert line.startswith("cptbt batch: error: ") and expected in line, line
     assert not (tmp_path / "out").exists()
@@ -79,7 +79,7 @@ def test_bad_arguments_of_other_commands_are_one_usage_line() -> None:
 
 
 def test_a_sweep_path_that_names_nothing_is_a_usage_error(tmp_path: Path) -> None:
-    res = cptbt("batch", MISSION, "--sweep", "nope=1,2", "--out", str(tmp_path))
+    res = cptbt("batch", MISSION, "--amp-only", "--sweep", "nope=1,2", "--out", str(tmp_path))
     assert "sweep path 'nope': no such mission field" in one_line(res, 2)
 
 
@@ -105,7 +105,7 @@ def test_read_only_out_is_one_line_exit_1(tmp_path: Path) -> None:
     if root and not sys.platform.startswith("linux"):
         pytest.skip("root writes into read-only folders; dropping that power needs Linux")
     try:
-        res = cptbt("batch", MISSION, "--out", str(ro), "--no-plots",
+        res = cptbt("batch", MISSION, "--amp-only", "--out", str(ro), "--no-plots",
                     preexec_fn=_without_root_powers if root else None)
     finally:
         ro.chmod(0o755)
@@ -120,7 +120,8 @@ def test_read_only_out_is_one_line_exit_1(tmp_path: Path) -> None:
 def test_unusable_out_is_one_line_exit_1(tmp_path: Path, out: str, expected: str) -> None:
     regular = tmp_path / "a-file"
     regular.write_text("not a folder")
-    res = cptbt("batch", MISSION, "--out", out.replace("FILE", str(regular)), "--no-plots")
+    res = cptbt("batch", MISSION, "--amp-only",
+                "--out", out.replace("FILE", str(regular)), "--no-plots")
     assert one_line(res, 1) == "cptbt: " + expected.replace("FILE", str(regular))
     assert regular.read_text() == "not a folder"
 
@@ -177,7 +178,8 @@ def test_plot_of_a_folder_without_results_is_one_line_exit_1(tmp_path: Path) -> 
 def test_unreachable_scheduler_fails_fast_with_one_line(tmp_path: Path) -> None:
     pytest.importorskip("distributed")
     t0 = time.monotonic()
-    res = cptbt("batch", MISSION, "--scheduler", "tcp://127.0.0.1:1", "--scheduler-timeout",
+    res = cptbt("batch", MISSION, "--amp-only",
+                "--scheduler", "tcp://127.0.0.1:1", "--scheduler-timeout",
                 "1", "--out", str(tmp_path), "--no-plots")
     line = one_line(res, 1)
     assert line.startswith("cptbt: cannot reach the Dask scheduler at tcp://127.0.0.1:1: ")

@@ -1,0 +1,134 @@
+"""Studies as files and rows that fly again: the study section, start modes, mission-frame
+starts, missions with a Mission A, and ``cptbt run --from RESULTS --row N``."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from cptbt.batch.store import load_results
+
+ROOT = Path(__file__).resolve().parents[2]
+SCRIPT = Path(sys.executable).parent / "cptbt"
+MSN007 = (ROOT / "missions" / "tro2006_msn007.yaml").read_text(encoding="utf-8")
+
+
+def cptbt(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([str(SCRIPT), *args], capture_output=True, text=True, timeout=600)
+
+
+def planner_only(study: str = "") -> str:
+    """MSN007 without its Mission A, a short time limit, launched on the OpArea's side away
+    from the plume (planning (0, -45)), and an optional study section."""
+    text = MSN007[: MSN007.index("\nmission_a:")] + MSN007[MSN007.index("\nenvironment:"):]
+    text = text.replace("  seed: 7", "  seed: 7\n  launch: [31, 33]")
+    return text.replace("time_limit_s: 1800", "time_limit_s: 150") + study
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("study")
+    mission = folder / "m.yaml"
+    mission.write_text(planner_only(
+        "study:\n  starts: [[-55.5, 82.9], [0, 60]]\n  runs_per_start: 2\n"
+        "  start_mode: launch\n"), encoding="utf-8")
+    res = cptbt("batch", str(mission), "--out", str(folder / "out"), "--workers", "1",
+                "--no-plots", "--quiet")
+    assert res.returncode == 0, res.stderr
+    return folder / "out"
+
+
+def test_the_study_section_is_the_study(study: Path) -> None:
+    rows = load_results(study)
+    meta = json.loads((study / "study.json").read_text())
+    assert len(rows) == 4 and meta["runs_per_start"] == 2 and meta["start_mode"] == "launch"
+    # Starts given in N-E metres, the mission's frame, recorded in the planning frame.
+    assert {r["start"] for r in rows} == {0, 1}
+    xs = sorted({round(r["start_x"], 1) for r in rows})
+    assert xs == sorted({round(x, 1) for x, _ in meta["starts"]}) and len(xs) == 2
+    assert all(r["seed_key"] == f"{meta['root_seed']}/{r['replicate']}/{r['start']}"
+               for r in rows)
+    assert meta["geometry"]["source"] and meta["geometry"]["area"]
+
+
+def test_launch_mode_drives_to_each_start(study: Path) -> None:
+    rows = load_results(study)
+    assert all((r.get("time_move_to_field_s") or 0) > 10 for r in rows), [
+        r.get("time_move_to_field_s") for r in rows]
+
+
+def test_flags_override_the_study_section(tmp_path: Path) -> None:
+    mission = tmp_path / "m.yaml"
+    mission.write_text(planner_only("study:\n  grid: [2, 1]\n  runs_per_start: 3\n"),
+                       encoding="utf-8")
+    res = cptbt("batch", str(mission), "--runs-per-start", "1", "--start-mode", "place",
+                "--time-limit", "20", "--out", str(tmp_path / "o"), "--workers", "1",
+                "--no-plots", "--quiet")
+    assert res.returncode == 0, res.stderr
+    rows = load_results(tmp_path / "o")
+    assert len(rows) == 2 and {r["start_mode"] for r in rows} == {"place"}
+    # Placed at its start, the vehicle has nothing to drive to.
+    assert all((r.get("time_move_to_field_s") or 0) <= 1 for r in rows)
+
+
+def test_a_mission_with_mission_a_needs_amp_only(tmp_path: Path) -> None:
+    res = cptbt("batch", str(ROOT / "missions" / "tro2006_msn007.yaml"), "--out",
+                str(tmp_path / "o"))
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(lines) == 1 and "--amp-only" in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("row", [0, 3])
+def test_a_row_flies_again_bit_for_bit(study: Path, tmp_path: Path, row: int) -> None:
+    res = cptbt("run", "--from", str(study), "--row", str(row), "--out", str(tmp_path / "r"),
+                "--no-figure")
+    assert res.returncode == 0, res.stderr + res.stdout
+    assert "bit for bit" in res.stdout
+    again = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert again["refly"]["same_as_study"] and again["refly"]["differs_in"] == []
+
+
+def test_a_row_flown_with_another_seed_is_reported_different(study: Path, tmp_path: Path
+                                                             ) -> None:
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for name in ("results.parquet", "study.json"):
+        (copy / name).write_bytes((study / name).read_bytes())
+    meta = json.loads((copy / "study.json").read_text())
+    meta["root_seed"] += 1
+    (copy / "study.json").write_text(json.dumps(meta))
+    res = cptbt("run", "--from", str(copy), "--row", "0", "--out", str(tmp_path / "r"),
+                "--no-figure")
+    assert res.returncode == 1 and "DIFFERENT" in res.stdout
+
+
+def test_row_out_of_range_is_one_line(study: Path) -> None:
+    res = cptbt("run", "--from", str(study), "--row", "99")
+    assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
+
+
+def test_a_column_only_later_rows_have_is_kept(tmp_path: Path) -> None:
+    # pyarrow's from_pylist takes its schema from the first row; the store must not lose a
+    # behaviour that only the second vehicle of a group used.
+    from cptbt.batch.store import _Parquet
+
+    rows = [{"start": 0, "time_none_s": 1.0},
+            {"start": 1, "time_none_s": 2.0, "time_reacquire_plume_s": 14.0}]
+    fmt = _Parquet()
+    fmt.write(tmp_path / "t.parquet", rows, {})
+    back, _ = fmt.read(tmp_path / "t.parquet")
+    assert back[1]["time_reacquire_plume_s"] == 14.0 and back[0]["time_reacquire_plume_s"] is None
+
+
+def test_flat_rows_keep_each_behaviour_leaf_and_family_totals() -> None:
+    from cptbt.batch.worker import flatten
+
+    row = flatten({"time_in_behaviour_s": {"maintain_plume.track_in": 40.0,
+                                           "maintain_plume.track_out": 33.0, "none": 1.0}})
+    assert row["time_maintain_plume.track_in_s"] == 40.0
+    assert row["time_maintain_plume_s"] == 73.0 and row["time_none_s"] == 1.0
