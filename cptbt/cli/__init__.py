@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.metadata
+import logging
 import os
 import sys
 from collections.abc import Sequence
@@ -53,12 +54,33 @@ def build_parser() -> argparse.ArgumentParser:
         description="Plan, simulate and study chemical plume tracing missions for an AUV.",
     )
     parser.add_argument("--version", action="version", version=f"cptbt {version()}")
+    parser.add_argument("-v", "--verbose", action="count", default=0,
+                        help="log more: -v what the planner corrected (clock steps, rejected "
+                        "samples), -vv everything")
+    parser.add_argument("-q", "--quiet-log", dest="quiet_log", action="store_true",
+                        help="log errors only")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     inspect_cmds.add_parsers(sub)
     phases_cmd.add_parsers(sub)
     for module in _optional_command_modules():
         module.add_parsers(sub)
     return parser
+
+
+def configure_logging(verbose: int, quiet: bool) -> None:
+    """Log records of cptbt's per-module loggers to stderr, one line each.
+
+    Default: warnings; ``-v``: info; ``-vv``: debug; ``-q``: errors only.
+    """
+    level = logging.ERROR if quiet else (
+        logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
+    logger = logging.getLogger("cptbt")
+    logger.setLevel(level)
+    if not any(getattr(h, "_cptbt", False) for h in logger.handlers):
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("cptbt: %(levelname)s: %(name)s: %(message)s"))
+        handler._cptbt = True  # type: ignore[attr-defined]
+        logger.addHandler(handler)
 
 
 def _optional_command_modules() -> list[Any]:
@@ -75,6 +97,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)  # usage errors exit here, with status 2
+        configure_logging(args.verbose, args.quiet_log)
         return int(args.func(args) or 0)
     except MissionError as exc:
         for line in exc.problems:

@@ -112,3 +112,10 @@ def test_readme_has_the_two_setup_commands_and_ci_runs_the_test_one() -> None:
     assert "cptbt run missions/" in commands[0]
     test_cmd = commands[1].split("&& ", 2)[-1]
     assert test_cmd in (ROOT / ".ci/run").read_text()
+
+
+def test_verbosity_flags_control_the_log() -> None:
+    mission = "missions/tro2006_msn007.yaml"
+    assert "INFO: cptbt.mission" in cptbt("-v", "validate", mission).stderr
+    assert cptbt("validate", mission).stderr == ""
+    assert cptbt("-q", "validate", mission).stderr == ""
