@@ -20,6 +20,7 @@ from cptbt.batch.outcome import Outcome, outcome_of
 from cptbt.batch.recorder import Recorder
 from cptbt.batch.scenario import environment_of, planning_angle
 from cptbt.batch.sim_link import LinkFaults, SimVehicleLink
+from cptbt.batch.summary import where
 from cptbt.mission import MissionBase
 from cptbt.phases import GIVE_BACK_TRIGGERS, PhaseChange
 from cptbt.planner import Planner
@@ -218,24 +219,16 @@ def _record_row(
 def phase_summary(result: PhasedRun, mission: MissionBase) -> dict[str, Any]:
     """The ``phases`` section of summary.json: the timeline and where the hand-overs happened."""
 
-    def where(p: tuple[float, float] | None) -> dict[str, float] | None:
-        if p is None:
-            return None
-        pt = Point(*p)
-        n, e = mission.to_ne(pt)
-        out = {"x": pt.x, "y": pt.y, "north": n, "east": e}
-        geo = mission.to_geodetic(pt)
-        if geo is not None:
-            out |= {"lat": geo.lat_deg, "lon": geo.lon_deg}
-        return out
+    def at(p: tuple[float, float] | None) -> dict[str, float] | None:
+        return where(mission, None if p is None else Point(*p))
 
     return {
         "timeline": [c.to_data() for c in result.timeline],
         "end_phase": result.end_phase,
         "run_time_s": result.t_end,
         "t_amp_start": result.t_amp_start,
-        "break_off": where(result.break_off),
-        "resumed_at": where(result.resumed_at),
+        "break_off": at(result.break_off),
+        "resumed_at": at(result.resumed_at),
         "command_refusals": result.refusals,
         "time_in_phase_s": dict(sorted(result.time_in_phase_s.items())),
     }
