@@ -61,6 +61,9 @@ TRANSITIONS: list[dict[str, Any]] = [
      "doc": "the vehicle is more than 30 m outside the OpArea"},
     {"trigger": "watchdog_timeout", "source": "amp.override", "dest": "amp.give_back",
      "doc": "the vehicle heard no accepted command for watchdog_s and left the override"},
+    {"trigger": "amp_abort", "source": "amp.override", "dest": "amp.give_back",
+     "doc": "the AMP computer stops driving (operator stop, link lost, internal error); "
+            "it sends the release so the vehicle is never left with a stale command"},
     {"trigger": "command_refused", "source": "amp.override", "dest": None,
      "doc": "the vehicle ignored a command beyond its limits (recorded; AMP keeps control)"},
     {"trigger": "vehicle_returning", "source": "amp.give_back", "dest": "return_to_break_off",
@@ -71,7 +74,9 @@ TRANSITIONS: list[dict[str, Any]] = [
      "doc": "the vehicle's own mission ended (last waypoint or its duration limit)"},
 ]
 
-GIVE_BACK_TRIGGERS = ("declared_home", "amp_time_limit", "outside_op_area", "watchdog_timeout")
+GIVE_BACK_TRIGGERS = (
+    "declared_home", "amp_time_limit", "outside_op_area", "watchdog_timeout", "amp_abort",
+)
 
 
 @dataclass(frozen=True, slots=True)

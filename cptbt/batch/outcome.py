@@ -32,6 +32,8 @@ class Outcome(StrEnum):
     """The vehicle heard no accepted command for its watchdog time and took control back."""
     MISSION_ENDED = "mission_ended"
     """The vehicle's own mission ended during the override."""
+    ABORTED = "aborted"
+    """The AMP computer stopped driving and gave back (operator stop, link lost, error)."""
     AMP_NOT_ENABLED = "amp_not_enabled"
     """The run stopped before the AMP took over."""
     AMP_RUNNING = "amp_running"
@@ -44,6 +46,7 @@ _BY_TRIGGER = {
     "amp_time_limit": Outcome.TIMEOUT,
     "outside_op_area": Outcome.RELINQUISHED,
     "watchdog_timeout": Outcome.WATCHDOG,
+    "amp_abort": Outcome.ABORTED,
 }
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -77,8 +78,13 @@ def simulate_phased(
     trace: bool = False,
     max_time_s: float | None = None,
     plume_grid: tuple[Any, Any] | None = None,
+    planner: Planner | None = None,
+    observers: Sequence[Callable[[AmpSession], None]] = (),
 ) -> tuple[PhasedRun, World, float]:
     """Fly a mission with a ``mission_a`` section until post-mission (or ``max_time_s``).
+
+    ``planner`` replaces the default one (e.g. a :class:`cptbt.logs.RecordingPlanner`);
+    each of ``observers`` is called after every session update (e.g. a cycle log).
 
     Returns:
         The run, the world at the end and the wall time spent.
@@ -93,7 +99,7 @@ def simulate_phased(
     source = Point(*params.source_xy_m)
     waypoints = [mission.to_xy(w) for w in spec.waypoints]
     link = SimVehicleLink(world, spec, waypoints, faults)
-    planner = Planner(mission)
+    planner = planner or Planner(mission)
     session = AmpSession(mission, planner, link)
     arrival = mission.evaluation.criterion == "arrival"
     radius = mission.evaluation.success_radius_m
@@ -112,6 +118,8 @@ def simulate_phased(
         phase_before = session.phases.state
         out = link.step()
         session.update()
+        for observe in observers:
+            observe(session)
         t = out.t_s
         tx, ty = float(out.true_xy[0, 0]), float(out.true_xy[0, 1])
         ex, ey = float(out.nav_xy[0, 0]), float(out.nav_xy[0, 1])

@@ -86,10 +86,10 @@ def configure_logging(verbose: int, quiet: bool) -> None:
 def _optional_command_modules() -> list[Any]:
     """Command groups that need the simulator (absent when it cannot be imported)."""
     try:
-        from cptbt.cli import batch_cmd, run_cmd
+        from cptbt.cli import batch_cmd, run_cmd, serve_cmd
     except ImportError:  # the planner alone: validate, tree, behaviours, schema still work
         return []
-    return [run_cmd, batch_cmd]
+    return [run_cmd, batch_cmd, serve_cmd]
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -6,6 +6,7 @@ import argparse
 import hashlib
 import json
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,7 @@ from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
 from cptbt.loader import dump_mission, loads_mission
+from cptbt.logs import CycleLog, LogError
 from cptbt.mission import MissionBase
 from cptbt.registry import default_registry
 from cptbt.types import Point
@@ -41,6 +43,9 @@ def add_parsers(sub: Any) -> None:
                    help="output folder (default: a new runs/<mission>-<digest>-seed<N>)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.add_argument("--no-figure", action="store_true", help="skip trajectory.png")
+    p.add_argument("--log", metavar="FILE.mcap", default=None,
+                   help="write every AMP cycle to an MCAP log (needs cptbt[logs]; missions with "
+                        "a mission_a section)")
     p.set_defaults(func=cmd_run)
 
 
@@ -84,6 +89,15 @@ def _fmt(v: float | None, unit: str = "") -> str:
     return "—" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.1f}{unit}"
 
 
+def _open_log(args: argparse.Namespace, mission: MissionBase, seed: int) -> CycleLog | None:
+    """The cycle log ``--log`` asks for (None without it)."""
+    if not getattr(args, "log", None):
+        return None
+    if mission.mission_a is None:
+        raise LogError("--log records the AMP session: the mission needs a mission_a section")
+    return CycleLog.open(Path(args.log), mission, source=f"cptbt run, seed {seed}")
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Simulate a mission with one vehicle; write summary.json, a trace and trajectory.png.
 
@@ -104,8 +118,20 @@ def cmd_run(args: argparse.Namespace) -> int:
     source = Point(*params.source_xy_m)
     waypoints = None
     grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
+    try:
+        cycle_log = _open_log(args, mission, seed)
+    except LogError as exc:
+        print(f"cptbt: {exc}", file=sys.stderr)
+        return 2
     if mission.mission_a is not None:  # the AMP as a guest inside the vehicle's Mission A
-        phased, world, wall = simulate_phased(mission, params, trace=True, plume_grid=grid)
+        try:
+            phased, world, wall = simulate_phased(
+                mission, params, trace=True, plume_grid=grid,
+                planner=cycle_log.planner if cycle_log else None,
+                observers=[cycle_log] if cycle_log else ())
+        finally:
+            if cycle_log is not None:
+                cycle_log.close()
         run, waypoints = phased.amp, phased.waypoints
         summary = summarise(run, mission, source, seed, wall,
                             t0=phased.t_amp_start or 0.0).to_dict()
@@ -144,7 +170,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})")
         share = ", ".join(f"{k} {v:.0%}" for k, v in s["time_share"].items())
         print(f"  time in behaviours: {share}")
-        print(f"  wrote {out / 'summary.json'}, {trace_path}" + (f", {figure}" if figure else ""))
+        print(f"  wrote {out / 'summary.json'}, {trace_path}" + (f", {figure}" if figure else "")
+              + (f", {args.log}" if args.log else ""))
     return 0
 
 

@@ -1,0 +1,291 @@
+"""The backseat protocol: JSON lines over UDP between the AMP and a vehicle's front-seat computer.
+
+Version 1. Every datagram holds one or more lines; every line is one JSON object with the
+protocol version ``v`` (1), a message ``type`` and the sender's sequence number ``seq`` (an
+integer that grows by one per message). Units are in the field names; positions and headings are
+in the mission's planning frame (metres; degrees from +x toward +y), times on the vehicle's clock.
+The JSON Schema is ``cptbt/bridge/schemas/backseat-v1.schema.json``; the README has the table.
+
+=============  ==========  ===================================================================
+type           direction   fields
+=============  ==========  ===================================================================
+``nav``        vehicle →   ``t_s x_m y_m heading_deg speed_mps`` [``depth_m``] ``mode``
+                           ``waypoints_reached``
+``sample``     vehicle →   ``t_s value`` (one fluorometer sample)
+``flow``       vehicle →   ``t_s vx_mps vy_mps`` (flow over ground)
+``refused``    vehicle →   ``t_s heading_deg speed_mps`` [``depth_m``] ``reason``
+``ended``      vehicle →   ``t_s reason`` (released/watchdog/mission_end) ``break_off_m``
+``take``       → vehicle   (the AMP asks for the override)
+``command``    → vehicle   ``heading_deg speed_mps`` [``depth_m``]
+``give``       → vehicle   (the AMP gives control back)
+``heartbeat``  both        [``t_s``] [``mode``]: "I am alive"; carries no command
+=============  ==========  ===================================================================
+
+A receiver ignores, and counts, every line it cannot use: not JSON, not an object, another
+version, an unknown type, a missing or mistyped field, a non-finite number, a datagram larger
+than :data:`MAX_DATAGRAM` bytes. It never raises on what arrives from the wire. A ``nav`` older
+(by ``seq``) than one already handled is a delayed packet: it is dropped (and counted), so a late
+datagram cannot look like the vehicle's clock stepping back. A ``seq`` that falls back by more
+than :data:`SEQ_RESTART_GAP` is taken as the sender restarting.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections import Counter
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any, get_args
+
+from cptbt.link import (
+    CommandRefused,
+    ConcentrationSample,
+    FlowSample,
+    HeadingSpeedCommand,
+    InMessage,
+    OutMessage,
+    OverrideEnded,
+    OverrideRelease,
+    OverrideRequest,
+    VehicleMode,
+    VehicleState,
+)
+
+VERSION = 1
+"""The protocol version this module speaks."""
+
+MAX_DATAGRAM = 8192
+"""Datagrams larger than this many bytes are ignored (and counted as ``oversized``)."""
+
+SEQ_RESTART_GAP = 1000
+"""A ``seq`` this far below the last one means the sender restarted, not a late packet."""
+
+MODES: tuple[str, ...] = get_args(VehicleMode)
+END_REASONS = ("released", "watchdog", "mission_end")
+
+
+@dataclass(frozen=True, slots=True)
+class Heartbeat:
+    """A sign of life (either direction); the vehicle's carries its clock and mode."""
+
+    t_s: float | None = None
+    mode: str | None = None
+
+
+class ProtocolError(ValueError):
+    """One line that is not a valid message; ``kind`` names the counter it goes to."""
+
+    def __init__(self, kind: str, detail: str) -> None:
+        super().__init__(f"{kind}: {detail}")
+        self.kind = kind
+
+
+# -- encoding ---------------------------------------------------------------------------------
+def _finite(x: float | None) -> float | None:
+    if x is None:
+        return None
+    return float(x) if math.isfinite(x) else None
+
+
+def to_data(msg: InMessage | OutMessage | Heartbeat) -> dict[str, Any]:
+    """A message as a protocol object (without ``v`` and ``seq``)."""
+    if isinstance(msg, VehicleState):
+        return {"type": "nav", "t_s": msg.t_s, "x_m": msg.x_m, "y_m": msg.y_m,
+                "heading_deg": msg.heading_deg, "speed_mps": msg.speed_mps,
+                "depth_m": _finite(msg.depth_m), "mode": msg.mode,
+                "waypoints_reached": msg.waypoints_reached}
+    if isinstance(msg, ConcentrationSample):
+        return {"type": "sample", "t_s": msg.t_s, "value": msg.value}
+    if isinstance(msg, FlowSample):
+        return {"type": "flow", "t_s": msg.t_s, "vx_mps": msg.vx_mps, "vy_mps": msg.vy_mps}
+    if isinstance(msg, CommandRefused):
+        c = msg.command
+        return {"type": "refused", "t_s": msg.t_s, "heading_deg": c.heading_deg,
+                "speed_mps": c.speed_mps, "depth_m": _finite(c.depth_m), "reason": msg.reason}
+    if isinstance(msg, OverrideEnded):
+        return {"type": "ended", "t_s": msg.t_s, "reason": msg.reason,
+                "break_off_m": list(msg.break_off)}
+    if isinstance(msg, HeadingSpeedCommand):
+        return {"type": "command", "heading_deg": msg.heading_deg, "speed_mps": msg.speed_mps,
+                "depth_m": _finite(msg.depth_m)}
+    if isinstance(msg, OverrideRequest):
+        return {"type": "take"}
+    if isinstance(msg, OverrideRelease):
+        return {"type": "give"}
+    if isinstance(msg, Heartbeat):
+        out: dict[str, Any] = {"type": "heartbeat"}
+        if msg.t_s is not None:
+            out["t_s"] = msg.t_s
+        if msg.mode is not None:
+            out["mode"] = msg.mode
+        return out
+    raise TypeError(f"not a protocol message: {msg!r}")
+
+
+def encode(msg: InMessage | OutMessage | Heartbeat, seq: int) -> bytes:
+    """One message as one line (UTF-8, ``\\n``-terminated).
+
+    Non-finite numbers cannot be written in JSON: an optional field becomes null; a required one
+    is an error (the sender must not send it).
+    """
+    data = {"v": VERSION, "seq": seq, **to_data(msg)}
+    return (json.dumps(data, allow_nan=False, separators=(",", ":")) + "\n").encode("utf-8")
+
+
+# -- decoding ---------------------------------------------------------------------------------
+def _reject_constant(name: str) -> Any:
+    raise ProtocolError("malformed", f"non-finite number {name}")
+
+
+def _num(d: dict[str, Any], key: str, optional: bool = False) -> Any:
+    v = d.get(key)
+    if v is None and optional:
+        return None
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise ProtocolError("invalid", f"{d.get('type')}: {key} must be a number")
+    return float(v)
+
+
+def _int(d: dict[str, Any], key: str) -> int:
+    v = d.get(key)
+    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+        raise ProtocolError("invalid", f"{d.get('type')}: {key} must be an integer >= 0")
+    return v
+
+
+def _choice(d: dict[str, Any], key: str, allowed: Sequence[str]) -> str:
+    v = d.get(key)
+    if v not in allowed:
+        raise ProtocolError("invalid", f"{d.get('type')}: {key} must be one of {list(allowed)}")
+    return str(v)
+
+
+def parse_line(line: bytes | str) -> tuple[int, InMessage | OutMessage | Heartbeat]:
+    """One line as ``(seq, message)``.
+
+    Raises:
+        ProtocolError: the line is not a valid version-1 message (``kind`` says why:
+            ``malformed``, ``version``, ``unknown_type`` or ``invalid``).
+    """
+    try:
+        d = json.loads(line, parse_constant=_reject_constant)
+    except ProtocolError:
+        raise
+    except (ValueError, UnicodeDecodeError, RecursionError) as exc:
+        raise ProtocolError("malformed", str(exc)[:80]) from None
+    if not isinstance(d, dict):
+        raise ProtocolError("malformed", "not a JSON object")
+    if d.get("v") != VERSION:
+        raise ProtocolError("version", f"version {d.get('v')!r}, this side speaks {VERSION}")
+    seq = _int(d, "seq")
+    kind = d.get("type")
+    msg: InMessage | OutMessage | Heartbeat
+    if kind == "nav":
+        msg = VehicleState(
+            t_s=_num(d, "t_s"), x_m=_num(d, "x_m"), y_m=_num(d, "y_m"),
+            heading_deg=_num(d, "heading_deg"), speed_mps=_num(d, "speed_mps"),
+            depth_m=_num(d, "depth_m", optional=True),
+            mode=_choice(d, "mode", MODES),  # type: ignore[arg-type]
+            waypoints_reached=_int(d, "waypoints_reached"),
+        )
+    elif kind == "sample":
+        msg = ConcentrationSample(_num(d, "t_s"), _num(d, "value"))
+    elif kind == "flow":
+        msg = FlowSample(_num(d, "t_s"), _num(d, "vx_mps"), _num(d, "vy_mps"))
+    elif kind == "refused":
+        cmd = HeadingSpeedCommand(_num(d, "heading_deg"), _num(d, "speed_mps"),
+                                  _num(d, "depth_m", optional=True))
+        reason = d.get("reason")
+        if not isinstance(reason, str):
+            raise ProtocolError("invalid", "refused: reason must be a string")
+        msg = CommandRefused(_num(d, "t_s"), cmd, reason)
+    elif kind == "ended":
+        b = d.get("break_off_m")
+        if not (isinstance(b, list) and len(b) == 2
+                and all(isinstance(v, int | float) and not isinstance(v, bool) for v in b)):
+            raise ProtocolError("invalid", "ended: break_off_m must be [x, y]")
+        msg = OverrideEnded(_num(d, "t_s"),
+                            _choice(d, "reason", END_REASONS),  # type: ignore[arg-type]
+                            (float(b[0]), float(b[1])))
+    elif kind == "command":
+        msg = HeadingSpeedCommand(_num(d, "heading_deg"), _num(d, "speed_mps"),
+                                  _num(d, "depth_m", optional=True))
+    elif kind == "take":
+        msg = OverrideRequest()
+    elif kind == "give":
+        msg = OverrideRelease()
+    elif kind == "heartbeat":
+        mode = d.get("mode")
+        msg = Heartbeat(_num(d, "t_s", optional=True), mode if isinstance(mode, str) else None)
+    else:
+        raise ProtocolError("unknown_type", f"type {kind!r}")
+    return seq, msg
+
+
+class Decoder:
+    """Datagrams in, messages out, with a count of everything ignored.
+
+    Attributes:
+        counts: ``received`` (datagrams), ``messages``, and one counter per reason a datagram or
+            line was ignored (``oversized``, ``malformed``, ``version``, ``unknown_type``,
+            ``invalid``, ``late``).
+        last_problem: the latest reason text (for logs).
+    """
+
+    def __init__(self) -> None:
+        self.counts: Counter[str] = Counter()
+        self.last_problem = ""
+        self._last_nav_seq: int | None = None
+
+    @property
+    def ignored(self) -> int:
+        """Lines or datagrams ignored, all reasons."""
+        return sum(v for k, v in self.counts.items() if k not in ("received", "messages"))
+
+    def feed(self, datagram: bytes) -> list[InMessage | OutMessage | Heartbeat]:
+        """The messages of one datagram, in order."""
+        self.counts["received"] += 1
+        if len(datagram) > MAX_DATAGRAM:
+            self._problem("oversized", f"{len(datagram)} bytes")
+            return []
+        out: list[InMessage | OutMessage | Heartbeat] = []
+        for line in datagram.splitlines():
+            if not line.strip():
+                continue
+            try:
+                seq, msg = parse_line(line)
+            except ProtocolError as exc:
+                self._problem(exc.kind, str(exc))
+                continue
+            if isinstance(msg, VehicleState) and not self._fresh_nav(seq):
+                self._problem("late", f"nav seq {seq} after {self._last_nav_seq}")
+                continue
+            self.counts["messages"] += 1
+            out.append(msg)
+        return out
+
+    def _fresh_nav(self, seq: int) -> bool:
+        last = self._last_nav_seq
+        if last is not None and last - SEQ_RESTART_GAP < seq <= last:
+            return False
+        self._last_nav_seq = seq
+        return True
+
+    def _problem(self, kind: str, detail: str) -> None:
+        self.counts[kind] += 1
+        self.last_problem = detail
+
+
+def pack(lines: Iterable[bytes], limit: int = MAX_DATAGRAM) -> list[bytes]:
+    """Lines gathered into as few datagrams as fit under ``limit`` bytes each."""
+    out: list[bytes] = []
+    buf = b""
+    for line in lines:
+        if buf and len(buf) + len(line) > limit:
+            out.append(buf)
+            buf = b""
+        buf += line
+    if buf:
+        out.append(buf)
+    return out

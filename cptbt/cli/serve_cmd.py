@@ -1,0 +1,220 @@
+"""``cptbt serve``: fly the AMP on a vehicle over a link; ``cptbt frontseat``: a simulated vehicle
+to serve against (the test double, for trying the loop on one machine)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+from cptbt.batch.frontseat import BackseatCodec, Codec, FrontSeatDouble, WireFaults
+from cptbt.batch.scenario import environment_of
+from cptbt.batch.served import AmpCycles, served_summary
+from cptbt.bridge import LinkURIError, open_link
+from cptbt.bridge.serve import ServeOptions, serve
+from cptbt.cli.inspect_cmds import load
+from cptbt.planner import Planner
+from cptbt.session import AmpSession
+
+EXIT_USAGE = 2
+
+
+def add_parsers(sub: Any) -> None:
+    """Register ``serve`` and ``frontseat``."""
+    p = sub.add_parser("serve", help="fly the AMP on a vehicle over a link",
+                       description=cmd_serve.__doc__)
+    p.add_argument("mission", metavar="MISSION", help="mission YAML file (with mission_a)")
+    p.add_argument("--link", required=True, metavar="URI",
+                   help="backseat:udp:HOST:PORT or mavlink:udp:HOST:PORT (udpin: to listen)")
+    p.add_argument("--clock-scale", type=float, default=1.0, metavar="K",
+                   help="pace K times faster than real time (the vehicle must too)")
+    p.add_argument("--link-timeout", type=float, default=None, metavar="S",
+                   help="give back when nothing is heard for S vehicle seconds "
+                        "(default: mission_a.watchdog_s)")
+    p.add_argument("--connect-timeout", type=float, default=30.0, metavar="S",
+                   help="wall seconds to wait for the vehicle's first message")
+    p.add_argument("--until", choices=("post_mission", "return_to_break_off"),
+                   default="post_mission", help="stop at this phase (default: post_mission)")
+    p.add_argument("--judge", action="store_true",
+                   help="judge the declaration against the mission's environment source "
+                        "(a simulated vehicle only)")
+    p.add_argument("--log", metavar="FILE.mcap", default=None,
+                   help="write every cycle to an MCAP log (needs cptbt[logs])")
+    p.add_argument("--out", metavar="DIR", default=None,
+                   help="output folder (default: a new runs/<mission>-<digest>-seed<N>)")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    p.set_defaults(func=cmd_serve)
+
+    f = sub.add_parser("frontseat", help="a simulated vehicle that speaks a link protocol",
+                       description=cmd_frontseat.__doc__)
+    f.add_argument("mission", metavar="MISSION", help="mission YAML file (mission_a, environment)")
+    f.add_argument("--protocol", choices=("backseat", "mavlink"), default="backseat")
+    f.add_argument("--listen", default="127.0.0.1:14600", metavar="HOST:PORT",
+                   help="where to listen (port 0: any free port; printed on start)")
+    f.add_argument("--clock-scale", type=float, default=1.0, metavar="K",
+                   help="fly K times faster than real time")
+    f.add_argument("--seed", type=int, default=None, help="override the environment seed")
+    f.add_argument("--drop", type=float, default=0.0, metavar="P",
+                   help="lose each datagram, either way, with probability P")
+    f.add_argument("--silent-from", type=float, default=None, metavar="T",
+                   help="cut the link both ways from vehicle time T")
+    f.add_argument("--refuse-above", type=float, default=None, metavar="MPS",
+                   help="refuse commands faster than this")
+    f.add_argument("--report", metavar="FILE", default=None, help="write what it saw as JSON")
+    f.set_defaults(func=cmd_frontseat)
+
+
+def _sigterm_as_interrupt() -> None:
+    def raise_interrupt(signum: int, frame: FrameType | None) -> None:
+        raise KeyboardInterrupt
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, raise_interrupt)
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    """Run the AMP in real time against a vehicle: take control at Mission A's trigger, plan at
+    the mission's rate, give back on declaring home, time limit, OpArea, watchdog, Ctrl-C, link
+    loss or any internal error; then write summary.json like ``cptbt run``."""
+    mission = load(args.mission)
+    if mission.mission_a is None:
+        print(f"cptbt: {args.mission}: serve needs a mission_a section (the vehicle's own "
+              "mission and when the AMP takes over)", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        options = ServeOptions(clock_scale=args.clock_scale, link_timeout_s=args.link_timeout,
+                               connect_timeout_s=args.connect_timeout, until=args.until)
+        link = open_link(args.link)
+    except (LinkURIError, ValueError) as exc:
+        print(f"cptbt: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    source = None
+    if args.judge:
+        env = environment_of(mission)
+        source = mission.to_xy(env.source) if env.source is not None else None
+    planner = Planner(mission)
+    cycles = AmpCycles(mission)
+    observers: list[Any] = [cycles]
+    cycle_log = None
+    if args.log:
+        from cptbt.logs import CycleLog, LogError
+
+        try:
+            cycle_log = CycleLog.open(Path(args.log), mission, source="serve " + args.link)
+        except LogError as exc:
+            print(f"cptbt: {exc}", file=sys.stderr)
+            link.close()
+            return EXIT_USAGE
+        planner = cycle_log.planner
+        observers.append(cycle_log)
+    _sigterm_as_interrupt()
+    if not args.quiet:
+        print(f"{mission.name}: serving on {args.link} at {args.clock_scale:g}x real time; "
+              "Ctrl-C gives control back", flush=True)
+    try:
+        result = serve(mission, link, planner=planner, options=options, observers=observers)
+    finally:
+        link.close()
+        if cycle_log is not None:
+            cycle_log.close()
+    summary = served_summary(result, cycles, mission, source)
+    out = Path(args.out) if args.out else _served_folder(mission.name)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    if not args.quiet:
+        print_summary(summary, result.session)
+        extra = f", {args.log}" if args.log else ""
+        print(f"  wrote {out / 'summary.json'}{extra}")
+    return 0 if result.stop_reason in ("post_mission", "given_back") else 1
+
+
+def _served_folder(name: str, root: Path = Path("runs")) -> Path:
+    """A new ``runs/<mission>-served[-N]`` folder that no earlier run wrote."""
+    out, k = root / f"{name}-served", 1
+    while out.exists():
+        k += 1
+        out = root / f"{name}-served-{k}"
+    return out
+
+
+def _fmt(v: float | None, unit: str = "") -> str:
+    return "—" if v is None or v != v else f"{v:.1f}{unit}"
+
+
+def print_summary(s: dict[str, Any], session: AmpSession) -> None:
+    """The served run's story, as ``cptbt run`` tells it."""
+    link = s["link"]
+    if s["success"] is None:
+        verdict = "not judged: no ground truth"
+    else:
+        verdict = "success" if s["success"] else (
+            "FALSE DECLARATION" if s["false_declaration"] else "no success")
+    print(f"{s['mission']}: {s['outcome']} ({verdict}); stopped: {link['stop_reason']}"
+          + (f" ({link['error']})" if link["error"] else "")
+          + ("; control handed back" if link["handed_back"] else ""))
+    if s["declared_source"]:
+        d = s["declared_source"]
+        print(f"  declared at t3 = {_fmt(s['t3'], ' s')}: source N {d['north']:.1f} m, "
+              f"E {d['east']:.1f} m" + (f"; error {_fmt(s['error_m'], ' m')}"
+                                        if s["error_m"] is not None else ""))
+    print(f"  T_F {_fmt(s['T_F'], ' s')}  T_T {_fmt(s['T_T'], ' s')}  "
+          f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}")
+    for c in s["phases"]["timeline"]:
+        print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})"
+              + (f" {c['detail']}" if c["detail"] else ""))
+    share = ", ".join(f"{k} {v:.0%}" for k, v in s["time_share"].items())
+    print(f"  time in behaviours: {share or '—'}")
+    print(f"  link: {link.get('received', 0)} datagrams in, {link.get('sent', 0)} out, "
+          f"{link.get('ignored', 0)} ignored, {link['heartbeats']} heartbeats; "
+          f"{session.refusals} commands refused")
+
+
+def make_codec(protocol: str) -> Codec:
+    """The vehicle side of a protocol."""
+    if protocol == "backseat":
+        return BackseatCodec()
+    from cptbt.batch.frontseat_mavlink import MavlinkCodec
+
+    return MavlinkCodec()
+
+
+def cmd_frontseat(args: argparse.Namespace) -> int:
+    """A simulated vehicle (the mission's Mission A and environment) that speaks the backseat or
+    MAVLink protocol on a UDP port, for trying ``cptbt serve`` without a vehicle."""
+    from cptbt.batch.scenario import to_sim_params
+
+    mission = load(args.mission, simulate=True)
+    host, _, port = args.listen.rpartition(":")
+    try:
+        codec = make_codec(args.protocol)
+    except ImportError as exc:
+        print(f"cptbt: the mavlink protocol needs pymavlink: pip install 'cptbt[mavlink]' "
+              f"({exc})", file=sys.stderr)
+        return EXIT_USAGE
+    faults = WireFaults(drop_to_amp=args.drop, drop_from_amp=args.drop,
+                        silent_from_s=args.silent_from, silent_both=True,
+                        refuse_speed_above_mps=args.refuse_above)
+    double = FrontSeatDouble(mission, codec, bind=(host or "127.0.0.1", int(port)),
+                             clock_scale=args.clock_scale, faults=faults,
+                             params=to_sim_params(mission, args.seed))
+    h, p = double.address
+    print(f"{mission.name}: simulated vehicle speaking {args.protocol} on {h}:{p} at "
+          f"{args.clock_scale:g}x real time; waiting for the AMP", flush=True)
+    _sigterm_as_interrupt()
+    try:
+        report = double.run(connect_timeout_s=3600.0)
+    except KeyboardInterrupt:
+        report = double.report
+    print(f"vehicle: {report.mode} at t {report.t_end:.1f} s; override ended: "
+          f"{', '.join(report.override_ended) or '—'}; {report.commands_heard} commands heard, "
+          f"{report.refusals} refused", flush=True)
+    if args.report:
+        Path(args.report).write_text(json.dumps(report.to_dict(), indent=2) + "\n",
+                                     encoding="utf-8")
+    return 0
+
