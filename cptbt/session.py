@@ -99,9 +99,10 @@ class AmpSession:
             self.phases.fire("amp_enable", t)
             self.t_amp_start = t
             self._next_tick = t
-        if self.in_override and t + self._period < self._next_tick:
+        if self.in_override and t + self._period < self._next_tick - 1e-6:
             # The vehicle's clock stepped back (a reset or correction): cycle on from now rather
-            # than stay silent until the old schedule comes round again.
+            # than stay silent until the old schedule comes round again. (The tolerance: a
+            # real-time runner updates again at the same vehicle time, which is no step back.)
             log.warning("vehicle clock stepped back to %g s (next cycle was due at %g s): "
                         "cycling on from now", t, self._next_tick)
             self._next_tick = t

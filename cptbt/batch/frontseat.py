@@ -243,7 +243,9 @@ class FrontSeatDouble:
                         stop is not None and stop.is_set()):
                     break
                 due = wall0 + (t - t0) / self.clock_scale
-                self.udp.wait(due - time.monotonic())
+                while (left := due - time.monotonic()) > 0:  # hear the AMP while waiting
+                    if self.udp.wait(left):
+                        self._hear()
         finally:
             self.udp.close()
         return self._finish()

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from cptbt.batch.errors import BatchError
-from cptbt.cli import inspect_cmds, phases_cmd
+from cptbt.cli import inspect_cmds, log_cmds, phases_cmd
 from cptbt.cli.argtypes import UsageError
 from cptbt.loader import MissionError
 from cptbt.registry import RegistryError
@@ -62,6 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     inspect_cmds.add_parsers(sub)
     phases_cmd.add_parsers(sub)
+    log_cmds.add_parsers(sub)
     for module in _optional_command_modules():
         module.add_parsers(sub)
     return parser

@@ -1,0 +1,65 @@
+"""``cptbt log summary LOG`` and ``cptbt replay LOG [--mission OTHER.yaml]``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from cptbt.cli.inspect_cmds import load
+from cptbt.logs import LogError, read_log
+from cptbt.replay import replay, story
+
+EXIT_USAGE = 2
+
+
+def add_parsers(sub: Any) -> None:
+    """Register ``log`` (with ``summary``) and ``replay``."""
+    p = sub.add_parser("log", help="read a cycle log (MCAP)", description="Read a cycle log.")
+    logsub = p.add_subparsers(dest="log_command", required=True, metavar="ACTION")
+    s = logsub.add_parser("summary", help="the mission's story from a log",
+                          description=cmd_log_summary.__doc__)
+    s.add_argument("log", metavar="LOG", help="an MCAP cycle log (cptbt run/serve --log)")
+    s.set_defaults(func=cmd_log_summary)
+
+    r = sub.add_parser("replay", help="re-run a planner on a log's recorded inputs",
+                       description=cmd_replay.__doc__)
+    r.add_argument("log", metavar="LOG", help="an MCAP cycle log")
+    r.add_argument("--mission", metavar="OTHER.yaml", default=None,
+                   help="replay with this mission (e.g. another variant); default: the log's")
+    r.set_defaults(func=cmd_replay)
+
+
+def cmd_log_summary(args: argparse.Namespace) -> int:
+    """Print a log's mission story: phases, behaviour changes, first detection, declaration."""
+    try:
+        data = read_log(args.log)
+    except LogError as exc:
+        print(f"cptbt: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    print("\n".join(story(data)))
+    return 0
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    """Feed a log's recorded planner inputs to a planner and compare its commands with the log's:
+    bit for bit for the logged mission; with another mission, where they first diverge. Exits 1
+    if the logged mission itself does not replay identically."""
+    try:
+        data = read_log(args.log)
+    except LogError as exc:
+        print(f"cptbt: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    other = load(args.mission) if args.mission else None
+    rep = replay(data, other)
+    with_ = f" with {args.mission}" if args.mission else " with the logged mission"
+    print(f"replayed {rep.cycles} cycles of {args.log}{with_} ({rep.mission})")
+    if rep.divergence is None:
+        print("  identical: every command, active behaviour and declaration, bit for bit")
+        return 0
+    d = rep.divergence
+    print(f"  first divergence at cycle {d.seq} (t {d.t:.1f} s): {d.field} logged "
+          f"{d.recorded!r}, replayed {d.replayed!r}")
+    print(f"  {rep.commands_differing} of {rep.cycles} commands differ (open loop: after the "
+          "first divergence the logged poses are the logged planner's)")
+    return 0 if args.mission else 1

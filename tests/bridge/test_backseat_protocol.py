@@ -1,0 +1,136 @@
+"""The backseat protocol: every message round-trips, matches the JSON Schema, and nothing that
+arrives from the wire can raise."""
+
+from __future__ import annotations
+
+import json
+from importlib import resources
+
+import jsonschema
+import pytest
+
+from cptbt.bridge import LinkURIError, parse_uri
+from cptbt.bridge.backseat import MAX_DATAGRAM, Decoder, Heartbeat, encode, pack, parse_line
+from cptbt.link import (
+    CommandRefused,
+    ConcentrationSample,
+    FlowSample,
+    HeadingSpeedCommand,
+    OverrideEnded,
+    OverrideRelease,
+    OverrideRequest,
+    VehicleState,
+)
+
+MESSAGES = [
+    VehicleState(12.5, 1.0, -2.0, 45.0, 1.5, 3.0, "override", 2),
+    VehicleState(0.1, 0.0, 0.0, -170.0, 0.0, None, "pre_launch", 0),
+    ConcentrationSample(12.6, 0.31),
+    FlowSample(14.0, 0.07, -0.05),
+    CommandRefused(15.0, HeadingSpeedCommand(10.0, 3.5, 2.0), "speed 3.5 m/s outside"),
+    OverrideEnded(16.0, "watchdog", (3.0, 4.0)),
+    HeadingSpeedCommand(-120.0, 1.5, None),
+    HeadingSpeedCommand(30.0, 1.5, 3.0),
+    OverrideRequest(),
+    OverrideRelease(),
+    Heartbeat(),
+    Heartbeat(20.0, "mission"),
+]
+
+
+@pytest.fixture(scope="module")
+def validator() -> jsonschema.Draft7Validator:
+    text = resources.files("cptbt.bridge").joinpath("schemas/backseat-v1.schema.json")
+    schema = json.loads(text.read_text(encoding="utf-8"))
+    jsonschema.Draft7Validator.check_schema(schema)
+    return jsonschema.Draft7Validator(schema)
+
+
+@pytest.mark.parametrize("msg", MESSAGES, ids=lambda m: type(m).__name__)
+def test_every_message_round_trips_and_matches_the_schema(msg: object, validator) -> None:
+    line = encode(msg, 7)  # type: ignore[arg-type]
+    assert line.endswith(b"\n") and line.count(b"\n") == 1
+    validator.validate(json.loads(line))
+    seq, back = parse_line(line)
+    assert seq == 7 and back == msg
+
+
+@pytest.mark.parametrize("line", [
+    b'{"v":1,"seq":1,"type":"nav","t_s":1}',                      # fields missing
+    b'{"v":1,"seq":1,"type":"command","heading_deg":"north","speed_mps":1}',
+    b'{"v":1,"seq":-1,"type":"take"}',
+    b'{"v":1,"type":"take"}',
+    b'{"v":1,"seq":1,"type":"teleport"}',
+    b'{"v":1,"seq":1,"type":"nav","t_s":1,"x_m":0,"y_m":0,"heading_deg":0,"speed_mps":1,'
+    b'"mode":"flying","waypoints_reached":0}',
+])
+def test_the_schema_and_the_parser_reject_the_same_lines(line: bytes, validator) -> None:
+    assert not validator.is_valid(json.loads(line))
+    decoder = Decoder()
+    assert decoder.feed(line) == [] and decoder.ignored == 1
+
+
+@pytest.mark.parametrize("junk, kind", [
+    (b"{not json", "malformed"),
+    (b"\xff\xfe\x00", "malformed"),
+    (b"[1, 2]", "malformed"),
+    (b'{"v":1,"seq":1,"type":"sample","t_s":NaN,"value":1}', "malformed"),
+    (b'{"v":1,"seq":1,"type":"sample","t_s":1,"value":Infinity}', "malformed"),
+    (b"[" * 100000, "oversized"),
+    (b'{"v":2,"seq":1,"type":"take"}', "version"),
+    (b'{"v":1,"seq":1,"type":"hello"}', "unknown_type"),
+    (b'{"v":1,"seq":1,"type":"flow","t_s":1,"vx_mps":true,"vy_mps":0}', "invalid"),
+    (b'{"v":1,"seq":1,"type":"ended","t_s":1,"reason":"released","break_off_m":[1]}', "invalid"),
+])
+def test_junk_is_ignored_and_counted_never_raised(junk: bytes, kind: str) -> None:
+    decoder = Decoder()
+    good = encode(ConcentrationSample(1.0, 0.5), 1)
+    msgs = decoder.feed(junk if kind == "oversized" else junk + b"\n" + good)
+    assert decoder.counts[kind] == 1
+    assert msgs == ([] if kind == "oversized" else [ConcentrationSample(1.0, 0.5)])
+
+
+def test_datagrams_at_the_size_limit_are_read_and_one_byte_over_is_not() -> None:
+    line = encode(ConcentrationSample(1.0, 0.5), 1)
+    pad = b" " * (MAX_DATAGRAM - len(line))
+    assert len(Decoder().feed(pad + line)) == 1
+    d = Decoder()
+    assert d.feed(b" " + pad + line) == [] and d.counts["oversized"] == 1
+
+
+def test_a_late_nav_is_dropped_and_a_restarted_sender_is_heard() -> None:
+    d = Decoder()
+    nav = VehicleState(10.0, 0, 0, 0, 1)
+    assert d.feed(encode(nav, 50)) == [nav]
+    assert d.feed(encode(VehicleState(9.0, 0, 0, 0, 1), 49)) == []  # delayed datagram
+    assert d.counts["late"] == 1
+    assert d.feed(encode(ConcentrationSample(9.0, 1.0), 48)) != []  # late samples are fine
+    restarted = VehicleState(0.1, 0, 0, 0, 1)
+    d.feed(encode(nav, 5000))
+    assert d.feed(encode(restarted, 1)) == [restarted]
+
+
+def test_pack_keeps_lines_whole_and_under_the_limit() -> None:
+    lines = [encode(ConcentrationSample(float(i), 0.5), i) for i in range(500)]
+    datagrams = pack(lines)
+    assert len(datagrams) > 1 and all(len(d) <= MAX_DATAGRAM for d in datagrams)
+    assert b"".join(datagrams) == b"".join(lines)
+
+
+def test_non_finite_required_fields_cannot_be_sent() -> None:
+    with pytest.raises(ValueError):
+        encode(ConcentrationSample(float("nan"), 1.0), 1)
+    assert b'"depth_m":null' in encode(HeadingSpeedCommand(1.0, 1.0, float("nan")), 1)
+
+
+@pytest.mark.parametrize("uri", ["backseat:udp:127.0.0.1", "serial:udp:h:1", "backseat:tcp:h:1",
+                                 "backseat:udp:h:port", "backseat:udp:h:70000",
+                                 "backseat:udp::1"])
+def test_bad_uris_say_why(uri: str) -> None:
+    with pytest.raises(LinkURIError, match="link"):
+        parse_uri(uri)
+
+
+def test_a_good_uri() -> None:
+    u = parse_uri("mavlink:udpin:0.0.0.0:14550")
+    assert (u.protocol, u.transport, u.host, u.port) == ("mavlink", "udpin", "0.0.0.0", 14550)
