@@ -1,0 +1,97 @@
+"""MCAP cycle logs: written by a simulated run, read by the mcap reader, replayed bit for bit."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+from wire_doubles import MISSIONS
+
+from cptbt.batch.phased import simulate_phased
+from cptbt.batch.scenario import to_sim_params
+from cptbt.loader import loads_mission
+from cptbt.logs import CycleLog, LogError, read_log
+from cptbt.mission import MissionBase
+from cptbt.replay import replay, story
+
+
+@pytest.fixture(scope="module")
+def logged(msn007: MissionBase, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("log") / "msn007.mcap"
+    log = CycleLog.open(path, msn007, source="test")
+    try:
+        simulate_phased(msn007, to_sim_params(msn007), planner=log.planner, observers=[log])
+    finally:
+        log.close()
+    return path
+
+
+def test_the_log_opens_with_the_mcap_reader_with_json_schemas(logged: Path) -> None:
+    with logged.open("rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        assert summary is not None
+        topics = {c.topic: c for c in summary.channels.values()}
+        assert set(topics) == {"/cptbt/mission", "/cptbt/cycle", "/cptbt/phase"}
+        for ch in topics.values():
+            assert ch.message_encoding == "json"
+            assert summary.schemas[ch.schema_id].encoding == "jsonschema"
+        first = next(m for _, c, m in reader.iter_messages(topics=["/cptbt/cycle"]))
+    cycle = json.loads(first.data)
+    assert cycle["phase"] == "amp.override" and cycle["active"] == "move_to_field.go_to"
+    assert {e[0] for e in cycle["inputs"]} == {"f", "p"}  # flow from Mission A, then the pose
+
+
+def test_every_cycle_and_phase_change_is_logged(logged: Path) -> None:
+    data = read_log(logged)
+    assert data.mission["name"] == "tro2006_msn007"
+    assert len(data.cycles) > 800 and [c["seq"] for c in data.cycles] == list(
+        range(len(data.cycles)))
+    assert [p["trigger"] for p in data.phases][:3] == ["launch", "amp_enable", "declared_home"]
+    assert data.cycles[-1]["declared_source"] is not None and data.cycles[-1]["done"]
+    assert "mission_done" in data.cycles[-1]["blackboard"]
+
+
+def test_the_same_mission_replays_bit_for_bit(logged: Path) -> None:
+    rep = replay(logged)
+    assert rep.identical and rep.commands_differing == 0 and rep.cycles > 800
+
+
+def test_another_variant_diverges_and_the_report_says_where(logged: Path) -> None:
+    text = (MISSIONS / "tro2006_msn007.yaml").read_text(encoding="utf-8")
+    old = "reacquire_plume: {variant: cloverleaf, d_leaf_m: 15, repeats: 3}"
+    assert old in text
+    three_point = loads_mission(text.replace(old, "reacquire_plume: {variant: three_point}"))
+    rep = replay(logged, three_point)
+    assert rep.divergence is not None
+    d = rep.divergence
+    data = read_log(logged)
+    assert data.cycles[d.seq]["active"].startswith("reacquire_plume")
+    assert all(c["active"] is None or not c["active"].startswith("reacquire_plume")
+               for c in data.cycles[: d.seq])  # the first reacquire is the first difference
+    assert 0 < rep.commands_differing < rep.cycles
+
+
+def test_a_tampered_input_breaks_the_replay_at_that_cycle(logged: Path) -> None:
+    data = read_log(logged)
+    k = 150
+    pose = next(e for e in data.cycles[k]["inputs"] if e[0] == "p")
+    pose[1] += 1e-9
+    rep = replay(data)
+    assert rep.divergence is not None and rep.divergence.seq >= k
+
+
+def test_the_story_tells_the_phases_and_the_declaration(logged: Path) -> None:
+    text = "\n".join(story(read_log(logged)))
+    assert "amp_enable" in text and "first detection" in text and "source declared" in text
+
+
+def test_a_file_that_is_not_a_log_is_one_error(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(b"not an mcap file")
+    with pytest.raises(LogError, match=r"bad\.mcap"):
+        read_log(bad)
+    with pytest.raises(LogError):
+        read_log(tmp_path / "missing.mcap")
