@@ -11,10 +11,15 @@ from wire_doubles import MISSIONS
 
 from cptbt.batch.phased import simulate_phased
 from cptbt.batch.scenario import to_sim_params
-from cptbt.loader import loads_mission
+from cptbt.loader import load_mission, loads_mission
 from cptbt.logs import CycleLog, LogError, read_log
 from cptbt.mission import MissionBase
 from cptbt.replay import replay, story
+
+
+@pytest.fixture(scope="module")
+def msn007() -> MissionBase:
+    return load_mission(MISSIONS / "tro2006_msn007.yaml")
 
 
 @pytest.fixture(scope="module")

@@ -3,15 +3,21 @@
 from __future__ import annotations
 
 import pytest
-from wire_doubles import CLOCK_SCALE, double_running
+from wire_doubles import CLOCK_SCALE, MISSIONS, double_running
 
 from cptbt.batch.frontseat import BackseatCodec, WireFaults
 from cptbt.batch.scenario import environment_of
 from cptbt.batch.served import AmpCycles, served_summary
 from cptbt.bridge import open_link
 from cptbt.bridge.serve import ServeOptions, ServeResult, serve
+from cptbt.loader import load_mission
 from cptbt.mission import MissionBase
 from cptbt.session import AmpSession
+
+
+@pytest.fixture(scope="module")
+def msn007() -> MissionBase:
+    return load_mission(MISSIONS / "tro2006_msn007.yaml")
 
 
 def _serve(mission: MissionBase, address: tuple[str, int], **kw) -> ServeResult:
