@@ -18,7 +18,7 @@ def _cptbt(*args: str) -> list[str]:
 
 def test_serve_against_the_frontseat_process_then_replay_the_log(tmp_path: Path) -> None:
     vehicle = subprocess.Popen(
-        _cptbt("frontseat", MSN007, "--listen", "127.0.0.1:0", "--clock-scale", "100",
+        _cptbt("frontseat", MSN007, "--listen", "127.0.0.1:0", "--clock-scale", "50",
                "--report", str(tmp_path / "vehicle.json")),
         stdout=subprocess.PIPE, text=True)
     try:
@@ -28,7 +28,7 @@ def test_serve_against_the_frontseat_process_then_replay_the_log(tmp_path: Path)
         log = tmp_path / "served.mcap"
         served = subprocess.run(
             _cptbt("serve", MSN007, "--link", f"backseat:udp:127.0.0.1:{port}",
-                   "--clock-scale", "100", "--judge", "--log", str(log),
+                   "--clock-scale", "50", "--judge", "--log", str(log),
                    "--out", str(tmp_path / "run")),
             capture_output=True, text=True, timeout=120)
         vehicle.wait(timeout=30)
