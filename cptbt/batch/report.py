@@ -14,20 +14,19 @@ import numpy as np
 from cptbt.batch.figures import pyplot
 
 Rows = list[dict[str, Any]]
-META = {"config", "replicate", "start"}
 
 
-def _config_label(row: dict[str, Any], sweep_cols: list[str]) -> str:
-    if not sweep_cols:
-        return str(row.get("mission", "study"))
-    return ", ".join(f"{c.split('.')[-1]}={row.get(c)}" for c in sweep_cols)
+def config_label(coords: dict[str, Any], mission: str) -> str:
+    """The name of a configuration in tables and legends: its sweep values, else the mission."""
+    if not coords:
+        return mission
+    return ", ".join(f"{path.split('.')[-1]}={value}" for path, value in coords.items())
 
 
-def _sweep_columns(rows: Rows) -> list[str]:
-    first = rows[0]
-    cols = list(first)
-    end = cols.index("replicate") if "replicate" in cols else 0
-    return [c for c in cols[:end] if c not in META]
+def _config_label(row: dict[str, Any]) -> str:
+    """A row's configuration: its ``configuration`` column (written by every study)."""
+    label = row.get("configuration")
+    return str(label) if label else str(row.get("mission", "study"))
 
 
 def _time_to_source(row: dict[str, Any]) -> float:
@@ -97,10 +96,9 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None) -
         return []
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    sweep_cols = _sweep_columns(rows)
     groups: dict[str, Rows] = defaultdict(list)
     for r in rows:
-        groups[_config_label(r, sweep_cols)].append(r)
+        groups[_config_label(r)].append(r)
     written: list[Path | None] = [_tables(groups, out / "tables.md")]
     plt = pyplot()
     written.append(_map(groups, out / "time_to_source_map.png", plt, geometry))

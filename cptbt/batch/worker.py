@@ -13,6 +13,7 @@ from typing import Any
 from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.integrity import code_identity
+from cptbt.batch.report import config_label
 from cptbt.batch.scenario import Environment, launch_pose, planning_angle, to_sim_params
 from cptbt.batch.study import GroupTask, group_seeds
 from cptbt.batch.summary import summarise
@@ -144,5 +145,6 @@ def row_of(task: GroupTask, k: int, run: VehicleRun, mission: MissionBase, sourc
     row.update(flatten(summarise(run, mission, source, task.root_seed, wall_s).to_dict()))
     x, y = task.starts[k]
     row.update({"start_x": x, "start_y": y, "start_mode": task.start_mode,
-                "seed_key": f"{task.root_seed}/{task.replicate}/{i}"})
+                "seed_key": f"{task.root_seed}/{task.replicate}/{i}",
+                "configuration": config_label(task.coords, mission.name)})
     return row

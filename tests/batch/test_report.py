@@ -37,7 +37,7 @@ def grid_rows(configs: int = 2) -> list[dict[str, Any]]:
                              "false_declaration": not ok and r == 1,
                              "t3": 100.0 + 10 * k if ok else None,
                              "error_m": 3.0 if ok else (40.0 if r == 1 else None)})
-    return [{"variant": r.pop("variant"), **r} for r in rows]
+    return [{"configuration": f"variant={r.pop('variant')}", **r} for r in rows]
 
 
 @pytest.mark.parametrize(("k", "n", "lo", "hi"), [(2, 3, 0.2077, 0.9385), (0, 10, 0.0, 0.2775),
