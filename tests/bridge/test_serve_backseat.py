@@ -49,7 +49,9 @@ def test_msn007_flies_over_the_wire_take_declare_give_back(msn007: MissionBase) 
     assert env.source is not None
     s = served_summary(result, cycles, msn007, msn007.to_xy(env.source))
     assert s["outcome"] == "declared" and s["success"] and s["error_m"] < 15
-    assert s["t0"] == 240.0 and s["t1"] is not None and s["t3"] > s["t1"]
+    # The take-over is seen with the first report at or after 240 s; over a real-time link that
+    # report may come a vehicle step or a sensor sample later.
+    assert 240.0 <= s["t0"] <= 241.0 and s["t1"] is not None and s["t3"] > s["t1"]
     assert s["phases"]["end_phase"] == "post_mission" and s["link"]["ignored"] == 0
 
 
