@@ -1,137 +1,277 @@
 """Find-plume: billiard-ball search of the OpArea (SPEC §4; TRO IV-A, AB appendix, OMAE).
 
-Both variants head at a fixed offset from the flow direction, ``flow_dir ± offset``, and reflect
-off the OpArea walls: leaving through a y wall turns the cross-flow component back inside;
-leaving through an x wall picks the offset that points the along-flow component back inside
-(the small, down-flow offset after the up-flow wall; the large, up-flow offset after the
-down-flow wall). They differ in their offsets and in how they start.
+Both variants head at a fixed offset from a reference direction, ``theta = ref + s·offset``, and
+reflect off the OpArea walls: leaving through a cross-flow side turns the cross-flow component
+back inside (s flips); leaving through the up-flow or the down-flow end picks the offset that
+turns the along-flow component back inside (the small, down-flow offset after the up-flow end;
+the large, up-flow offset after the down-flow end). They differ in their offsets and in how they
+start. The papers' reference is the flow direction, drawn along the OpArea's x axis.
+
+**(clarified) Any OpArea, any flow.** The papers' geometry — flow along x, so that the y walls
+are the cross-flow sides and the x walls the up-flow and down-flow ends — rarely holds: real
+currents cross survey boxes at any angle and turn during a mission (TRO MSN009 → MSN010
+reversed). Every term is therefore defined from the OpArea's projection on the reference
+direction ``u`` and its normal ``n`` (``ref + 90°``), which holds for any angle:
+
+- **Reference** (parameter ``reference``). ``oparea_axis`` (default): the OpArea axis the
+  current flow projects on most — the outward normal of the wall that faces down-flow — kept
+  until the flow is more than ``45° + axis_hysteresis_deg`` from it, so a flow estimate
+  wandering about a diagonal does not swap the pattern back and forth. With the flow along ±x
+  the reference *is* flow_dir and the pattern is the papers'; with the flow along ±y it is the
+  papers' pattern turned 90°. ``flow``: the flow estimate itself (the letter of TRO IV-A).
+  Why the default is not the letter: with the legs laid off an oblique flow, the two legs of a
+  sweep are no longer mirror images across the walls they bounce between, and the billiard
+  locks into a short periodic path (measured by ``benchmarks/any_flow.py --reference flow``
+  and by the kinematic tests: a loop of four legs at 60°, 135° and 240°, about 70% of the TRO
+  OpArea ever swept). Laid off an OpArea axis, each sweep is a mirror zigzag and the pattern
+  is a rotation of the papers' one, which sweeps the whole OpArea whatever the flow; the legs
+  still cross the flow within 45° of the papers' angles, and track-in, track-out and the
+  reacquire patterns use the true flow.
+- **Side and ends.** s is the cross-flow side to head for: ``s = +1`` moves toward ``+n``;
+  ``eta`` of SPEC §4a is ``(centre - p)·n``. A wall exit at point p is classified by where p
+  lies in the OpArea's projection, normalised by its half-extents:
+  ``u' = (p - centre)·u / half_extent_u`` and ``v'`` likewise along n. ``|v'| > |u'|`` is a
+  cross-flow side (s becomes ``sign(eta)``: head for the other side); otherwise the down-flow
+  end (``u' > 0``) or the up-flow end. With the reference along an OpArea axis this is exactly
+  "which wall", as TRO and AB write it: beyond a y wall ``|v'| > 1 >= |u'|``, beyond an x wall
+  ``|u'| > 1 >= |v'|``. With ``reference: flow`` and an oblique flow a wall can be part side,
+  part end.
+- **Never back out through the wall just left.** The wall crossed is known by its outward
+  normal w (both normals, beyond a corner). A heading that already points back in through
+  every wall crossed is kept (the vehicle is still turning back). Otherwise the papers' change
+  above is made; if that heading would still leave through a wall crossed (only possible with
+  ``reference: flow`` and an oblique flow, or in a corner), the other half of the state is set
+  from w instead — s to move away from the wall (``-sign(w·n)``), or the offset whose along-flow
+  motion moves away from it (the up-flow offset if ``w·u > 0``) — and failing both, both. The
+  last choice always points inward (``heading·w < 0``), so no heading chosen at an exit drives
+  back out through the wall just left.
+- **Safety's report.** When safety has taken over at the boundary it reports the walls
+  (blackboard ``oparea_exit``, a :class:`~cptbt.frames.WallExit`); find-plume treats the report
+  as one more exit through those walls at the point safety took over, applied if its own
+  heading would drive back out through them, so its next leg leaves that wall.
 """
 
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from typing import ClassVar, Literal
 
+from py_trees.common import Access
 from pydantic import Field
 
-from cptbt.angles import sign
-from cptbt.frames import OpArea
+from cptbt.angles import sign, unit, wrap_deg
+from cptbt.frames import Normal, OpArea, WallExit
 from cptbt.node import BehaviourParams, PlanBehaviour
 from cptbt.registry import BehaviourSpec
-from cptbt.types import Command, FlowEstimate, Percept
+from cptbt.types import Command, Percept, Point
+
+Reference = Literal["oparea_axis", "flow"]
 
 
-class BilliardParams(BehaviourParams):
+class BilliardBaseParams(BehaviourParams):
+    """What both billiards measure their offsets from (module docstring, "Reference")."""
+
+    reference: Reference = Field(
+        default="oparea_axis",
+        description="Direction the offsets are measured from: 'oparea_axis' = the OpArea axis "
+        "the flow projects on most (sweeps any OpArea in any flow); 'flow' = the flow estimate "
+        "(TRO's letter; can lock into a short loop when the flow is oblique to the OpArea)",
+    )
+    axis_hysteresis_deg: float = Field(
+        default=10.0,
+        ge=0,
+        lt=45,
+        description="'oparea_axis' only: keep the axis until the flow is more than 45° plus "
+        "this from it, deg",
+    )
+
+
+class BilliardParams(BilliardBaseParams):
     """Parameters of the TRO billiard find-plume (TRO Table I)."""
 
     dtheta_up_deg: float = Field(
         default=125.0,
         gt=90,
         lt=180,
-        description="Offset from flow_dir after leaving the down-flow x wall (heads up-flow), deg",
+        description="Offset from the reference after leaving the down-flow end (heads up-flow), "
+        "deg",
     )
     dtheta_down_deg: float = Field(
         default=60.0,
         gt=0,
         lt=90,
-        description="Offset from flow_dir after leaving the up-flow x wall (heads down-flow), deg",
+        description="Offset from the reference after leaving the up-flow end (heads down-flow), "
+        "deg",
     )
 
 
-class AppendixBilliardParams(BehaviourParams):
+class AppendixBilliardParams(BilliardBaseParams):
     """Parameters of the AB-appendix billiard find-plume."""
 
     initial_offset_deg: float = Field(
-        default=70.0, gt=0, lt=180, description="|theta_0|: offset from flow_dir at start, deg"
+        default=70.0, gt=0, lt=180, description="|theta_0|: offset from the reference at start, deg"
     )
     offset_after_upflow_deg: float = Field(
         default=70.0,
         gt=0,
         lt=90,
-        description="|theta| after leaving through the up-flow x wall (heads down-flow), deg",
+        description="|theta| after leaving through the up-flow end (heads down-flow), deg",
     )
     offset_after_downflow_deg: float = Field(
         default=110.0,
         gt=90,
         lt=180,
-        description="|theta| after leaving through the down-flow x wall (heads up-flow), deg",
+        description="|theta| after leaving through the down-flow end (heads up-flow), deg",
     )
 
 
 class _Billiard(PlanBehaviour):
-    """Shared bounce mechanics; subclasses give the offsets.
+    """Shared bounce mechanics; subclasses give the offsets and the start.
 
-    State (kept across pre-emption on purpose, see ``persistent_state``): the cross-flow side to
-    head for (``+1`` toward +y), the offset magnitude, and the contact count at the last
-    (re)start. A reflection sets the state from which wall the vehicle is beyond, not by
-    toggling it, so ticks spent beyond a wall repeat the same reflection: one excursion can
-    never flip the heading back and forth.
+    State (kept across pre-emption on purpose, see ``persistent_state``): the cross-flow side s
+    to head for (``+1`` toward ``ref + 90°``), the offset magnitude, the contact count at the
+    last (re)start, the last safety report seen and the OpArea axis in use. A reflection sets
+    the state from where the vehicle is beyond the walls, not by toggling it, and is skipped
+    while the heading already points back in, so ticks spent beyond a wall repeat the same
+    reflection: one excursion can never flip the heading back and forth.
     """
 
-    persistent_state: ClassVar[tuple[str, ...]] = ("toward_y", "offset_deg", "started_at_contact")
+    persistent_state: ClassVar[tuple[str, ...]] = (
+        "side",
+        "offset_deg",
+        "started_at_contact",
+        "exit_seen_t",
+        "axis_deg",
+    )
+    params: BilliardBaseParams
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
         super().__init__(params, **kwargs)
-        self.toward_y = 1
+        self.bb.register_key("oparea_exit", access=Access.READ)
+        self.side = 1
         self.offset_deg = math.nan
         self.started_at_contact: int | None = None
+        self.exit_seen_t: float | None = None
+        self.axis_deg: float | None = None
 
-    def start_offset_deg(self, x: float, area: OpArea, flow: FlowEstimate) -> float:
-        """The offset magnitude on (re)start."""
+    def start_state(self, here: Point, area: OpArea, ref_deg: float) -> tuple[int, float]:
+        """The side s and the offset magnitude on (re)start."""
         raise NotImplementedError
 
-    def offset_after_x_exit_deg(self, upflow_wall: bool) -> float:
-        """The offset magnitude after leaving through the up-flow or the down-flow x wall."""
+    def offset_after_end_deg(self, upflow_end: bool) -> float:
+        """The offset magnitude after leaving through the up-flow or the down-flow end."""
         raise NotImplementedError
+
+    def reference_deg(self, flow_dir: float) -> float:
+        """The direction the offsets are measured from, for the current flow estimate."""
+        if self.params.reference == "flow":
+            return flow_dir
+        limit = 45.0 + self.params.axis_hysteresis_deg
+        if self.axis_deg is None or abs(wrap_deg(flow_dir - self.axis_deg)) > limit:
+            # The nearest axis; an exact diagonal goes to the x axis (listed first).
+            axes = (0.0, 180.0, 90.0, -90.0)
+            self.axis_deg = min(axes, key=lambda a: abs(wrap_deg(flow_dir - a)))
+        return self.axis_deg
 
     def decide(self, p: Percept) -> Command | None:
-        """Reflect off the walls; head ``flow_dir ± offset`` toward the chosen cross-flow side."""
+        """Reflect off the walls; head ``ref + s*offset``."""
         assert self.context is not None
         if not self.bb.field_reached or p.flow is None:
             return None
         area = self.context.op_area
-        x, y = p.pose.x, p.pose.y
+        ref = self.reference_deg(p.flow.toward_deg)
+        here = p.pose.point
         if self.started_at_contact != p.contact_count:
             # (Re)start: first activation, or find-plume again after a plume contact.
             self.started_at_contact = p.contact_count
-            self.toward_y = sign(area.centre.y - y)
-            self.offset_deg = self.start_offset_deg(x, area, p.flow)
+            self.side, self.offset_deg = self.start_state(here, area, ref)
         else:
-            if y < area.ymin or y > area.ymax:
-                self.toward_y = sign(area.centre.y - y)
-            if x < area.xmin or x > area.xmax:
-                upflow_wall = (x < area.xmin) == (sign(p.flow.vx) > 0)
-                self.offset_deg = self.offset_after_x_exit_deg(upflow_wall)
-        return self.command(self._heading(p.flow.toward_deg))
+            walls = area.walls_beyond(here.x, here.y)
+            if walls:
+                self.leave(here, walls, area, ref)
+        report = self.bb.get("oparea_exit") if self.bb.exists("oparea_exit") else None
+        if isinstance(report, WallExit) and report.t != self.exit_seen_t:
+            self.exit_seen_t = report.t
+            if report.normals:
+                self.leave(report.point, report.normals, area, ref)
+        return self.command(ref + self.side * self.offset_deg)
 
-    def _heading(self, flow_dir: float) -> float:
-        """``flow_dir + s*offset`` with s making the cross-flow (y) motion go ``toward_y``."""
-        plus = flow_dir + self.offset_deg
-        minus = flow_dir - self.offset_deg
-        toward = self.toward_y
-        if toward * math.sin(math.radians(plus)) >= toward * math.sin(math.radians(minus)):
-            return plus
-        return minus
+    def leave(self, point: Point, walls: tuple[Normal, ...], area: OpArea, ref: float) -> None:
+        """Reflect for an exit at ``point`` through ``walls`` (module docstring)."""
+        if _inward(ref + self.side * self.offset_deg, walls):
+            return
+        role, v_side = boundary_role(area, point, ref)
+        wx, wy = _mean_normal(walls)
+        ux, uy = unit(ref)
+        along, across = wx * ux + wy * uy, -wx * uy + wy * ux
+        by_wall_side = -sign(across)
+        by_wall_offset = self.offset_after_end_deg(upflow_end=along <= 0.0)
+        if role == "side":
+            first = (-v_side, self.offset_deg)
+            second = (self.side, by_wall_offset)
+        else:
+            first = (self.side, self.offset_after_end_deg(upflow_end=role == "up"))
+            second = (by_wall_side, self.offset_deg)
+        for side, offset in (first, second):
+            if _inward(ref + side * offset, walls):
+                self.side, self.offset_deg = side, offset
+                return
+        self.side, self.offset_deg = by_wall_side, by_wall_offset
+
+
+def boundary_role(area: OpArea, point: Point, ref_deg: float) -> tuple[str, int]:
+    """Which part of the boundary ``point`` lies on, seen along ``ref_deg`` and across it.
+
+    Returns:
+        ``("side", sign(v'))`` for a cross-flow side, else ``("down", ...)`` or ``("up", ...)``
+        for the down-flow or the up-flow end; the second item is the cross-flow side of the
+        point (``sign(v')``, +1 toward ``ref_deg + 90``). ``u'`` and ``v'`` are the point's
+        offsets from the centre along ``ref_deg`` and across it, divided by the OpArea's
+        half-extents in those directions; ``|v'| > |u'|`` is a side.
+    """
+    c = area.centre
+    dx, dy = point.x - c.x, point.y - c.y
+    ux, uy = unit(ref_deg)
+    umin, umax = area.extent_along(ref_deg)
+    vmin, vmax = area.extent_along(ref_deg + 90.0)
+    u = (dx * ux + dy * uy) / (0.5 * (umax - umin))
+    v = (-dx * uy + dy * ux) / (0.5 * (vmax - vmin))
+    if abs(v) > abs(u):
+        return "side", sign(v)
+    return ("down" if u > 0.0 else "up"), sign(v)
+
+
+def _mean_normal(walls: tuple[Normal, ...]) -> Normal:
+    sx, sy = sum(w[0] for w in walls), sum(w[1] for w in walls)
+    norm = math.hypot(sx, sy)
+    return sx / norm, sy / norm
+
+
+def _inward(heading_deg: float, walls: tuple[Normal, ...]) -> bool:
+    """Whether the heading points back in through every one of ``walls``."""
+    hx, hy = unit(heading_deg)
+    return all(hx * w[0] + hy * w[1] < 0.0 for w in walls)
 
 
 class BilliardFindPlume(_Billiard):
     """Billiard-ball find-plume of TRO IV-A: ``theta = flow_dir + s*dtheta`` (SPEC §4a).
 
-    s makes ``sin(theta)`` take the sign of ``eta = 0.5*(ymin+ymax) - y`` (sign(0) = +1), eta
-    being recomputed only when the vehicle leaves through a y wall; ``dtheta`` becomes
-    ``dtheta_down`` after leaving through the up-flow x wall and ``dtheta_up`` after the
-    down-flow one. The up-flow x wall is the one the flow comes from: ``xmin`` when the flow's
-    x component is >= 0, else ``xmax``.
+    s makes the cross-flow motion take the sign of ``eta`` (sign(0) = +1), eta being recomputed
+    only when the vehicle leaves through a cross-flow side; ``dtheta`` becomes ``dtheta_down``
+    after leaving through the up-flow end and ``dtheta_up`` after the down-flow end. flow_dir,
+    sides and ends are read as the module docstring says: with the flow along ±x (TRO's
+    drawing) they are flow_dir, TRO's y walls and its x walls, the up-flow x wall being the one
+    the flow comes from; for any other flow, the reference direction and the walls it faces.
 
     Reading chosen: "(re)start" is the first tick with an output, and the first one after a
     plume contact was made (``contact_count`` changed); pre-emption by safety alone keeps the
-    bounce state. On (re)start the vehicle's position splits the OpArea in four; the largest
-    part is the larger y side times the larger x side, so s heads for the larger y side (which
-    is sign(eta)) and ``dtheta`` is ``dtheta_down`` when the down-flow side is strictly larger,
-    else ``dtheta_up`` (OMAE: toward the farthest corner). "Leaving through a wall" is the
-    estimated position being beyond it. s itself
-    is recomputed every tick from the current flow, so a turning flow keeps the cross-flow
-    motion pointed at the chosen side.
+    bounce state. On (re)start the lines through the vehicle along and across the reference
+    split the OpArea in four; s and ``dtheta`` head into the part with the largest area (OMAE:
+    toward the farthest corner), ties going to ``s = sign(eta)`` and then to ``dtheta_up``; with
+    the reference along x that part is the larger y side times the larger x side, as TRO draws
+    it. "Leaving through a wall" is the estimated position being beyond it. s and ``dtheta``
+    are kept relative to the reference, so the heading turns with it (a reversed flow reverses
+    the sweep too, and the next wall exit sets it again).
     """
 
     family: ClassVar[str] = "find_plume"
@@ -139,15 +279,23 @@ class BilliardFindPlume(_Billiard):
     Params: ClassVar[type[BehaviourParams]] = BilliardParams
     params: BilliardParams
 
-    def start_offset_deg(self, x: float, area: OpArea, flow: FlowEstimate) -> float:
-        """``dtheta_down`` if the down-flow part of the OpArea is the larger, else ``dtheta_up``."""
-        downflow = area.xmax - x if sign(flow.vx) > 0 else x - area.xmin
-        upflow = (area.xmax - area.xmin) - downflow
-        return self.params.dtheta_down_deg if downflow > upflow else self.params.dtheta_up_deg
+    def start_state(self, here: Point, area: OpArea, ref_deg: float) -> tuple[int, float]:
+        """s and ``dtheta`` that head into the largest of the four parts about ``here``."""
+        eta_side = _eta_side(here, area, ref_deg)
+        total = (area.xmax - area.xmin) * (area.ymax - area.ymin)
+        best: tuple[float, int, float] | None = None
+        up, down = self.params.dtheta_up_deg, self.params.dtheta_down_deg
+        for side in (eta_side, -eta_side):
+            for along, offset in ((-1, up), (1, down)):
+                a = area.sector_area(here, ref_deg, along, side)
+                if best is None or a > best[0] + 1e-9 * total:
+                    best = (a, side, offset)
+        assert best is not None
+        return best[1], best[2]
 
-    def offset_after_x_exit_deg(self, upflow_wall: bool) -> float:
-        """``dtheta_down`` after the up-flow wall, ``dtheta_up`` after the down-flow wall."""
-        return self.params.dtheta_down_deg if upflow_wall else self.params.dtheta_up_deg
+    def offset_after_end_deg(self, upflow_end: bool) -> float:
+        """``dtheta_down`` after the up-flow end, ``dtheta_up`` after the down-flow end."""
+        return self.params.dtheta_down_deg if upflow_end else self.params.dtheta_up_deg
 
 
 class AppendixBilliardFindPlume(_Billiard):
@@ -159,9 +307,11 @@ class AppendixBilliardFindPlume(_Billiard):
 
     Reading chosen: AB assumes the flow runs toward +x, where the sign of theta is the sign of
     the cross-flow (y) motion. So that the pattern survives any flow direction, the sign is kept
-    as the y side to head for (as in :class:`BilliardFindPlume`): the start heads for the larger
-    y side, and a y-wall exit turns back inside — which is ``theta = -theta`` whenever the
-    vehicle left heading outward. (Re)start and wall exits are read as in the TRO variant.
+    as the cross-flow side to head for and ``psi_w``, the y walls and the x walls are read as
+    the module docstring says (reference direction, sides, ends), as in
+    :class:`BilliardFindPlume`: the start heads for the larger cross-flow side (``sign(eta)``),
+    and a side exit turns back inside — which is ``theta = -theta`` whenever the vehicle left
+    heading outward. (Re)start and wall exits are read as in the TRO variant.
     """
 
     family: ClassVar[str] = "find_plume"
@@ -169,15 +319,22 @@ class AppendixBilliardFindPlume(_Billiard):
     Params: ClassVar[type[BehaviourParams]] = AppendixBilliardParams
     params: AppendixBilliardParams
 
-    def start_offset_deg(self, x: float, area: OpArea, flow: FlowEstimate) -> float:
-        """``|theta_0|``, whatever the position."""
-        return self.params.initial_offset_deg
+    def start_state(self, here: Point, area: OpArea, ref_deg: float) -> tuple[int, float]:
+        """``sign(eta)`` and ``|theta_0|``, whatever the along-flow position."""
+        return _eta_side(here, area, ref_deg), self.params.initial_offset_deg
 
-    def offset_after_x_exit_deg(self, upflow_wall: bool) -> float:
-        """70° after the up-flow wall, 110° after the down-flow wall (defaults)."""
-        if upflow_wall:
+    def offset_after_end_deg(self, upflow_end: bool) -> float:
+        """70° after the up-flow end, 110° after the down-flow end (defaults)."""
+        if upflow_end:
             return self.params.offset_after_upflow_deg
         return self.params.offset_after_downflow_deg
+
+
+def _eta_side(here: Point, area: OpArea, ref_deg: float) -> int:
+    """``sign(eta)``, ``eta = (centre - here)·n``: the larger cross-flow side (sign(0) = +1)."""
+    nx, ny = unit(ref_deg + 90.0)
+    c = area.centre
+    return sign((c.x - here.x) * nx + (c.y - here.y) * ny)
 
 
 BEHAVIOURS = [

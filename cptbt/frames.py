@@ -13,8 +13,11 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from cptbt.angles import wrap_deg
+from cptbt.angles import bearing_deg, unit, wrap_deg
 from cptbt.types import Point
+
+Normal = tuple[float, float]
+"""Outward unit normal of an OpArea wall: (-1, 0) xmin, (1, 0) xmax, (0, -1) ymin, (0, 1) ymax."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,6 +116,105 @@ class OpArea:
         """Length of the rectangle's diagonal, m."""
         return math.hypot(self.xmax - self.xmin, self.ymax - self.ymin)
 
+    @property
+    def corners(self) -> tuple[Point, Point, Point, Point]:
+        """The four corners, counter-clockwise when drawn with +y up (xmin-ymin first)."""
+        return (
+            Point(self.xmin, self.ymin),
+            Point(self.xmax, self.ymin),
+            Point(self.xmax, self.ymax),
+            Point(self.xmin, self.ymax),
+        )
+
+    def depth_inside(self, x: float, y: float) -> float:
+        """Distance from (x, y) to the nearest wall when inside; minus the distance outside."""
+        if not self.contains(x, y):
+            return -self.distance_outside(x, y)
+        return min(x - self.xmin, self.xmax - x, y - self.ymin, self.ymax - y)
+
+    def walls_beyond(self, x: float, y: float, margin_m: float = 0.0) -> tuple[Normal, ...]:
+        """Outward normals of the walls that (x, y) is beyond, or within ``margin_m`` inside of."""
+        walls: list[Normal] = []
+        if x < self.xmin + margin_m:
+            walls.append((-1.0, 0.0))
+        if x > self.xmax - margin_m:
+            walls.append((1.0, 0.0))
+        if y < self.ymin + margin_m:
+            walls.append((0.0, -1.0))
+        if y > self.ymax - margin_m:
+            walls.append((0.0, 1.0))
+        return tuple(walls)
+
+    def extent_along(self, angle_deg: float) -> tuple[float, float]:
+        """The OpArea projected on the direction ``angle_deg``: (min, max) of ``q·u`` over it."""
+        ux, uy = unit(angle_deg)
+        values = [c.x * ux + c.y * uy for c in self.corners]
+        return min(values), max(values)
+
+    def clamp(self, x: float, y: float, inset_m: float = 0.0) -> Point:
+        """The point of the OpArea shrunk by ``inset_m`` nearest (x, y).
+
+        The inset is limited to half the OpArea's width on each axis, so a small OpArea shrinks
+        to its centre line rather than to nothing.
+        """
+        ix = min(inset_m, 0.5 * (self.xmax - self.xmin))
+        iy = min(inset_m, 0.5 * (self.ymax - self.ymin))
+        return Point(
+            min(max(x, self.xmin + ix), self.xmax - ix),
+            min(max(y, self.ymin + iy), self.ymax - iy),
+        )
+
+    def sector_area(self, origin: Point, axis_deg: float, along: int, across: int) -> float:
+        """Area of the part of the OpArea in one quadrant about ``origin``.
+
+        The quadrant is where ``(q - origin)·u`` has the sign of ``along`` and
+        ``(q - origin)·n`` the sign of ``across``, with ``u`` along ``axis_deg`` and ``n`` 90°
+        from it (toward +y when ``axis_deg`` is 0).
+        """
+        ux, uy = unit(axis_deg)
+        nx, ny = -uy, ux
+        poly = [(c.x, c.y) for c in self.corners]
+        for (ax, ay), s in (((ux, uy), along), ((nx, ny), across)):
+            poly = _clip(poly, s * ax, s * ay, s * (origin.x * ax + origin.y * ay))
+        return _polygon_area(poly)
+
+    def heading_inside(self, heading_deg: float, x: float, y: float, margin_m: float) -> float:
+        """``heading_deg`` changed so it does not drive out through a wall near (x, y).
+
+        For each wall the estimated position is within ``margin_m`` of (or beyond), a heading
+        with an outward component is changed: inside, the outward component is removed (the
+        vehicle runs along the wall); beyond the wall, it is reversed (the vehicle turns back
+        in). A heading straight at a wall (nothing left along it) turns along the wall toward
+        the OpArea's centre, or toward the centre itself in a corner. Headings that already
+        point inward, and positions farther than ``margin_m`` from every wall, are returned
+        unchanged.
+        """
+        hx, hy = unit(heading_deg)
+        changed = False
+        for wx, wy in self.walls_beyond(x, y, margin_m):
+            out = hx * wx + hy * wy
+            if out <= 0.0:
+                continue
+            beyond = (wx < 0 and x < self.xmin) or (wx > 0 and x > self.xmax) or (
+                wy < 0 and y < self.ymin) or (wy > 0 and y > self.ymax)
+            k = 2.0 if beyond else 1.0
+            hx, hy = hx - k * out * wx, hy - k * out * wy
+            changed = True
+        if not changed:
+            return heading_deg
+        if math.hypot(hx, hy) < 1e-6:
+            c = self.centre
+            tx, ty = c.x - x, c.y - y
+            walls = self.walls_beyond(x, y, margin_m)
+            if len(walls) == 1:  # along the wall toward the centre
+                wx, wy = walls[0]
+                along = tx * wx + ty * wy
+                tx, ty = tx - along * wx, ty - along * wy
+            if math.hypot(tx, ty) < 1e-9:
+                return wrap_deg(heading_deg + 180.0)
+            return bearing_deg(tx, ty)
+        return bearing_deg(hx, hy)
+
     @classmethod
     def from_ne_corners(
         cls, corners: Sequence[tuple[float, float]], x_bearing_deg: float | None = None
@@ -151,3 +253,44 @@ class OpArea:
             max(p.y for p in pts),
             frame,
         )
+
+
+@dataclass(frozen=True, slots=True)
+class WallExit:
+    """A safety take-over at the OpArea boundary, as safety reports it to the plume behaviours.
+
+    Attributes:
+        t: planner time at which safety handed control back, s.
+        point: estimated position where safety took over (planning frame).
+        normals: outward normals of the walls that position was beyond.
+    """
+
+    t: float
+    point: Point
+    normals: tuple[Normal, ...]
+
+
+def _clip(
+    poly: list[tuple[float, float]], ax: float, ay: float, b: float
+) -> list[tuple[float, float]]:
+    """Sutherland–Hodgman: the part of a convex polygon where ``ax*x + ay*y >= b``."""
+    out: list[tuple[float, float]] = []
+    for i, p in enumerate(poly):
+        q = poly[(i + 1) % len(poly)]
+        fp, fq = ax * p[0] + ay * p[1] - b, ax * q[0] + ay * q[1] - b
+        if fp >= 0.0:
+            out.append(p)
+        if (fp >= 0.0) != (fq >= 0.0):
+            r = fp / (fp - fq)
+            out.append((p[0] + r * (q[0] - p[0]), p[1] + r * (q[1] - p[1])))
+    return out
+
+
+def _polygon_area(poly: list[tuple[float, float]]) -> float:
+    """Shoelace area of a simple polygon (0 for fewer than three vertices)."""
+    if len(poly) < 3:
+        return 0.0
+    twice = sum(
+        p[0] * q[1] - q[0] * p[1] for p, q in zip(poly, poly[1:] + poly[:1], strict=True)
+    )
+    return abs(twice) / 2.0
