@@ -45,6 +45,13 @@ direction ``u`` and its normal ``n`` (``ref + 90°``), which holds for any angle
   motion moves away from it (the up-flow offset if ``w·u > 0``) — and failing both, both. The
   last choice always points inward (``heading·w < 0``), so no heading chosen at an exit drives
   back out through the wall just left.
+- **Turning before the wall.** TRO reflects once the vehicle has left through a wall. A REMUS
+  turns at a 7.5 m radius and is commanded once a second, so a reflection begun at the wall
+  carries it up to ``R(1 - sin φ) + V·T`` outside (φ between heading and wall normal: about 5 m
+  at a cross-flow side with TRO's angles), which is where safety takes over. A wall within
+  ``wall_margin_m`` (default 5 m) with the heading pointing out through it therefore counts as
+  left: the same reflection, begun that much earlier. ``wall_margin_m: 0`` is the letter;
+  script-level tests that place the vehicle beyond a wall see the same headings either way.
 - **Safety's report.** When safety has taken over at the boundary it reports the walls
   (blackboard ``oparea_exit``, a :class:`~cptbt.frames.WallExit`); find-plume treats the report
   as one more exit through those walls at the point safety took over, applied if its own
@@ -83,6 +90,12 @@ class BilliardBaseParams(BehaviourParams):
         lt=45,
         description="'oparea_axis' only: keep the axis until the flow is more than 45° plus "
         "this from it, deg",
+    )
+    wall_margin_m: float = Field(
+        default=5.0,
+        ge=0,
+        description="Reflect once within this distance of a wall and heading out through it "
+        "(0: only once beyond it, the papers' letter), m",
     )
 
 
@@ -186,7 +199,7 @@ class _Billiard(PlanBehaviour):
             self.started_at_contact = p.contact_count
             self.side, self.offset_deg = self.start_state(here, area, ref)
         else:
-            walls = area.walls_beyond(here.x, here.y)
+            walls = area.walls_beyond(here.x, here.y, self.params.wall_margin_m)
             if walls:
                 self.leave(here, walls, area, ref)
         report = self.bb.get("oparea_exit") if self.bb.exists("oparea_exit") else None
@@ -269,7 +282,8 @@ class BilliardFindPlume(_Billiard):
     split the OpArea in four; s and ``dtheta`` head into the part with the largest area (OMAE:
     toward the farthest corner), ties going to ``s = sign(eta)`` and then to ``dtheta_up``; with
     the reference along x that part is the larger y side times the larger x side, as TRO draws
-    it. "Leaving through a wall" is the estimated position being beyond it. s and ``dtheta``
+    it. "Leaving through a wall" is the estimated position being within ``wall_margin_m`` of it,
+    or beyond it, while heading out through it (module docstring). s and ``dtheta``
     are kept relative to the reference, so the heading turns with it (a reversed flow reverses
     the sweep too, and the next wall exit sets it again).
     """

@@ -5,6 +5,17 @@ Every variant writes the sign of its last cross-flow offset to the blackboard ke
 the mission's ``perception.lambda_s`` without a detection (TRO Table I: λ = 8.5 s), which is what
 hands control to reacquire-plume; λ is the perception's, shared by every behaviour, so it is set
 there and not on a maintain entry.
+
+**(clarified) Walls.** The papers track up-flow until contact is lost, wherever that leads; in a
+small OpArea, or with the source near a wall, that drives the vehicle out and safety takes over
+again and again. Every variant therefore keeps its heading inside: within ``wall_margin_m`` of a
+wall (estimated position), a heading out through that wall is turned along it (its outward
+component removed), and beyond the wall it is turned back in (the component reversed); see
+:meth:`~cptbt.frames.OpArea.heading_inside`. A vehicle that turns at most at radius R and is
+commanded every T s at speed V then leaves the OpArea by at most ``R + V*T - wall_margin_m``
+(plus its navigation error): 4 m for the REMUS (7.5 m, 1.5 m/s, 1 Hz) and the default 5 m.
+Detections are only made inside the OpArea (SPEC §2), so the source the vehicle tracks toward
+is never beyond the wall. ``beta_sign`` is the offset's side before the wall changes it.
 """
 
 from __future__ import annotations
@@ -22,7 +33,24 @@ from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept
 
 
-class TrackParams(BehaviourParams):
+class WallMarginParams(BehaviourParams):
+    """The wall margin every maintain variant keeps (module docstring, "Walls")."""
+
+    wall_margin_m: float = Field(
+        default=5.0,
+        ge=0,
+        description="Within this distance of a wall a heading out through it is turned along "
+        "the wall (beyond the wall, back in), m",
+    )
+
+
+def _inside(node: PlanBehaviour, p: Percept, heading_deg: float, margin_m: float) -> float:
+    """``heading_deg`` kept from driving out of the OpArea near a wall (module docstring)."""
+    assert node.context is not None
+    return node.context.op_area.heading_inside(heading_deg, p.pose.x, p.pose.y, margin_m)
+
+
+class TrackParams(WallMarginParams):
     """Parameters of TRO track-in / track-out (TRO Table I), shared by both leaves."""
 
     beta_deg: float = Field(
@@ -36,12 +64,13 @@ class TrackIn(PlanBehaviour):
     family: ClassVar[str] = "maintain_plume"
     variant: ClassVar[str] = "track_in"
     Params: ClassVar[type[BehaviourParams]] = TrackParams
+    params: TrackParams
 
     def decide(self, p: Percept) -> Command | None:
         """Up-flow while this cycle is a detection."""
         if not p.detected or p.flow is None:
             return None
-        return self.command(p.flow.upflow_deg)
+        return self.command(_inside(self, p, p.flow.upflow_deg, self.params.wall_margin_m))
 
 
 class TrackOut(PlanBehaviour):
@@ -70,13 +99,14 @@ class TrackOut(PlanBehaviour):
         flow_dir = p.flow.toward_deg
         phi = bearing_deg(last.x - p.pose.x, last.y - p.pose.y)
         beta_sign = sign(wrap_deg(flow_dir - phi))
-        cmd = self.command(flow_dir + 180.0 + beta_sign * self.params.beta_deg)
+        heading = flow_dir + 180.0 + beta_sign * self.params.beta_deg
+        cmd = self.command(_inside(self, p, heading, self.params.wall_margin_m))
         if cmd is not None:
             self.bb.beta_sign = beta_sign
         return cmd
 
 
-class CounterTurnParams(BehaviourParams):
+class CounterTurnParams(WallMarginParams):
     """Parameters of the OMAE counter-turning tracker.
 
     OMAE gives no values; the defaults borrow TRO Table I's (the same team's planner a year on):
@@ -139,7 +169,8 @@ class CounterTurnTrack(PlanBehaviour):
             self.crossing_sign = sign(wrap_deg(p.pose.heading_deg - upflow))
         reversals = math.floor(p.since_detection() / self.params.hold_s)
         beta_sign = -self.crossing_sign if reversals % 2 else self.crossing_sign
-        cmd = self.command(upflow + beta_sign * self.params.beta_deg)
+        heading = upflow + beta_sign * self.params.beta_deg
+        cmd = self.command(_inside(self, p, heading, self.params.wall_margin_m))
         if cmd is not None:
             self.bb.beta_sign = beta_sign
         return cmd

@@ -6,10 +6,26 @@ detection was made, but not within λ); any detection gives control back to main
 finished tour stays finished for that lost contact: it has no output, so find-plume takes
 over, until a new contact is made and lost again. A tour interrupted (by a detection or by
 safety) starts afresh on its next activation.
+
+**(clarified) Walls.** The papers lay their tours around the last detection whatever the
+OpArea; near a wall, or in a small OpArea, that sends the vehicle out and safety takes over at
+every leaf. Every point of a tour (the cloverleaf's centre and tips, the three points) is moved
+to the nearest point at least ``wall_inset_m`` inside the OpArea (the inset clipped to half the
+OpArea's width on each axis); the tips of a squeezed tour may lie closer together than
+``d_leaf``, and the tour still circles the last detection as far as the OpArea allows. A
+waypoint that falls inside the vehicle's turning circle cannot be closed to
+``arrive_radius_m``: it would be orbited, in loops of diameter 2R that reach past any inset. A
+waypoint passed within ``pass_radius_m`` (the distance growing again) therefore counts as
+visited too. Stated bound: a vehicle turning at radius R, commanded every T s at speed V, turns
+for the next point no farther than ``pass_radius_m`` from one, so it leaves the OpArea by at
+most ``R + V*T - (wall_inset_m - pass_radius_m)`` plus its navigation error: 7 m for the REMUS
+(7.5 m, 1.5 m/s, 1 Hz) with the defaults (10 m, 8 m), 2 m for one that reaches its points
+(``arrive_radius_m`` 3 m in place of ``pass_radius_m``).
 """
 
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 from py_trees.common import Access
@@ -27,6 +43,18 @@ class TourParams(BehaviourParams):
     arrive_radius_m: float = Field(
         default=3.0, gt=0, description="A waypoint counts as reached within this distance, m"
     )
+    pass_radius_m: float = Field(
+        default=8.0,
+        ge=0,
+        description="A waypoint passed within this distance (the distance then growing by "
+        "more than 1 m) also counts as reached, so one inside the turning circle is not "
+        "orbited, m",
+    )
+    wall_inset_m: float = Field(
+        default=10.0,
+        ge=0,
+        description="Every point of the tour is kept this far inside the OpArea walls, m",
+    )
 
 
 class _WaypointTour(PlanBehaviour):
@@ -41,11 +69,13 @@ class _WaypointTour(PlanBehaviour):
         self.finished_detection_t: float | None = None
         self.waypoints: tuple[Point, ...] = ()
         self.next_index = 0
+        self.closest_m = math.inf
 
     def initialise(self) -> None:
         """A new activation lays out a new tour."""
         self.waypoints = ()
         self.next_index = 0
+        self.closest_m = math.inf
 
     def lay_out(self, centre: Point, flow: FlowEstimate) -> tuple[Point, ...]:
         """The waypoints of one whole tour around ``centre``."""
@@ -56,8 +86,9 @@ class _WaypointTour(PlanBehaviour):
 
         First the up-flow point at ``upflow + 60°·beta_sign`` (blackboard ``beta_sign`` from
         maintain-plume, +1 when absent), then the other up-flow point at ``upflow - 60°·beta_sign``,
-        then the down-flow point along ``flow_dir``. A point beyond the OpArea is moved to the
-        nearest point of it, so the tour never drives safety to take over again and again.
+        then the down-flow point along ``flow_dir``. A point beyond the OpArea, or within
+        ``wall_inset_m`` of its walls, is moved to the nearest point ``wall_inset_m`` inside
+        (module docstring), so the tour never drives safety to take over again and again.
         """
         assert self.context is not None
         a = self.context.op_area
@@ -67,13 +98,16 @@ class _WaypointTour(PlanBehaviour):
             flow.upflow_deg - 60.0 * beta_sign,
             flow.toward_deg,
         )
+        inset = self.params.wall_inset_m
         return tuple(
-            Point(
-                min(max(centre.x + radius_m * ux, a.xmin), a.xmax),
-                min(max(centre.y + radius_m * uy, a.ymin), a.ymax),
-            )
+            a.clamp(centre.x + radius_m * ux, centre.y + radius_m * uy, inset)
             for ux, uy in map(unit, bearings)
         )
+
+    def inside(self, point: Point) -> Point:
+        """``point`` moved ``wall_inset_m`` inside the OpArea if it is nearer the walls."""
+        assert self.context is not None
+        return self.context.op_area.clamp(point.x, point.y, self.params.wall_inset_m)
 
     def decide(self, p: Percept) -> Command | None:
         """Steer for the current waypoint while contact is lost and the tour is unfinished."""
@@ -83,11 +117,14 @@ class _WaypointTour(PlanBehaviour):
         if not self.waypoints:
             self.waypoints = self.lay_out(last.point, p.flow)
         here = p.pose.point
-        while (
-            self.next_index < len(self.waypoints)
-            and here.distance_to(self.waypoints[self.next_index]) <= self.params.arrive_radius_m
-        ):
+        while self.next_index < len(self.waypoints):
+            d = here.distance_to(self.waypoints[self.next_index])
+            passed = self.closest_m <= self.params.pass_radius_m and d > self.closest_m + 1.0
+            if d > self.params.arrive_radius_m and not passed:
+                self.closest_m = min(self.closest_m, d)
+                break
             self.next_index += 1
+            self.closest_m = math.inf
         if self.next_index == len(self.waypoints):
             self.finished_detection_t = last.t
             return None
@@ -125,10 +162,11 @@ class CloverleafReacquire(_WaypointTour):
     params: CloverleafParams
 
     def lay_out(self, centre: Point, flow: FlowEstimate) -> tuple[Point, ...]:
-        """``C`` then ``repeats`` × (tip a, C, tip b, C, tip c, C)."""
+        """``C`` then ``repeats`` × (tip a, C, tip b, C, tip c, C); C kept off the walls."""
         tips = self.triangle(centre, flow, self.params.d_leaf_m)
-        leaves = tuple(p for tip in tips for p in (tip, centre))
-        return (centre, *leaves * self.params.repeats)
+        hub = self.inside(centre)
+        leaves = tuple(p for tip in tips for p in (tip, hub))
+        return (hub, *leaves * self.params.repeats)
 
 
 class ThreePointParams(TourParams):

@@ -26,7 +26,13 @@ from cptbt.behaviours.reacquire import (
     ThreePointReacquire,
 )
 from cptbt.registry import BehaviourSpec
-from cptbt.testing import ScriptedPerception, TreeHarness, check_behaviour, fresh_namespace
+from cptbt.testing import (
+    ScriptedPerception,
+    TreeHarness,
+    check_behaviour,
+    fresh_namespace,
+    square_area,
+)
 
 R3 = 15 * math.sqrt(3) / 2  # 12.990
 C = (50.0, 0.0)
@@ -138,10 +144,33 @@ def test_an_interrupted_cloverleaf_starts_afresh() -> None:
 
 
 def test_tips_beyond_the_op_area_are_pulled_inside() -> None:
-    # C = (5, 0): D stays (20, 0); A and B would have x = -2.5, so they move to x = 0.
-    run = Run(cloverleaf(), (1.0, 0.0))
+    # No inset: C = (5, 0): D stays (20, 0); A and B would have x = -2.5, so they move to x = 0.
+    run = Run(cloverleaf(wall_inset_m=0.0), (1.0, 0.0))
     run.lose_contact_at((5.0, 0.0), (5.0, 0.0))
     assert run.at((5.0, 0.0)) == pytest.approx(math.degrees(math.atan2(-R3, -5.0)))
+
+
+def test_the_whole_tour_keeps_the_wall_inset() -> None:
+    # Default inset 10 m: C = (5, 0) is flown as (10, 0); A = (-2.5, -R3) as (10, -R3),
+    # B as (10, R3); D = (20, 0) is 10 m inside already. From (5, 0): 0° to the hub, then
+    # -90° to A, 90° back to the hub, 90° to B, -90° back, 0° to D.
+    node = cloverleaf(repeats=1)
+    run = Run(node, (1.0, 0.0))
+    run.lose_contact_at((5.0, 0.0), (5.0, 0.0))
+    path = [(5.0, 0.0), (10.0, 0.0), (10.0, -R3), (10.0, 0.0), (10.0, R3), (10.0, 0.0)]
+    assert [run.at(xy) for xy in path] == pytest.approx([0.0, -90.0, 90.0, 90.0, -90.0, 0.0])
+    area = square_area(100)
+    assert all(area.depth_inside(w.x, w.y) >= 10.0 for w in node.waypoints)
+
+
+def test_three_point_keeps_the_wall_inset_in_a_corner() -> None:
+    # C = (3, -47) in the corner: every point is moved to x >= 10, y >= -40.
+    node = three_point()
+    run = Run(node, (1.0, 0.0))
+    run.lose_contact_at((3.0, -47.0), (3.0, -47.0))
+    assert run.at((3.0, -47.0)) is not None
+    assert {(round(w.x, 6), round(w.y, 6)) for w in node.waypoints} == {
+        (10.0, -40.0), (10.0, -34.009619), (18.0, -40.0)}
 
 
 def three_point(**params: float) -> ThreePointReacquire:

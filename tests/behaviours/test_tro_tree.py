@@ -73,7 +73,9 @@ def test_safety_preempts_tracking_outside_the_oparea() -> None:
     assert s.cycle(100, 0, conc=0.5) == "maintain_plume.track_in"
     assert s.cycle(100, -60, conc=0.5) == "safety.oparea"     # 10 m outside: safety first
     assert s.planner.command is not None and s.planner.command.heading_deg == 90  # back in (+y)
-    assert s.cycle(100, -49, conc=0.5) == "maintain_plume.track_in"
+    # Back inside but within release_m = 5 m of the wall: safety keeps driving (no chatter).
+    assert s.cycle(100, -49, conc=0.5) == "safety.oparea"
+    assert s.cycle(100, -44, conc=0.5) == "maintain_plume.track_in"
 
 
 def test_lost_contact_goes_to_cloverleaf_and_a_hit_preempts_it() -> None:
