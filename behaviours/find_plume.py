@@ -198,10 +198,9 @@ class _Billiard(PlanBehaviour):
             # (Re)start: first activation, or find-plume again after a plume contact.
             self.started_at_contact = p.contact_count
             self.side, self.offset_deg = self.start_state(here, area, ref)
-        else:
-            walls = area.walls_beyond(here.x, here.y, self.params.wall_margin_m)
-            if walls:
-                self.leave(here, walls, area, ref)
+        walls = area.walls_beyond(here.x, here.y, self.params.wall_margin_m)
+        if walls:
+            self.leave(here, walls, area, ref)
         report = self.bb.get("oparea_exit") if self.bb.exists("oparea_exit") else None
         if isinstance(report, WallExit) and report.t != self.exit_seen_t:
             self.exit_seen_t = report.t
