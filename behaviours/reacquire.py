@@ -81,6 +81,10 @@ class _WaypointTour(PlanBehaviour):
         """The waypoints of one whole tour around ``centre``."""
         raise NotImplementedError
 
+    def passable(self, waypoint: Point, centre: Point) -> bool:
+        """Whether passing ``waypoint`` within ``pass_radius_m`` counts as visiting it."""
+        return True
+
     def triangle(self, centre: Point, flow: FlowEstimate, radius_m: float) -> tuple[Point, ...]:
         """Three points 120° apart at ``radius_m`` from ``centre``, in visiting order.
 
@@ -119,7 +123,11 @@ class _WaypointTour(PlanBehaviour):
         here = p.pose.point
         while self.next_index < len(self.waypoints):
             d = here.distance_to(self.waypoints[self.next_index])
-            passed = self.closest_m <= self.params.pass_radius_m and d > self.closest_m + 1.0
+            passed = (
+                self.closest_m <= self.params.pass_radius_m
+                and d > self.closest_m + 1.0
+                and self.passable(self.waypoints[self.next_index], last.point)
+            )
             if d > self.params.arrive_radius_m and not passed:
                 self.closest_m = min(self.closest_m, d)
                 break
@@ -153,13 +161,21 @@ class CloverleafReacquire(_WaypointTour):
     leaves share C: ``C, a, C, b, C, c, C`` and so on, ending at C. The tips are fixed by the
     flow estimate at activation. ``arrive_radius_m`` (3 m) is well under ``d_leaf`` so each
     leaf is flown out and back; it must stay below the distance the vehicle can close on a
-    waypoint while turning, or a waypoint can be orbited.
+    waypoint while turning, or a waypoint can be orbited. A tip passed within
+    ``pass_radius_m`` counts as reached (module docstring), C does not: every leaf returns to
+    the last detection itself, which is what puts the leaves across the plume where it was
+    last seen (measured: letting C be passed too spread the lost-contact points enough that
+    one MSN007 run in 30 never declared).
     """
 
     family: ClassVar[str] = "reacquire_plume"
     variant: ClassVar[str] = "cloverleaf"
     Params: ClassVar[type[BehaviourParams]] = CloverleafParams
     params: CloverleafParams
+
+    def passable(self, waypoint: Point, centre: Point) -> bool:
+        """Only the tips: every leaf returns to C itself (within ``arrive_radius_m``)."""
+        return waypoint != self.inside(centre)
 
     def lay_out(self, centre: Point, flow: FlowEstimate) -> tuple[Point, ...]:
         """``C`` then ``repeats`` × (tip a, C, tip b, C, tip c, C); C kept off the walls."""

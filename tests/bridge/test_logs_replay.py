@@ -52,7 +52,9 @@ def test_the_log_opens_with_the_mcap_reader_with_json_schemas(logged: Path) -> N
 def test_every_cycle_and_phase_change_is_logged(logged: Path) -> None:
     data = read_log(logged)
     assert data.mission["name"] == "tro2006_msn007"
-    assert len(data.cycles) > 800 and [c["seq"] for c in data.cycles] == list(
+    # A whole AMP part, take-over to home (seed 7 flies about 610 cycles since issue 11's
+    # find-plume; about 900 before).
+    assert len(data.cycles) > 500 and [c["seq"] for c in data.cycles] == list(
         range(len(data.cycles)))
     assert [p["trigger"] for p in data.phases][:3] == ["launch", "amp_enable", "declared_home"]
     assert data.cycles[-1]["declared_source"] is not None and data.cycles[-1]["done"]
@@ -61,7 +63,7 @@ def test_every_cycle_and_phase_change_is_logged(logged: Path) -> None:
 
 def test_the_same_mission_replays_bit_for_bit(logged: Path) -> None:
     rep = replay(logged)
-    assert rep.identical and rep.commands_differing == 0 and rep.cycles > 800
+    assert rep.identical and rep.commands_differing == 0 and rep.cycles > 500
 
 
 def test_another_variant_diverges_and_the_report_says_where(logged: Path) -> None:

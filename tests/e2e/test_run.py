@@ -43,8 +43,9 @@ def test_tro_mission_declares_near_the_true_source(seed: int) -> None:
     _, s = fly(seed)
     assert s["outcome"] == "declared", s
     # The AMP declares from lost-contact points in its navigation frame (3 m drift, LBL jumps):
-    # TRO reports errors of 15-50 m in the field; in our ocean the bound is tighter.
-    assert s["error_m"] < 12.0, s
+    # TRO reports errors of 15-50 m in the field; in our ocean the bound is tighter: 15 m, the
+    # bound of issue 11 (40 seeds: median 4.4 m, 2 beyond 12 m, the largest 14.5 m, seed 2).
+    assert s["error_m"] < 15.0, s
     assert s["t1"] is not None and s["t1"] <= s["t2"] <= s["t3"]
     assert s["D1"] > 0 and s["D0"] > 0
     assert math.isclose(s["T_F"] + s["T_T"] + s["T_D"], s["t3"])
