@@ -8,8 +8,9 @@ model updates (no concentration images).
 
 The two models are not numerically identical — both use second-order boundary noise (cptbt's
 ``large_meander`` preset since the AB rebuild), but pompy's random walk is per-step white
-velocity noise where cptbt uses a diffusivity. pompy's centre-relative walk (2 m/s^0.5 × dt per step) is matched by cptbt's
-K_c = 2² · dt / 2 = 0.02 m²/s, so the puff counts should agree closely.
+velocity noise where cptbt uses a diffusivity. pompy's centre-relative walk (2 m/s^0.5 × dt per
+step) is matched by cptbt's K_c = 2² · dt / 2 = 0.02 m²/s, so the puff counts should agree
+closely.
 
 pompy goes in its own environment (it pins old numpy/scipy APIs)::
 
