@@ -72,6 +72,8 @@ CONFIGS = {
                ("maintain_plume.timer=last_detection",)),
         Config("III_contact", "III (contact)", "ab2001_strategy3.yaml",
                ("maintain_plume.timer=contact",)),
+        Config("I_lagging", "I (lagging_heading cast)", "ab2001_strategy1.yaml",
+               ("maintain_plume.cast_rule=lagging_heading",)),
         Config("I_fig6", "I (T_W = 3 s, Fig. 6)", "ab2001_strategy1.yaml",
                ("reacquire_plume.give_up_s=3",)),
     )
@@ -236,6 +238,12 @@ def line_section(
             summary["near"][f"{a}-{b}"] = n
             out.append(f"| {CONFIGS[a].label} − {CONFIGS[b].label} | {f[0]:+.1f} ± {f[1]:.1f} "
                        f"(n = {f[2]}) | {n[0]:+.1f} ± {n[1]:.1f} | {ab_far[b]} |")
+    if "I_lagging" in by and "I" in by:
+        f = paired("I", "I_lagging", far)
+        a = paired("I", "I_lagging", xs)
+        summary["cast_rule"] = (f, a)
+        out.append(f"| I − I (lagging_heading cast) | {f[0]:+.1f} ± {f[1]:.1f} (n = {f[2]}) | "
+                   f"all starts: {a[0]:+.1f} ± {a[1]:.1f} | (AB §4.1: turn opposite the change) |")
     success = {k: 100 * statistics.fmean(bool(r["success"]) for r in by[k].values()) for k in keys}
     summary["success"] = success
     out += ["", "Success over the line: " + ", ".join(
@@ -252,7 +260,8 @@ def _line_figure(stats: dict[str, dict[float, tuple[float, float]]], path: Path)
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 4.8))
-    style = {"I": "C0o-", "II": "C1s-", "III_last": "C2^-", "III_contact": "C3v--"}
+    style = {"I": "C0o-", "II": "C1s-", "III_last": "C2^-", "III_contact": "C3v--",
+             "I_lagging": "C7o:"}
     for k, per_x in stats.items():
         xs = sorted(per_x)
         ax.errorbar(xs, [per_x[x][0] for x in xs], yerr=[per_x[x][1] for x in xs],
@@ -309,6 +318,8 @@ def main() -> int:
     ap.add_argument("--restart", action="store_true", help="discard finished runs")
     ap.add_argument("--fig6", action="store_true",
                     help="also AB Fig. 6: Strategy I (T_W = 3 s) on the same grid")
+    ap.add_argument("--cast-rules", action="store_true",
+                    help="also Strategy I with the former cast sign (lagging_heading) on the line")
     ap.add_argument("--skip-grid", action="store_true")
     ap.add_argument("--skip-line", action="store_true")
     args = ap.parse_args()
@@ -329,7 +340,7 @@ def main() -> int:
     t_grid = time.perf_counter() - t_start
     line_rows: dict[str, list[Row]] = {}
     if not args.skip_line:
-        for key in LINE_CONFIGS:
+        for key in LINE_CONFIGS + (("I_lagging",) if args.cast_rules else ()):
             line_rows[key] = batch(args.out / f"line-s{step:g}-R{line_r}" / key, CONFIGS[key],
                                    ["--starts-x", f"0:100:{step:g}", "--runs-per-start",
                                     str(line_r)], args.workers, args.restart)
