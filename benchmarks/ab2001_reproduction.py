@@ -108,6 +108,21 @@ def mean_se(values: Sequence[float]) -> tuple[float, float]:
     return m, (statistics.stdev(values) / math.sqrt(n) if n > 1 else math.nan)
 
 
+def clustered_mean_se(values: Sequence[float], clusters: Sequence[int]) -> tuple[float, float]:
+    """Mean, and its standard error with the plume realisation as the sampling unit.
+
+    All starts of a replicate share one plume, so their outcomes are correlated; the SE is that
+    of the replicate means (equal cluster sizes), not of the runs.
+    """
+    groups: dict[int, list[float]] = defaultdict(list)
+    for v, c in zip(values, clusters, strict=True):
+        groups[c].append(v)
+    means = [statistics.fmean(g) for g in groups.values()]
+    return statistics.fmean(values), (
+        statistics.stdev(means) / math.sqrt(len(means)) if len(means) > 1 else math.nan
+    )
+
+
 def keyed(rows: list[Row]) -> dict[tuple[float, int], Row]:
     """Rows by (start x, replicate): the pairing key across configurations on one line."""
     return {(float(r["start_x"]), int(r["replicate"])): r for r in rows}
@@ -125,12 +140,28 @@ def grid_section(grids: dict[str, list[Row]], fig_dir: Path) -> list[str]:
     lines += ["| reading | runs | success within 1 m in 300 s | mean time (failure = 300 s) "
               "| AB |", "|---|---|---|---|---|"]
     for key, rows in grids.items():
-        ok = [float(bool(r["success"])) for r in rows]
-        s, s_se = mean_se(ok)
-        t, t_se = mean_se([time_or_limit(r) for r in rows])
+        reps = [int(r["replicate"]) for r in rows]
+        s, s_se = clustered_mean_se([float(bool(r["success"])) for r in rows], reps)
+        t, t_se = clustered_mean_se([time_or_limit(r) for r in rows], reps)
         ab = "97 %" if key.startswith("III") else "(Fig. 6: worse than Fig. 11)"
         lines.append(f"| {CONFIGS[key].label} | {len(rows)} | {100 * s:.1f} % ± {100 * s_se:.1f} "
                      f"| {t:.0f} ± {t_se:.0f} s | {ab} |")
+    for key, rows in grids.items():
+        if not key.startswith("III"):
+            continue
+        s, s_se = clustered_mean_se([float(bool(r["success"])) for r in rows],
+                                    [int(r["replicate"]) for r in rows])
+        gap = 97.0 - 100 * s
+        verdict = ("within 2 SE of AB's 97 %" if abs(gap) <= 2 * 100 * s_se else
+                   f"{gap:.1f} points below AB's 97 %" if gap > 0 else
+                   f"{-gap:.1f} points above AB's 97 %")
+        reps: dict[int, list[bool]] = defaultdict(list)
+        for r in rows:
+            reps[int(r["replicate"])].append(bool(r["success"]))
+        rep = sorted(100 * statistics.fmean(v) for v in reps.values())
+        lines.append(f"\n- {CONFIGS[key].label}: {100 * s:.1f} % is {verdict}; per plume "
+                     f"realisation (100 starts each) success ranges {rep[0]:.0f}–{rep[-1]:.0f} % "
+                     f"(median {statistics.median(rep):.0f} %).")
     xs = sorted({float(r["start_x"]) for rows in grids.values() for r in rows})
     lines += ["", "By start column (x of the grid cell centres; the source is at x = 20):", "",
               "| reading | " + " | ".join(f"{x:.0f}" for x in xs) + " |",
@@ -195,7 +226,9 @@ def line_section(
         stats[k] = {x: mean_se(per_x[x]) for x in xs}
     keys = list(lines_rows)
     out = ["## (b) AB Fig. 10 — mean time to the source from (x, 0), large meander", "",
-           "Mean ± standard error, s; a failure counts as 300 s.", "",
+           "Mean ± standard error, s; a failure counts as 300 s. Per-start SEs treat the R plumes "
+           "as independent; pooled and paired SEs below use the plume realisation as the sampling "
+           "unit (all starts of a replicate share a plume).", "",
            "| x | " + " | ".join(CONFIGS[k].label for k in keys) + " |",
            "|---|" + "---|" * len(keys)]
     for x in xs:
@@ -203,13 +236,15 @@ def line_section(
             f"{stats[k][x][0]:.0f} ± {stats[k][x][1]:.0f}" for k in keys) + " |")
 
     def paired(a: str, b: str, sel: list[float]) -> tuple[float, float, int]:
-        d = [time_or_limit(by[a][key]) - time_or_limit(by[b][key])
-             for key in by[a] if key[0] in sel and key in by[b]]
-        m, se = mean_se(d)
+        keys_ = [key for key in by[a] if key[0] in sel and key in by[b]]
+        d = [time_or_limit(by[a][key]) - time_or_limit(by[b][key]) for key in keys_]
+        m, se = clustered_mean_se(d, [key[1] for key in keys_])
         return m, se, len(d)
 
     def pooled(k: str, sel: list[float]) -> tuple[float, float]:
-        return mean_se([time_or_limit(r) for (x, _), r in by[k].items() if x in sel])
+        items = [(key, r) for key, r in by[k].items() if key[0] in sel]
+        return clustered_mean_se([time_or_limit(r) for _, r in items],
+                                 [key[1] for key, _ in items])
 
     far = [x for x in xs if x >= FAR_X]
     near = [x for x in xs if abs(x - SOURCE_X) <= NEAR_M]
@@ -238,12 +273,33 @@ def line_section(
             summary["near"][f"{a}-{b}"] = n
             out.append(f"| {CONFIGS[a].label} − {CONFIGS[b].label} | {f[0]:+.1f} ± {f[1]:.1f} "
                        f"(n = {f[2]}) | {n[0]:+.1f} ± {n[1]:.1f} | {ab_far[b]} |")
+    sentences = []
+    for key, (m, se, _) in ((k, v) for k, v in summary["far"].items() if "-" in k):
+        a, b = key.split("-")
+        lo, hi = (-40.0, -30.0) if b == "I" else (-15.0, -5.0)
+        if m + se < 0 and lo - se <= m <= hi + se:
+            v = "agrees with AB in sign and size"
+        elif m + se < 0:
+            v = "agrees with AB in sign" + (" but is larger" if m < lo else " but is smaller")
+        elif m - se > 0:
+            v = "is the opposite of AB's (slower, by more than one SE)"
+        else:
+            v = "is not distinguishable from zero (AB: faster)"
+        sentences.append(f"- Far, {CONFIGS[a].label} − {CONFIGS[b].label} = {m:+.1f} ± {se:.1f} s "
+                         f"{v}.")
     if "I_lagging" in by and "I" in by:
         f = paired("I", "I_lagging", far)
         a = paired("I", "I_lagging", xs)
         summary["cast_rule"] = (f, a)
         out.append(f"| I − I (lagging_heading cast) | {f[0]:+.1f} ± {f[1]:.1f} (n = {f[2]}) | "
                    f"all starts: {a[0]:+.1f} ± {a[1]:.1f} | (AB §4.1: turn opposite the change) |")
+    near_vals = [summary["near"]["mean"][k][0] for k in ("I", "II", "III_last") if k in by]
+    if near_vals:
+        spread = max(near_vals) - min(near_vals)
+        sentences.append(f"- Within {NEAR_M:.0f} m of the source, I, II and III (last_detection) "
+                         f"span {spread:.1f} s (AB: nearly identical within ~5 m); starts upflow "
+                         "of the source must first find the plume, which dominates there.")
+    out += ["", *sentences]
     success = {k: 100 * statistics.fmean(bool(r["success"]) for r in by[k].values()) for k in keys}
     summary["success"] = success
     out += ["", "Success over the line: " + ", ".join(
@@ -286,7 +342,8 @@ def verdicts(grids: dict[str, list[Row]], summary: dict[str, Any] | None) -> lis
     out = ["## Targets (issue 10)", ""]
     if "III_last" in grids:
         rows = grids["III_last"]
-        s, se = mean_se([float(bool(r["success"])) for r in rows])
+        s, se = clustered_mean_se([float(bool(r["success"])) for r in rows],
+                                  [int(r["replicate"]) for r in rows])
         out.append(f"- Fig. 11 III (last_detection) success ≥ 95 %: {100 * s:.1f} % ± "
                    f"{100 * se:.1f} → {'met' if s >= 0.95 else 'missed'}.")
     if summary is not None and "III_last-I" in summary["far"]:
