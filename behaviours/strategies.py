@@ -7,9 +7,9 @@ each half declares the pairing as data (its ``contract``), which ``cptbt validat
 mismatched mission never reaches set-up. They share state through blackboard keys:
 
 - ``cast_sign`` (int ±1, maintain → reacquire): the cast heads ``psi_u - cast_deg*cast_sign``.
-  Strategy I writes ``sign(wrap(psi - psi_u))`` (actual heading vs upflow), II and III write
-  ``sign(beta)``; written on every tick the maintain half has an output, so the reacquire half
-  reads the value of the last in-plume cycle, which is T_Lost = T_Last + λ (AB eq. 3).
+  Strategy I writes the sign its ``cast_rule`` gives (from the actual heading vs upflow), II
+  and III write ``sign(beta)``; written on every tick the maintain half has an output, so the
+  reacquire half reads the value of the last in-plume cycle, T_Lost = T_Last + λ (AB eq. 3).
 - ``beta_sign`` (int ±1, maintain → anyone): II and III's current ``sign(beta)``; the TRO
   cloverleaf reads it too. The cast falls back to it when ``cast_sign`` is absent.
 - ``casting`` (bool, reacquire → maintain): whether the cast had an output on its last tick; a
@@ -18,7 +18,7 @@ mismatched mission never reaches set-up. They share state through blackboard key
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 from py_trees.common import Access
 from pydantic import Field, model_validator
@@ -54,23 +54,46 @@ class _StrategyMaintain(PlanBehaviour):
         return cmd
 
 
-class StrategyIParams(BehaviourParams):
-    """Parameters of AB Strategy I, maintain half (AB Table 3).
+class StrategyParams(BehaviourParams):
+    """Parameters every AB maintain half shares (AB Table 3).
 
     λ (1 s in AB Table 3) is the mission's ``perception.lambda_s``: it is the perception's
     contact-loss time, shared by every behaviour.
     """
 
 
+class StrategyIParams(StrategyParams):
+    """Parameters of AB Strategy I, maintain half (AB Table 3)."""
+
+    cast_rule: Literal["opposite_wind_change", "lagging_heading"] = Field(
+        default="opposite_wind_change",
+        description="Which way the cast turns: 'opposite_wind_change' (AB §4.1, SPEC §5c) or "
+        "'lagging_heading' (the sign of the heading's lag behind upflow, the former reading)",
+    )
+
+
 class StrategyIMaintain(_StrategyMaintain):
     """AB Strategy I, maintain: straight upflow (``psi_u``) while a detection is within λ.
 
-    Each tick it records ``cast_sign = sign(wrap(psi - psi_u))`` with ``psi`` the actual heading
-    (``p.pose.heading_deg``): it lags a turning flow, so the cast turns against the flow's last
-    drift (AB eqs. 7–8 as SPEC §5c writes them, ``sign(0) = +1``).
+    Each tick it records the sign of the cast that the reacquire half will fly
+    (``psi_u - 90*cast_sign``), chosen by ``cast_rule``:
 
-    Reading chosen: T_Lost is the last cycle the perception counts as in the plume (the last tick
-    of this half), so the values recorded on that tick are psi(T_Lost) and psi_u(T_Lost).
+    - ``opposite_wind_change`` (default): the cast turns *opposite to the wind's recent change*
+      (AB §4.1: "the vehicle should turn in the direction opposite to the change in the wind
+      direction"): the plume near the searcher was laid by the older wind, so it lies on the
+      side the upflow direction has just turned away from. The recent change is read from the
+      heading's lag: a heading that follows ``psi_u`` through first-order dynamics trails it by
+      the recent change of ``psi_u`` (with a = 5, its change over the last ~0.2 s), so
+      ``cast_sign = sign(wrap(psi_u - psi))`` and the cast heads toward the side the heading
+      still points to.
+    - ``lagging_heading``: ``cast_sign = sign(wrap(psi - psi_u))``, the reading of AB eqs. 7–8
+      with ``psi_r`` taken as the heading's lag. AB flips the sign convention of ``psi_r``
+      between §4.1 and §4.2, and this reading casts *with* the wind's change; measured, it casts
+      toward the plume in only 39 % of losses (SPEC §5c). Kept for comparison.
+
+    ``sign(0) = +1`` in both. Reading chosen: T_Lost is the last cycle the perception counts as
+    in the plume (the last tick of this half), so the values recorded on that tick are
+    psi(T_Lost) and psi_u(T_Lost).
     """
 
     variant: ClassVar[str] = "strategy_1"
@@ -79,8 +102,11 @@ class StrategyIMaintain(_StrategyMaintain):
     params: StrategyIParams
 
     def steer(self, p: Percept, psi_u: float) -> tuple[float, int]:
-        """No offset; the cast sign from the heading's lag behind upflow."""
-        return 0.0, sign(wrap_deg(p.pose.heading_deg - psi_u))
+        """No offset; the cast sign by ``cast_rule`` from the heading's lag behind upflow."""
+        lag = wrap_deg(p.pose.heading_deg - psi_u)
+        if self.params.cast_rule == "lagging_heading":
+            return 0.0, sign(lag)
+        return 0.0, sign(-lag)
 
 
 class _CounterturningMaintain(_StrategyMaintain):
@@ -123,7 +149,7 @@ class _CounterturningMaintain(_StrategyMaintain):
         return self.beta_sign * self.beta_magnitude(p), self.beta_sign
 
 
-class StrategyIIParams(StrategyIParams):
+class StrategyIIParams(StrategyParams):
     """Parameters of AB Strategy II, maintain half (AB Table 3)."""
 
     beta_deg: float = Field(
@@ -147,7 +173,7 @@ class StrategyIIMaintain(_CounterturningMaintain):
         return 0.0 if p.detected else self.params.beta_deg
 
 
-class StrategyIIIParams(StrategyIParams):
+class StrategyIIIParams(StrategyParams):
     """Parameters of AB Strategy III (the active strategy), maintain half (AB eq. 12)."""
 
     beta_early_deg: float = Field(
@@ -161,6 +187,12 @@ class StrategyIIIParams(StrategyIParams):
     )
     early_until_s: float = Field(default=0.2, ge=0, description="tau_1 of AB eq. 11, s")
     mid_until_s: float = Field(default=0.5, ge=0, description="tau_2 of AB eq. 11, s")
+    timer: Literal["contact", "last_detection"] = Field(
+        default="contact",
+        description="What t is measured from in the |beta| schedule: 'contact' (the contact's "
+        "first detection, T_first: the letter of AB eq. 11) or 'last_detection' (restarted at "
+        "every detection: the reading that reproduces AB Figs. 10-11)",
+    )
 
     @model_validator(mode="after")
     def _schedule_ordered(self) -> StrategyIIIParams:
@@ -172,13 +204,24 @@ class StrategyIIIParams(StrategyIParams):
 class StrategyIIIMaintain(_CounterturningMaintain):
     """AB Strategy III, maintain: ``psi_u + beta(t)`` within λ, ``|beta|`` growing (AB eq. 11–12).
 
-    ``|beta|`` is ``beta_early_deg`` for ``t - T_first < early_until_s``, ``beta_mid_deg`` up to
-    and including ``mid_until_s``, ``beta_late_deg`` after; ``T_first`` is the current contact's
-    first detection (redefined on each reacquisition). Sign: see the base class.
+    ``|beta|`` is ``beta_early_deg`` for ``t - T < early_until_s``, ``beta_mid_deg`` up to and
+    including ``mid_until_s``, ``beta_late_deg`` after. Sign: see the base class. ``T`` depends on
+    ``timer`` (SPEC §5c, which requires both readings):
+
+    - ``contact`` (default): ``T = T_first``, the current contact's first detection (redefined
+      on each reacquisition): the letter of AB eq. 11 and Table 3. With AB's heading dynamics
+      (a = 5) the heading never settles near upflow before ``|beta|`` reaches 65° and 85°, so
+      the searcher crosses the plume almost crosswind and gains ground up-plume mainly in the
+      turns: 0.15–0.37 m/s in an idealised straight plume against 1 m/s for Strategy I (SPEC
+      §5c), and far below AB's 97 % on the Fig. 11 grid (benchmarks/results/ab2001).
+    - ``last_detection``: ``T`` is the latest detection, so the searcher holds near-upflow while
+      filaments keep arriving (more often than every ``early_until_s``: the > 5 Hz surge of the
+      moths AB §1 cites) and turns crosswind within ``mid_until_s`` of the last hit. This is the
+      reading that reproduces AB's Fig. 11 success rate in a filament plume.
 
     Reading chosen: eq. 12 leaves both switch instants open (eq. 11 puts the first one in the
-    early band); SPEC's "10° for < 0.2 s, 65° until 0.5 s" is followed, and ``t - T_first`` is
-    rounded to 1 ns so that 10-Hz float time grids land on the intended side.
+    early band); SPEC's "10° for < 0.2 s, 65° until 0.5 s" is followed, and ``t - T`` is rounded
+    to 1 ns so that 10-Hz float time grids land on the intended side.
     """
 
     variant: ClassVar[str] = "strategy_3"
@@ -187,9 +230,12 @@ class StrategyIIIMaintain(_CounterturningMaintain):
     params: StrategyIIIParams
 
     def beta_magnitude(self, p: Percept) -> float:
-        """``|beta(t)|`` by the schedule on the time since the contact's first detection."""
-        first = p.first_detection_t if p.first_detection_t is not None else p.t
-        dt = round(p.t - first, 9)
+        """``|beta(t)|`` by the schedule on the time since ``T`` (see ``timer``)."""
+        if self.params.timer == "last_detection" and p.last_detection is not None:
+            start = p.last_detection.t
+        else:
+            start = p.first_detection_t if p.first_detection_t is not None else p.t
+        dt = round(p.t - start, 9)
         if dt < self.params.early_until_s:
             return self.params.beta_early_deg
         if dt <= self.params.mid_until_s:
@@ -245,7 +291,7 @@ class _CrosswindCast(PlanBehaviour):
 
 
 class StrategyICast(_CrosswindCast):
-    """AB Strategy I, reacquire: cast away from the flow's last drift (pairs with strategy_1)."""
+    """AB Strategy I, reacquire: cast the way the maintain half's ``cast_rule`` chose."""
 
     variant: ClassVar[str] = "strategy_1"
     contract: ClassVar[Contract] = Contract(pairs_with=(("maintain_plume", "strategy_1"),))

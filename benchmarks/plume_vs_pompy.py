@@ -6,10 +6,11 @@ sqrt(0.001) m, r² growth 0.001 m²/s, at most 1000 puffs; dt = 0.01 s; the wind
 2000 steps, then wind + plume are stepped for 300 s (30 000 steps). Both sides time only the
 model updates (no concentration images).
 
-The two models are not numerically identical — pompy's boundary noise is a second-order
-filter and its random walk is per-step white velocity noise; cptbt uses first-order noise and a
-diffusivity. pompy's centre-relative walk (2 m/s^0.5 × dt per step) is matched by cptbt's
-K_c = 2² · dt / 2 = 0.02 m²/s, so the puff counts should agree closely.
+The two models are not numerically identical — both use second-order boundary noise (cptbt's
+``large_meander`` preset since the AB rebuild), but pompy's random walk is per-step white
+velocity noise where cptbt uses a diffusivity. pompy's centre-relative walk (2 m/s^0.5 × dt per
+step) is matched by cptbt's K_c = 2² · dt / 2 = 0.02 m²/s, so the puff counts should agree
+closely.
 
 pompy goes in its own environment (it pins old numpy/scipy APIs)::
 

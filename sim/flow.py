@@ -6,11 +6,17 @@ AB §2.2: the velocity (u, v) lives on a coarse regular grid and obeys an advect
 
     du/dt = -(u du/dx + v du/dy) + K (d2u/dx2 + d2u/dy2)     (and the same for v),
 
-whose Dirichlet boundary values are the mean flow plus coloured noise: one first-order
-Gauss–Markov (Ornstein–Uhlenbeck) process per grid corner and component, interpolated linearly
-along the edges. Optionally a spatially uniform coloured-noise velocity is added everywhere
-(``common_noise_std_mps``): large-scale (e.g. tidal) changes that reach the whole area at once,
-which the slow advective response of the grid cannot produce at ocean speeds.
+whose Dirichlet boundary values are the mean flow plus coloured noise, one process per grid corner
+and component, interpolated linearly along the edges. The noise is either first order (a
+Gauss–Markov / Ornstein–Uhlenbeck process with correlation time ``T``) or, as in Farrell et al.
+2002, second order: white noise through ``x'' + 2ζω x' + ω² x = drive``, with bandwidth
+``ω = 1/T`` and damping ``ζ`` (Farrell 2002 and pompy: ζ = 0.1, ω = 0.2 rad/s), whose spectrum
+peaks near ``ω`` when lightly damped, so the flow swings back and forth with a period of about
+``2πT`` instead of wandering; the drive is scaled so the stationary std is ``noise_std_mps``.
+The AB meander presets use the second-order form. Optionally a spatially uniform coloured-noise
+velocity is added everywhere (``common_noise_std_mps``): large-scale (e.g. tidal) changes that
+reach the whole area at once, which the slow advective response of the grid cannot produce at
+ocean speeds.
 
 Advection uses first-order upwind differences so the explicit scheme is stable for any cell
 Péclet number; the step is sub-divided to respect the CFL/diffusion limit.
@@ -30,10 +36,11 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 Domain = tuple[float, float, float, float]
 FlowPreset = Literal["uniform", "small_meander", "large_meander", "ocean"]
 
-# Calibrated (tests/sim/test_sim_flow.py): the 90th percentile of the plume centreline deviation
-# 100 m downflow (tracer puffs, 4 seeds × 800 s) is ~7–9 m (small) and ~18–23 m (large) at
-# 1 m/s, AB §2.3; the ocean preset's flow direction wanders by ~10–30° over ten minutes at
-# 0.1 m/s (TRO Table II, MSN007r2: 124°–146°, 0.08–0.12 m/s).
+# Calibrated (tests/sim/test_sim_flow.py): with Farrell 2002's second-order boundary noise
+# (ζ = 0.1) the 90th percentile of the plume centreline deviation 100 m downflow (tracer puffs,
+# 12 seeds × 800 s) is ~7 m (small: period ~50 s) and ~21 m (large: period ~250 s) at 1 m/s,
+# AB §2.3's "normally < 10 m" and "< 25 m"; the ocean preset's flow direction wanders by ~10–30°
+# over ten minutes at 0.1 m/s (TRO Table II, MSN007r2: 124°–146°, 0.08–0.12 m/s).
 _PRESETS: dict[str, dict[str, Any]] = {
     "uniform": dict(
         mean_speed_mps=1.0,
@@ -48,8 +55,10 @@ _PRESETS: dict[str, dict[str, Any]] = {
     "small_meander": dict(
         mean_speed_mps=1.0,
         mean_dir_deg=0.0,
-        noise_std_mps=0.17,
+        noise_std_mps=0.3,
         noise_corr_time_s=8.0,
+        noise_order=2,
+        noise_damping=0.1,
         diffusivity_m2ps=5.0,
         grid_n=21,
         margin_m=20.0,
@@ -58,8 +67,10 @@ _PRESETS: dict[str, dict[str, Any]] = {
     "large_meander": dict(
         mean_speed_mps=1.0,
         mean_dir_deg=0.0,
-        noise_std_mps=0.26,
+        noise_std_mps=0.25,
         noise_corr_time_s=40.0,
+        noise_order=2,
+        noise_damping=0.1,
         diffusivity_m2ps=5.0,
         grid_n=21,
         margin_m=20.0,
@@ -99,7 +110,17 @@ class FlowParams(BaseModel):
         description="Stationary std of each boundary-corner velocity component, m/s.",
     )
     noise_corr_time_s: float = Field(
-        default=300.0, gt=0.0, description="Correlation time of that noise, s."
+        default=300.0,
+        gt=0.0,
+        description="Correlation time T of that noise, s (order 2: 1/bandwidth, 1/ω).",
+    )
+    noise_order: Literal[1, 2] = Field(
+        default=1,
+        description="Boundary noise: 1 = first-order Gauss–Markov; 2 = second-order "
+        "(Farrell 2002).",
+    )
+    noise_damping: float = Field(
+        default=0.1, gt=0.0, description="Damping ratio ζ of the second-order noise."
     )
     diffusivity_m2ps: float = Field(
         default=2.0, gt=0.0, description="Eddy diffusivity K of the velocity, m²/s."
@@ -221,7 +242,13 @@ class MeanderingFlow:
         vmax = params.mean_speed_mps + 4.0 * sigma
         rate = vmax / self.dx + vmax / self.dy + 2 * k / self.dx**2 + 2 * k / self.dy**2
         self.substep_s = min(params.max_substep_s, 0.8 / rate)
-        self._phi = math.exp(-self.substep_s / params.noise_corr_time_s)
+        h = self.substep_s
+        self._order2: _SecondOrderNoise | None = None
+        if params.noise_order == 2:
+            self._order2 = _SecondOrderNoise(
+                sigma, 1.0 / params.noise_corr_time_s, params.noise_damping, h, self._noise, rng
+            )
+        self._phi = math.exp(-h / params.noise_corr_time_s)
         self._kick = sigma * math.sqrt(1.0 - self._phi**2)
         sig_c = params.common_noise_std_mps
         self._common = sig_c * rng.standard_normal(2)
@@ -274,9 +301,15 @@ class MeanderingFlow:
             f[comp, :, -1] = c10 + ry * (c11 - c10)
 
     def _substep(self, h: float) -> None:
-        self._noise *= self._phi
         noise = self._rng.standard_normal(10)
-        self._noise += self._kick * noise[:8].reshape(2, 4)
+        if self._order2 is not None:
+            # The rate's own noise comes after the first-order draws, so order 1 streams are
+            # unchanged by this option.
+            extra = self._rng.standard_normal(8).reshape(2, 4)
+            self._order2.step(self._noise, noise[:8].reshape(2, 4), extra)
+        else:
+            self._noise *= self._phi
+            self._noise += self._kick * noise[:8].reshape(2, 4)
         self._common *= self._phi_c
         self._common += self._kick_c * noise[8:]
         self._apply_boundary()
@@ -313,6 +346,71 @@ class MeanderingFlow:
         d = flat[:, i00 + self.nx + 1]
         out = (a * (1 - wx) + b * wx) * (1 - wy) + (cc * (1 - wx) + d * wx) * wy
         return out.T + self._common
+
+
+class _SecondOrderNoise:
+    """Second-order coloured noise ``x'' + 2ζω x' + ω² x = q^½ w`` (Farrell 2002), exact steps.
+
+    The state (x, x') is advanced over a step ``h`` by its exact discrete-time transition
+    ``F = exp(A h)`` and a Cholesky factor of the exact step covariance (Van Loan), so the
+    process keeps its stationary std ``sigma`` for any step size. ``q = 4 ζ ω³ σ²`` gives
+    ``Var(x) = σ²`` (and ``Var(x') = ω² σ²``).
+
+    Args:
+        sigma: Stationary std of x.
+        omega: Bandwidth ω, rad/s.
+        zeta: Damping ratio ζ.
+        h: Step, s.
+        x: The initial x values (any shape), started from the stationary law; kept in place.
+        rng: Generator for the initial x' draw.
+    """
+
+    def __init__(
+        self,
+        sigma: float,
+        omega: float,
+        zeta: float,
+        h: float,
+        x: NDArray[np.float64],
+        rng: np.random.Generator,
+    ) -> None:
+        a = np.array([[0.0, 1.0], [-(omega**2), -2.0 * zeta * omega]])
+        q = 4.0 * zeta * omega**3 * sigma**2
+        self._f = _expm(a * h)
+        # Van Loan: the step covariance Q_d = ∫ e^{As} B q Bᵀ e^{Aᵀs} ds over [0, h].
+        m = np.zeros((4, 4))
+        m[:2, :2] = -a * h
+        m[:2, 2:] = np.array([[0.0, 0.0], [0.0, q]]) * h
+        m[2:, 2:] = a.T * h
+        e = _expm(m)
+        qd = e[2:, 2:].T @ e[:2, 2:]
+        qd = 0.5 * (qd + qd.T)
+        self._chol = np.linalg.cholesky(qd + 1e-18 * np.eye(2))
+        self._v = omega * sigma * rng.standard_normal(x.shape)
+
+    def step(
+        self, x: NDArray[np.float64], white: NDArray[np.float64], white2: NDArray[np.float64]
+    ) -> None:
+        """Advance x (in place) and its rate by one step; two standard normals per element."""
+        f, c = self._f, self._chol
+        x_new = f[0, 0] * x + f[0, 1] * self._v + c[0, 0] * white
+        self._v = f[1, 0] * x + f[1, 1] * self._v + c[1, 0] * white + c[1, 1] * white2
+        x[...] = x_new
+
+
+def _expm(m: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Matrix exponential by scaling and squaring with a Taylor series (small matrices)."""
+    norm = float(np.abs(m).sum(axis=1).max())
+    k = max(0, math.ceil(math.log2(norm)) + 1) if norm > 0 else 0
+    a = m / 2.0**k
+    out = np.eye(len(m))
+    term = np.eye(len(m))
+    for i in range(1, 20):
+        term = term @ a / i
+        out = out + term
+    for _ in range(k):
+        out = out @ out
+    return out
 
 
 def expand(area: Domain, margin_m: float) -> Domain:

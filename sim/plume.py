@@ -14,14 +14,21 @@ used (not pompy's 3-D form) because the vehicle samples a horizontal layer and t
 Calibration (concentration in units of the planner's threshold, TRO Table I: 0.20; fraction of
 time above 0.2 at a fixed point on the mean axis, 3 seeds, after warm-up):
 
-- ``"ab"`` (AB large meander, 1 m/s): 10 puffs/s, m = 0.15, r0 = 0.1 m, s = 0.004 m²/s,
-  K_c = 0.1 m²/s. A lone puff 80 m (80 s) downflow has r² = 0.33 m² and a peak of 0.07;
-  overlapping puffs give 50–70 % at 5 m, 35–50 % at 20 m, 10–17 % at 60 m, 4–10 % at 80 m and
-  < 1 % at 100 m: detectable, intermittently, out to ~80 m (AB's 100 × 100 m area).
+- ``"ab"`` (AB 2001 §2.2 and SPEC §10): 3 filaments/s (AB); Farrell et al. 2002's filament sizes:
+  r0² = 0.001 m², r² growth s = 0.001 m²/s, relative dispersion K_c = 0.02 m²/s. The mass
+  (the concentration scale; AB's units are the gypsy moth's threshold, which we cannot copy) is
+  chosen as m = 4 so that a *single* filament stays detectable across the whole area: a lone
+  filament 150 s old (beyond the area's far corner at 1 m/s) has r² = 0.151 m² and a peak of 4.2
+  (21 × the threshold), above threshold within 0.96 m of its centre; 20 s old, within 0.46 m.
+  A lower mass (m = 1, peak 5 × threshold at 150 s) gives the same plume geometry with a thinner
+  detectable core. With ``ab_large_meander``: 24 % above threshold at 20 m downflow, 16 % at
+  50 m, 16 % at 80 m; a crossflow line at 20/50/80 m meets an above-threshold filament 94/97/99 %
+  of the time. Intermittent everywhere, and no fading with distance: AB's searchers start
+  60–85 m downflow and detect routinely (SPEC §10).
 - ``"ocean"`` (TRO, ~0.1 m/s): 0.5 puff/s, m = 0.8, r0 = 0.2 m, s = 0.0003 m²/s,
   K_c = 0.03 m²/s. A lone puff 100 m (1000 s) downflow has r² = 0.34 m² and a peak of 0.37;
   62–67 % at 5 m, 16–28 % at 100 m, 12–21 % at 150 m, 7–19 % at 190 m: detectable beyond 100 m.
-tests/sim/test_plume.py checks both (fraction of time above 0.2 at fixed points on the axis).
+tests/sim/test_sim_plume.py and tests/sim/test_sim_ab_plume.py check both.
 """
 
 from __future__ import annotations
@@ -43,12 +50,12 @@ _NEIGHBOUR_DY = np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1])
 
 _PRESETS: dict[str, dict[str, Any]] = {
     "ab": dict(
-        release_rate_hz=10.0,
-        puff_mass=0.15,
-        initial_radius_m=0.1,
-        spread_rate_m2ps=0.004,
-        centre_rel_diffusivity_m2ps=0.1,
-        max_puffs=4000,
+        release_rate_hz=3.0,
+        puff_mass=4.0,
+        initial_radius_m=math.sqrt(0.001),
+        spread_rate_m2ps=0.001,
+        centre_rel_diffusivity_m2ps=0.02,
+        max_puffs=2000,
     ),
     "ocean": dict(
         release_rate_hz=0.5,

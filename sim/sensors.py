@@ -119,7 +119,7 @@ class Fluorometer:
 
 
 class ADCPParams(BaseModel):
-    """Flow sensor settings (TRO: 0.5 Hz, flow relative to earth)."""
+    """Flow sensor settings (TRO: 0.5 Hz, flow relative to earth; AB §5: direction error φ)."""
 
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
@@ -127,10 +127,26 @@ class ADCPParams(BaseModel):
     noise_std_mps: float = Field(
         default=0.02, ge=0.0, description="Gaussian noise std per axis, m/s."
     )
+    direction_error_std_deg: float = Field(
+        default=0.0,
+        ge=0.0,
+        description="Std of the direction error phi (white normal, held between redraws), deg "
+        "(AB §5; AB gives no size); 0 = off.",
+    )
+    direction_error_period_s: float = Field(
+        default=1.0, gt=0.0, description="phi is redrawn this often, s (AB §5: at 1 Hz)."
+    )
 
 
 class ADCP:
-    """Earth-relative flow at each vehicle plus Gaussian noise.
+    """Earth-relative flow at each vehicle plus Gaussian noise and a held direction error.
+
+    The direction error (AB §5: "additive noise phi that is a white normal random process that
+    changes value at a 1.0 Hz rate") rotates the measured flow vector by ``phi``; ``phi`` is drawn
+    from ``N(0, direction_error_std_deg²)`` on the first sample and every
+    ``round(direction_error_period_s * rate_hz)`` samples after. Reading chosen: AB adds phi to
+    the measured wind *direction*, so the speed is kept. Its draws come from a child of each
+    vehicle's generator, so switching it on does not change the other noise.
 
     Args:
         params: Sensor settings.
@@ -141,11 +157,28 @@ class ADCP:
         self.params = params
         self.period_s = 1.0 / params.rate_hz
         self._bank = NoiseBank(rngs, n_normal=2, n_uniform=0)
+        self._phi_bank: NoiseBank | None = None
+        if params.direction_error_std_deg > 0.0:
+            # Generator.spawn leaves the parent's state alone: the stream above is unchanged.
+            self._phi_bank = NoiseBank([g.spawn(1)[0] for g in rngs], n_normal=1, n_uniform=0)
+        self._hold = max(1, round(params.direction_error_period_s * params.rate_hz))
+        self._count = 0
+        self.phi_deg = np.zeros(len(rngs))
 
     def sample(self, true_flow: NDArray[np.float64]) -> NDArray[np.float64]:
         """Noisy flow (N, 2) from the true flow at the vehicles (N, 2)."""
         normal, _ = self._bank.draw()
-        return true_flow + self.params.noise_std_mps * normal
+        out = true_flow + self.params.noise_std_mps * normal
+        if self._phi_bank is not None:
+            if self._count % self._hold == 0:
+                self.phi_deg = self.params.direction_error_std_deg * self._phi_bank.draw()[0][:, 0]
+            self._count += 1
+            c = np.cos(np.radians(self.phi_deg))
+            s = np.sin(np.radians(self.phi_deg))
+            out = np.column_stack(
+                [c * out[:, 0] - s * out[:, 1], s * out[:, 0] + c * out[:, 1]]
+            )
+        return out
 
 
 class NavigationParams(BaseModel):

@@ -91,7 +91,13 @@ class EnvironmentParams(BaseModel):
         """Named setups: ``"tro_ocean"`` (the defaults) or AB's 100 × 100 m meander setups.
 
         AB: area x 0–100, y -50–50 m, source (20, 0), flow 1 m/s toward +x, first-order heading
-        with a = 5, 20 Hz sampling; the speed is set by the planner's command.
+        with a = 5, 20 Hz sampling; the speed is set by the planner's command. The plume is the
+        filament preset ``"ab"`` (3 filaments/s, Farrell 2002 sizes; see ``sim.plume``); the
+        flow has Farrell 2002's second-order boundary noise. The flow sensor reads the
+        *instantaneous local* flow with a direction error phi redrawn at 1 Hz (AB §5); AB gives
+        no size for phi: 10° is chosen, the spread AB's §4.2 study uses (uniform in ±10°).
+        The AB sensor filter (eqs. 1–2) is off (``fluorometer.alpha_per_s``: AB gives no
+        alpha).
         """
         if name == "tro_ocean":
             base: dict[str, Any] = {}
@@ -109,7 +115,7 @@ class EnvironmentParams(BaseModel):
                     advected=False,
                 ),
                 fluorometer=FluorometerParams(rate_hz=20.0),
-                adcp=ADCPParams(rate_hz=20.0, noise_std_mps=0.05),
+                adcp=ADCPParams(rate_hz=20.0, noise_std_mps=0.0, direction_error_std_deg=10.0),
                 navigation=NavigationParams(drift_std_m=0.0, fix_rate_per_s=0.0, fix_std_m=0.0),
                 dt_s=0.05,
                 plume_dt_s=0.05,

@@ -23,6 +23,7 @@ from cptbt.behaviours.strategies import (
     StrategyIIIParams,
     StrategyIIMaintain,
     StrategyIMaintain,
+    StrategyIParams,
 )
 from cptbt.mission import BehaviourEntry
 from cptbt.node import PlanBehaviour
@@ -72,26 +73,44 @@ def write_key(namespace: str, key: str, value: object) -> None:
 
 
 @pytest.mark.parametrize(
-    ("heading", "cast", "cast_sign"),
+    ("rule", "heading", "cast", "cast_sign"),
     [
-        # heading 170 lags upflow on the minus side: wrap(170 - 180) = -10 → gamma = -90 →
-        # psi_u - gamma = 180 + 90 = 270 ≡ -90.
-        (170.0, -90.0, -1),
+        # opposite_wind_change (AB §4.1): heading 170 trails an upflow that has turned + (from
+        # ~170 to 180), i.e. the wind turned +: cast the other way, toward the older wind's
+        # plume: sign(wrap(180 - 170)) = +1 → psi_u - 90 = 90, the side the heading points to.
+        ("opposite_wind_change", 170.0, 90.0, 1),
+        # heading 190: the upflow turned - → sign(wrap(180 - 190)) = -1 → 180 + 90 = 270 ≡ -90.
+        ("opposite_wind_change", 190.0, -90.0, -1),
+        # lagging_heading (the former reading of eqs. 7–8): wrap(170 - 180) = -10 → gamma = -90
+        # → psi_u - gamma = 180 + 90 = 270 ≡ -90, casting with the wind's change.
+        ("lagging_heading", 170.0, -90.0, -1),
         # heading 190: wrap(190 - 180) = +10 → gamma = +90 → 180 - 90 = 90.
-        (190.0, 90.0, 1),
+        ("lagging_heading", 190.0, 90.0, 1),
     ],
 )
-def test_strategy_1_pair_surges_upflow_then_casts_against_the_lag(
-    heading: float, cast: float, cast_sign: int
+def test_strategy_1_pair_surges_upflow_then_casts_by_its_rule(
+    rule: str, heading: float, cast: float, cast_sign: int
 ) -> None:
     # k 10-12 never detected: no output. Detections at 1.3, 1.4, 1.5: in the plume until
     # 1.5 + λ = 2.5 → psi_u = 180. From 2.6 to 1.5 + T_W = 5.5: cast. From 5.6: give up.
     ns = fresh_namespace()
-    h = TreeHarness(pair(StrategyIMaintain(namespace=ns), StrategyICast(namespace=ns)))
+    params = StrategyIParams(cast_rule=rule)  # type: ignore[arg-type]
+    h = TreeHarness(pair(StrategyIMaintain(params, namespace=ns), StrategyICast(namespace=ns)))
     expected = span(10, 12, None) + span(13, 25, 180.0) + span(26, 55, cast) + span(56, 57, None)
     check(h, script(range(10, 58), {13, 14, 15}, {}, heading), expected)
     assert h.get("cast_sign") == cast_sign
     assert h.get("casting") is False
+
+
+def test_strategy_1_cast_sign_is_taken_on_the_last_in_plume_tick() -> None:
+    # The heading swings from 170 (k ≤ 20) to 185 (k ≥ 21) while still in the plume (to 2.5):
+    # the cast follows the sign at T_Lost = 2.5: sign(wrap(180 - 185)) = -1 → 270 ≡ -90.
+    ns = fresh_namespace()
+    h = TreeHarness(pair(StrategyIMaintain(namespace=ns), StrategyICast(namespace=ns)))
+    headings = {k: 185.0 for k in range(21, 30)}
+    expected = span(13, 25, 180.0) + span(26, 29, -90.0)
+    check(h, script(range(13, 30), {13, 14, 15}, headings, 170.0), expected)
+    assert h.get("cast_sign") == -1
 
 
 def test_strategy_1_maintain_alone_has_output_only_in_the_plume() -> None:
@@ -99,7 +118,13 @@ def test_strategy_1_maintain_alone_has_output_only_in_the_plume() -> None:
     h = TreeHarness(StrategyIMaintain(namespace=ns))
     expected = span(10, 12, None) + span(13, 25, 180.0) + span(26, 30, None)
     check(h, script(range(10, 31), {13, 14, 15}, {}, 170.0), expected)
-    assert h.get("cast_sign") == -1  # sign(wrap(170 - 180))
+    assert h.get("cast_sign") == 1  # opposite_wind_change: sign(wrap(180 - 170))
+
+
+def test_strategy_1_default_rule_is_the_paper_s() -> None:
+    assert StrategyIParams().cast_rule == "opposite_wind_change"
+    with pytest.raises(ValidationError):
+        StrategyIParams(cast_rule="with_wind_change")  # type: ignore[arg-type]
 
 
 def test_cast_alone_sign_sources_and_give_up() -> None:
@@ -182,6 +207,47 @@ def test_strategy_3_maintain_alone_schedule_at_0_1_0_3_0_6() -> None:
     ticks = h.run(percepts)
     headings = {round(tk.t * 10): tk.command.heading_deg for tk in ticks if tk.command}
     assert (headings[11], headings[13], headings[16]) == (-170.0, -115.0, -95.0)
+
+
+def test_strategy_3_contact_timer_is_the_default_and_runs_from_the_first_detection() -> None:
+    # Detections every 0.1 s from 1.3 to 1.9 (a dense run of filaments), heading 90 → sign -1.
+    # contact: dt from T_first = 1.3: 1.3-1.4 → 170; 1.5-1.8 → 115; 1.9 on → 95 although the
+    # searcher is still detecting; in the plume to 2.9.
+    assert StrategyIIIParams().timer == "contact"
+    ns = fresh_namespace()
+    h = TreeHarness(pair(StrategyIIIMaintain(namespace=ns), StrategyIIICast(namespace=ns)))
+    expected = span(13, 14, 170.0) + span(15, 18, 115.0) + span(19, 29, 95.0) + [(30, -90.0)]
+    check(h, script(range(13, 31), set(range(13, 20)), {}), expected)
+
+
+def test_strategy_3_last_detection_timer_restarts_at_every_detection() -> None:
+    # The same script with timer = last_detection: while detections keep coming every 0.1 s,
+    # dt ≤ 0.1 → 10°: 170 from 1.3 to 2.0 (dt 0.1 after 1.9). Then from the last hit (1.9):
+    # dt 0.2-0.5 (2.1-2.4) → 115; dt 0.6-1.0 (2.5-2.9) → 95; 3.0 cast: 180 + 90 = 270 ≡ -90.
+    ns = fresh_namespace()
+    params = StrategyIIIParams(timer="last_detection")
+    h = TreeHarness(pair(StrategyIIIMaintain(params, namespace=ns), StrategyIIICast(namespace=ns)))
+    expected = span(13, 20, 170.0) + span(21, 24, 115.0) + span(25, 29, 95.0) + [(30, -90.0)]
+    check(h, script(range(13, 31), set(range(13, 20)), {}), expected)
+
+
+def test_strategy_3_last_detection_timer_with_a_gap_inside_the_contact() -> None:
+    # Detections at 1.0 and 1.6 (one contact: the gap 0.6 s < λ), entry heading -90 → sign +1.
+    # 1.0-1.1 → 190 ≡ -170; 1.2-1.5 → 245 ≡ -115; 1.6 (new hit, dt 0) → -170 again, 1.7 → -170,
+    # 1.8 → -115. The contact timer would have given 1.6 → -95 (dt 0.6 from T_first = 1.0).
+    ns = fresh_namespace()
+    percepts = script(range(10, 19), {10, 16}, {}, default_heading=-90.0)
+    params = StrategyIIIParams(timer="last_detection")
+    h = TreeHarness(StrategyIIIMaintain(params, namespace=ns))
+    expected = span(10, 11, -170.0) + span(12, 15, -115.0) + span(16, 17, -170.0) + [(18, -115.0)]
+    check(h, percepts, expected)
+    h = TreeHarness(StrategyIIIMaintain(namespace=fresh_namespace()))
+    check(h, percepts, span(10, 11, -170.0) + span(12, 15, -115.0) + span(16, 18, -95.0))
+
+
+def test_strategy_3_timer_is_validated() -> None:
+    with pytest.raises(ValidationError):
+        StrategyIIIParams(timer="first")  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize("spec", BEHAVIOURS, ids=lambda s: s.key)

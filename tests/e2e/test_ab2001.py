@@ -24,19 +24,16 @@ MISSION = ROOT / "missions" / "ab2001_strategy3.yaml"
 SCRIPT = Path(sys.executable).parent / "cptbt"
 
 # Success rate floor of the slow study (10 x 10 grid, 3 plume realisations per start, seed 2001).
-# Measured with the ab_large_meander preset (benchmarks/ab2001_reproduction.py): 50-59 % over
-# 100-500 runs, with whole-replicate swings of about +-10 % (every start of a replicate shares
-# one plume). Starts 10-35 m down-flow succeed in 80-100 % of runs, starts 45 m or more down-flow
-# mostly time out (Strategy III gains ~0.2-0.3 m/s up-flow here). 35 % sits below the replicate
-# spread of the healthy planner yet above what the billiard alone reaches: with the maintain and
-# reacquire halves unable to track, only starts within a few metres of the source (~10 % of the
-# grid) would succeed. AB report 97 % (see the benchmark for why we do not).
-SUCCESS_FLOOR = 0.35
+# Measured with the filament ab_large_meander preset and timer: last_detection: 95.7 % on exactly
+# this study (replicates 0-2: 97, 95, 95 %). Over 10 replicates the rate is 81 %, 44-97 % per
+# replicate (benchmarks/results/ab2001/report.md): whole plume realisations are hard or easy.
+# 85 % sits below this study's replicates yet far above the contact timer's ~40 % on them.
+SUCCESS_FLOOR = 0.85
 
 
-# Seeds whose plume passes the start at t = 0 (in seed 2001's it has meandered aside and the
-# billiard takes over: the test is about tracking, not finding).
-@pytest.mark.parametrize("seed", [1, 7])
+# Seeds whose plume passes the start at t = 0 (in others it has meandered aside and the billiard
+# takes over, returning to the axis ~100 s later: the test is about tracking, not finding).
+@pytest.mark.parametrize("seed", [3, 9])
 def test_strategy_3_finds_the_source_from_a_near_start(seed: int) -> None:
     mission = load(str(MISSION))
     params = to_sim_params(mission, seed)
@@ -44,8 +41,8 @@ def test_strategy_3_finds_the_source_from_a_near_start(seed: int) -> None:
     assert run.outcome == "found"
     assert run.distance_at_end_m <= 1.0
     assert run.t_end < 150.0
-    # Found by tracking the plume, not by the billiard stumbling on the source; 10 m up-flow in
-    # 40-50 s: Strategy III's ~0.2-0.3 m/s up-flow progress in this plume.
+    # Found by tracking the plume, not by the billiard stumbling on the source (10 m up-flow in
+    # about 15 s with timer: last_detection).
     assert run.time_in.get("maintain_plume.strategy_3", 0.0) > 5.0
     assert run.time_in.get("find_plume.billiard_ab", 0.0) < 5.0
 

@@ -138,3 +138,22 @@ def test_ocean_flow_direction_drifts_tens_of_degrees_over_minutes() -> None:
         assert np.all((speed > 0.03) & (speed < 0.2))
         ranges.append(np.ptp(np.degrees(np.arctan2(v[:, 1], v[:, 0]))))
     assert 8.0 < np.mean(ranges) < 60.0
+
+
+def test_second_order_boundary_noise_is_stationary_and_swings_back() -> None:
+    """Farrell 2002's second-order noise: std kept, anticorrelated half a period later."""
+    sigma, period_s = 0.3, 2 * math.pi * 10.0
+    params = FlowParams(
+        preset="uniform", noise_std_mps=sigma, noise_corr_time_s=10.0, noise_order=2
+    )
+    flow = MeanderingFlow(params, (0.0, 100.0, -50.0, 50.0), np.random.default_rng(5))
+    h = flow.substep_s
+    lag = round(period_s / 2 / h)
+    xs = []
+    for _ in range(40000):
+        flow._substep(h)
+        xs.append(flow._noise.copy())
+    x = np.array(xs).reshape(len(xs), -1)  # (steps, 8 corner components)
+    assert x.std() == pytest.approx(sigma, rel=0.12)
+    corr = np.mean([np.corrcoef(x[:-lag, j], x[lag:, j])[0, 1] for j in range(8)])
+    assert corr < -0.3  # a first-order process is positively correlated at every lag

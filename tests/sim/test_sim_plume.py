@@ -12,6 +12,11 @@ from cptbt.sim import EnvironmentParams, PlumeParams, PuffPlume, UniformFlow, Wo
 THRESHOLD = 0.20  # TRO Table I
 
 
+# Numerics tests use puffs the 0.05 m test grids resolve, with peaks of order one (the "ab"
+# preset's young filaments are 3 cm wide and peak in the hundreds).
+RESOLVED = dict(puff_mass=0.15, initial_radius_m=0.1, spread_rate_m2ps=0.004, release_rate_hz=10.0)
+
+
 def _uniform_plume(
     toward: float = 0.0,
     domain: tuple[float, float, float, float] = (-200.0, 200.0, -200.0, 200.0),
@@ -24,7 +29,7 @@ def _uniform_plume(
 
 
 def test_mass_is_conserved_until_puffs_leave() -> None:
-    plume = _uniform_plume()
+    plume = _uniform_plume(release_rate_hz=10.0)
     for _ in range(1000):  # 100 s: puffs reach x ≈ 100 m, inside the 200 m domain
         plume.step(0.1)
     assert plume.dropped == 0
@@ -35,7 +40,9 @@ def test_mass_is_conserved_until_puffs_leave() -> None:
 
 
 def test_puffs_leaving_the_domain_are_dropped_and_counted() -> None:
-    plume = _uniform_plume(domain=(-10.0, 30.0, -20.0, 20.0), centre_rel_diffusivity_m2ps=0.0)
+    plume = _uniform_plume(
+        domain=(-10.0, 30.0, -20.0, 20.0), centre_rel_diffusivity_m2ps=0.0, release_rate_hz=10.0
+    )
     for _ in range(600):
         plume.step(0.1)
     assert plume.dropped > 0
@@ -46,7 +53,7 @@ def test_puffs_leaving_the_domain_are_dropped_and_counted() -> None:
 
 
 def test_capacity_caps_the_puff_count() -> None:
-    plume = _uniform_plume(max_puffs=50)
+    plume = _uniform_plume(max_puffs=50, release_rate_hz=10.0)
     for _ in range(200):
         plume.step(0.1)
     assert plume.n == 50
@@ -55,7 +62,7 @@ def test_capacity_caps_the_puff_count() -> None:
 
 
 def test_concentration_integrates_to_the_total_mass() -> None:
-    plume = _uniform_plume(toward=30.0)
+    plume = _uniform_plume(toward=30.0, **RESOLVED)
     for _ in range(300):
         plume.step(0.1)
     xs = np.arange(-5.0, 40.0, 0.05)
@@ -65,7 +72,7 @@ def test_concentration_integrates_to_the_total_mass() -> None:
 
 
 def test_culled_concentration_matches_the_brute_force_sum() -> None:
-    plume = _uniform_plume(toward=-60.0)
+    plume = _uniform_plume(toward=-60.0, **RESOLVED)
     for _ in range(400):
         plume.step(0.1)
     q = np.random.default_rng(9).uniform(-5, 25, (300, 2)) * [1, -1]
@@ -138,13 +145,6 @@ def _detection_fraction(name: str, dists: list[float], seconds: float, seed: int
         world.plume.step(h)
         hits += world.plume.concentration(pts) > THRESHOLD
     return hits / steps
-
-
-def test_ab_plume_is_intermittently_detectable_out_to_80_m() -> None:
-    frac = _detection_fraction("ab_large_meander", [5.0, 20.0, 60.0, 80.0, 200.0], 300.0, 1)
-    assert np.all((frac[:4] > 0.005) & (frac[:4] < 0.95))  # neither always on nor always off
-    assert frac[0] > frac[2]
-    assert frac[4] == 0.0  # 200 m is far beyond the domain: nothing there
 
 
 def test_ocean_plume_is_intermittently_detectable_beyond_100_m() -> None:

@@ -100,3 +100,39 @@ def test_navigation_jumps_at_lbl_fixes() -> None:
     # Between fixes the OU step is ~5·sqrt(2/600) ≈ 0.29 m; a fix jumps by the accumulated drift.
     assert (jumps > 2.0).sum() > 30
     assert nav.fixes == pytest.approx(120, abs=5 * math.sqrt(120))
+
+
+def test_adcp_direction_error_is_held_for_its_period_and_keeps_the_speed() -> None:
+    # AB §5: phi white normal, redrawn at 1 Hz; at 20 Hz it is held for 20 samples.
+    params = ADCPParams(
+        rate_hz=20.0, noise_std_mps=0.0, direction_error_std_deg=10.0, direction_error_period_s=1.0
+    )
+    adcp = ADCP(params, _rngs(3))
+    flow = np.array([[1.0, 0.0], [0.0, 2.0], [-0.5, 0.5]])
+    angles = []
+    for _ in range(20 * 400):
+        out = adcp.sample(flow)
+        assert np.allclose(np.hypot(out[:, 0], out[:, 1]), np.hypot(flow[:, 0], flow[:, 1]))
+        turn = np.arctan2(out[:, 1], out[:, 0]) - np.arctan2(flow[:, 1], flow[:, 0])
+        angles.append(np.degrees(turn))
+    phi = (np.array(angles) + 180.0) % 360.0 - 180.0  # (samples, vehicles)
+    blocks = phi.reshape(400, 20, 3)
+    assert np.allclose(blocks, blocks[:, :1, :])  # constant within each second
+    assert not np.allclose(blocks[1:, 0], blocks[:-1, 0])  # redrawn every second
+    assert blocks[:, 0].std() == pytest.approx(10.0, rel=0.1)
+    assert abs(blocks[:, 0].mean()) < 1.5
+    assert not np.allclose(blocks[:, 0, 0], blocks[:, 0, 1])  # each vehicle its own phi
+
+
+def test_adcp_direction_error_leaves_the_other_noise_unchanged() -> None:
+    flow = np.array([[0.3, 0.1]])
+    plain = ADCP(ADCPParams(noise_std_mps=0.05), _rngs(1, seed=4))
+    rotated = ADCP(ADCPParams(noise_std_mps=0.05, direction_error_std_deg=20.0), _rngs(1, seed=4))
+    for _ in range(30):
+        a = plain.sample(flow)[0]
+        b = rotated.sample(flow)[0]
+        phi = math.radians(float(rotated.phi_deg[0]))
+        c, s = math.cos(-phi), math.sin(-phi)
+        back = [c * b[0] - s * b[1], s * b[0] + c * b[1]]
+        assert back == pytest.approx(list(a), abs=1e-12)
+    assert rotated.phi_deg[0] != 0.0
