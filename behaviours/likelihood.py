@@ -24,7 +24,7 @@ from pydantic import Field
 
 from cptbt.angles import unit
 from cptbt.behaviours.declare_source import DeclareParams, SourceDeclaration
-from cptbt.behaviours.source_map import SOURCE_MAP_KEY, MapModelParams, SourceMap
+from cptbt.behaviours.source_map import SOURCE_MAP_KEY, MapModelParams, SourceMap, best_target
 from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept, Point, SourceBelief
@@ -64,7 +64,12 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=300.0, gt=0, description="The fly-by ends (and is judged) after this long, s"
     )
     arrive_radius_m: float = Field(
-        default=3.0, gt=0, description="A fly-by waypoint counts as reached within this, m"
+        default=3.0, gt=0, description="A fly-by or search waypoint counts as reached within "
+        "this, m"
+    )
+    search_replan_s: float = Field(
+        default=20.0, gt=0, description="Between declarations, the search target is re-chosen "
+        "at least this often, s"
     )
 
 
@@ -110,7 +115,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     persistent_state: ClassVar[tuple[str, ...]] = (
         "declared", "heading_home", "map", "sources", "candidate", "route", "route_index",
         "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn", "withdrawn_at",
-        "detections_used", "at_declaration",
+        "detections_used", "at_declaration", "search_target", "search_t",
     )
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
@@ -131,6 +136,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.withdrawn_at: tuple[Point, ...] = ()
         self.detections_used = 0
         self.at_declaration: SourceBelief | None = None
+        self.search_target: Point | None = None
+        self.search_t = -math.inf
 
     def setup(self, **kwargs: Any) -> None:
         """Bind the context and lay the grid over its OpArea."""
@@ -223,10 +230,37 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self._report()
 
     def decide(self, p: Percept) -> Command | None:
-        """Fly the fly-by while one is under way; otherwise go to the source, then home."""
+        """Fly the fly-by while one is under way; search on between declarations; otherwise go
+        to the source, then home."""
         if self.candidate is not None and self.route_index < len(self.route):
             return self.command(p.pose.point.bearing_to(self.route[self.route_index]))
+        if self.sources and self.declared is None:
+            return self._search_on(p)
         return super().decide(p)
+
+    def _search_on(self, p: Percept) -> Command | None:
+        """Between declarations: while the latest detection is one a declared source explains,
+        steer for the most probable unexplored cell of the map rather than let maintain-plume
+        follow a known plume back to its source; an unexplained detection hands control back."""
+        assert self.map is not None
+        last = p.last_detection
+        here = p.pose.point
+        if last is not None and not self._explained(last.point):
+            self.search_target = None
+            return None
+        if (self.search_target is None or p.t - self.search_t >= self.params.search_replan_s
+                or here.distance_to(self.search_target) <= self.params.arrive_radius_m):
+            self.search_target = best_target(self.map.belief(), here, explored_weight=0.1,
+                                             min_distance_m=self.params.arrive_radius_m)
+            self.search_t = p.t
+        if self.search_target is None:
+            return None
+        return self.command(here.bearing_to(self.search_target))
+
+    def _explained(self, at: Point) -> bool:
+        assert self.map is not None
+        return any(self.map.expected_detection(s, at.x, at.y) >= self.params.explained_prob
+                   for s in self.sources)
 
 
 class MapGuidedParams(BehaviourParams):
@@ -306,19 +340,10 @@ class MapGuidedReacquire(PlanBehaviour):
 
     def _choose(self, belief: SourceBelief, p: Percept) -> Point | None:
         assert p.last_detection is not None and p.flow is not None
-        gx, gy = np.meshgrid(belief.xs, belief.ys)
-        score = np.array(belief.posterior, dtype=float)
-        if belief.explored is not None:
-            score = np.where(belief.explored, score * self.params.explored_weight, score)
-        ux, uy = unit(p.flow.upflow_deg)
-        last = p.last_detection
-        upflow = (gx - last.x) * ux + (gy - last.y) * uy >= -self.params.behind_m
-        far = (gx - p.pose.x) ** 2 + (gy - p.pose.y) ** 2 > self.params.arrive_radius_m**2
-        score = np.where(upflow & far, score, 0.0)
-        i = int(np.argmax(score))
-        if score.flat[i] <= 0:
-            return None
-        return Point(float(gx.flat[i]), float(gy.flat[i]))
+        return best_target(belief, p.pose.point, explored_weight=self.params.explored_weight,
+                           min_distance_m=self.params.arrive_radius_m,
+                           upflow_deg=p.flow.upflow_deg, behind=p.last_detection.point,
+                           behind_m=self.params.behind_m)
 
 
 BEHAVIOURS = [

@@ -28,7 +28,9 @@ the spread at the source (navigation error, puff size), ``φ`` the half-angle of
 - A **detection** multiplies cell ``s`` by ``1 - (1 - ε)(1 - K(s; x))(1 - q)``: a false alarm
   (``ε``), the hypothesised source, or one of the already *declared* sources (``q``, the chance
   that a declared source's plume explains a detection at ``x``) could have caused it. A detection
-  straight down-flow of a cell raises it; a detection a declared source explains says little.
+  straight down-flow of a cell raises it. A detection with ``q >= explained_prob`` is taken as
+  the declared source's and is no observation at all: a partial explanation, repeated over the
+  hundreds of correlated detections a known plume gives, would otherwise still pile up.
 - A **non-detection** multiplies cell ``s`` by ``1 - K(s; x)``: it lowers the cells whose plume
   would probably have been seen at ``x`` (those up-flow of ``x`` along the back-trajectory), and
   leaves the cells it says nothing about (down-flow or far to the side) alone.
@@ -111,6 +113,10 @@ class MapModelParams(BehaviourParams):
     mask_radius_m: float = Field(
         default=6.0, gt=0, description="Cells within this of a declared source are ruled out "
         "as another source, m"
+    )
+    explained_prob: float = Field(
+        default=0.05, gt=0, lt=1, description="A detection a declared source's plume would "
+        "cause with at least this chance is explained by it and says nothing about other sources"
     )
     trajectory_points: int = Field(
         default=200, ge=2, le=10_000, description="Back-trajectory samples per observation"
@@ -247,6 +253,8 @@ class SourceMap:
                 kx = np.array([s.x for s in self.known])
                 ky = np.array([s.y for s in self.known])
                 miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
+                if miss_known <= 1.0 - m.explained_prob:
+                    return np.where(self._excluded, -np.inf, 0.0)
             like = 1.0 - (1.0 - m.false_alarm_prob) * (1.0 - k_cells) * miss_known
             out = m.detection_weight * np.log(like)
         return np.where(self._excluded, -np.inf, out)
@@ -298,3 +306,34 @@ class SourceMap:
         explored = self.explored.reshape(self.shape).copy()
         explored.flags.writeable = False
         return SourceBelief(self.t, self.xs, self.ys, post, self.known, explored)
+
+
+def best_target(
+    belief: SourceBelief,
+    here: Point,
+    *,
+    explored_weight: float,
+    min_distance_m: float,
+    upflow_deg: float | None = None,
+    behind: Point | None = None,
+    behind_m: float = 0.0,
+) -> Point | None:
+    """The most promising cell to head for: posterior × (``explored_weight`` where explored).
+
+    Cells within ``min_distance_m`` of ``here`` are skipped (the vehicle is there already), and,
+    given ``upflow_deg`` and ``behind``, so are cells more than ``behind_m`` down-flow of
+    ``behind``. None when no cell qualifies.
+    """
+    gx, gy = np.meshgrid(belief.xs, belief.ys)
+    score = np.array(belief.posterior, dtype=float)
+    if belief.explored is not None:
+        score = np.where(belief.explored, score * explored_weight, score)
+    keep = (gx - here.x) ** 2 + (gy - here.y) ** 2 > min_distance_m**2
+    if upflow_deg is not None and behind is not None:
+        ux, uy = unit(upflow_deg)
+        keep &= (gx - behind.x) * ux + (gy - behind.y) * uy >= -behind_m
+    score = np.where(keep, score, 0.0)
+    i = int(np.argmax(score))
+    if not score.flat[i] > 0:
+        return None
+    return Point(float(gx.flat[i]), float(gy.flat[i]))
