@@ -34,13 +34,16 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     """Parameters of the likelihood-map declaration: the map's model, the rule, the fly-by."""
 
     radius_m: float = Field(
-        default=5.0, gt=0, description="Declare when the posterior mass within this of the map's "
+        default=8.0, gt=0, description="Declare when the posterior mass within this of the map's "
         "maximum exceeds the confidence, m"
     )
-    confidence: float = Field(default=0.8, gt=0, lt=1, description="Posterior mass to declare")
+    confidence: float = Field(default=0.9, gt=0, lt=1, description="Posterior mass to declare")
     min_detections: int = Field(
         default=10, ge=0, description="Detections needed (since the last declaration or "
         "withdrawal) before declaring"
+    )
+    min_lost_contacts: int = Field(
+        default=0, ge=0, description="Lost contacts (SPEC §2) needed before declaring"
     )
     max_sources: int = Field(
         default=1, ge=1, le=20, description="Sources to declare before heading home"
@@ -167,6 +170,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
     def _test_rule(self, p: Percept, post: np.ndarray) -> None:
         assert self.map is not None
         if self.map.detections - self.detections_used < self.params.min_detections:
+            return
+        if len(p.lost_contacts) < self.params.min_lost_contacts:
             return
         peak = self.map.peak(post)
         mass, mean = self.map.mass_and_mean(peak, self.params.radius_m, post)

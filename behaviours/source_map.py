@@ -101,10 +101,10 @@ class MapModelParams(BehaviourParams):
         default=250.0, gt=0, description="Detections are not traced back farther than this, m"
     )
     detection_weight: float = Field(
-        default=1.0, gt=0, le=1, description="Tempering exponent of a detection's likelihood"
+        default=0.5, gt=0, le=1, description="Tempering exponent of a detection's likelihood"
     )
     nondetection_weight: float = Field(
-        default=0.5, gt=0, le=1, description="Tempering exponent of a non-detection's likelihood"
+        default=0.3, gt=0, le=1, description="Tempering exponent of a non-detection's likelihood"
     )
     explored_radius_m: float = Field(
         default=6.0, gt=0, description="Cells within this of the vehicle's track count as "
@@ -244,10 +244,11 @@ class SourceMap:
 
     def _log_likelihood(self, k: int, x: float, y: float, detected: bool) -> Array:
         m = self.model
-        k_cells = self.kernel(k, x, y, self._cx, self._cy)
         if not detected:
+            k_cells = self.kernel(k, x, y, self._cx, self._cy)
             out = m.nondetection_weight * np.log1p(-k_cells)
         else:
+            k_cells = self.kernel(k, x, y, self._cx, self._cy)
             miss_known = 1.0
             if self.known:
                 kx = np.array([s.x for s in self.known])
