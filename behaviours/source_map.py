@@ -137,8 +137,8 @@ class SourceMap:
         w, h = area.xmax - area.xmin, area.ymax - area.ymin
         cell = max(model.cell_m, math.sqrt(w * h / MAX_CELLS))
         nx, ny = max(1, math.ceil(w / cell)), max(1, math.ceil(h / cell))
-        self.xs: Array = area.xmin + (np.arange(nx) + 0.5) * (w / nx)
-        self.ys: Array = area.ymin + (np.arange(ny) + 0.5) * (h / ny)
+        self.xs: Array = np.asarray(area.xmin + (np.arange(nx) + 0.5) * (w / nx), dtype=float)
+        self.ys: Array = np.asarray(area.ymin + (np.arange(ny) + 0.5) * (h / ny), dtype=float)
         gx, gy = np.meshgrid(self.xs, self.ys)
         self._cx: Array = gx.ravel()
         self._cy: Array = gy.ravel()

@@ -209,19 +209,37 @@ def main() -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--cost-seeds", type=int, default=2)
     ap.add_argument("--out", default=str(ROOT / "benchmarks/results/likelihood_map.md"))
+    ap.add_argument("--from-rows", action="store_true",
+                    help="only tabulate the finished replicates already in the .jsonl next to "
+                    "--out (a study stopped early)")
     args = ap.parse_args()
     names = [c for c in args.configs.split(",") if c]
-    jobs = [(name, str(MSN007), CONFIGS[name], r) for r in range(args.runs) for name in names]
-    jobs += [("two_sources", str(TWO), {}, r) for r in range(args.two_runs)]
+    # Replicate by replicate, so the rows written so far always hold whole paired replicates.
+    jobs = []
+    for r in range(max(args.runs, args.two_runs)):
+        if r < args.runs:
+            jobs += [(name, str(MSN007), CONFIGS[name], r) for name in names]
+        if r < args.two_runs:
+            jobs.append(("two_sources", str(TWO), {}, r))
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
+    rows_path = out.with_suffix(".jsonl")
     wall0 = time.perf_counter()
     rows: list[dict[str, Any]] = []
-    with ProcessPoolExecutor(max_workers=args.workers) as pool, \
-            (out.with_suffix(".jsonl")).open("w", encoding="utf-8") as f:
-        for row in pool.map(fly, jobs, chunksize=4):
-            rows.append(row)
-            f.write(json.dumps(row) + "\n")
+    if args.from_rows:
+        rows = [json.loads(line) for line in rows_path.read_text(encoding="utf-8").splitlines()]
+        done = {r["replicate"] for r in rows if r["study"] == names[-1]}
+        rows = [r for r in rows if r["replicate"] in done]
+        args.runs = len(done)
+        args.two_runs = sum(r["study"] == "two_sources" for r in rows)
+        jobs = [j for j in jobs if j[3] in done]
+    else:
+        with ProcessPoolExecutor(max_workers=args.workers) as pool, \
+                rows_path.open("w", encoding="utf-8") as f:
+            for row in pool.map(fly, jobs, chunksize=1):
+                rows.append(row)
+                f.write(json.dumps(row) + "\n")
+                f.flush()
     wall = time.perf_counter() - wall0
     machine = (f"{platform.machine()}, {os.cpu_count()} CPUs (shared), Python "
                f"{platform.python_version()}, {args.workers} workers")
@@ -229,8 +247,10 @@ def main() -> int:
         "# Likelihood-map declaration study (issue 13)",
         "",
         f"Produced by `python benchmarks/likelihood_map.py --runs {args.runs} --two-runs "
-        f"{args.two_runs}` on {machine}: {len(jobs)} runs in {wall / 60:.1f} min. Root seed "
-        f"{SEED}; replicate r flies the same plume, noise and start in every rule (paired).",
+        f"{args.two_runs}` on {machine}"
+        + ("" if args.from_rows else f": {len(jobs)} runs in {wall / 60:.1f} min")
+        + f". Root seed {SEED}; replicate r flies the same plume, vehicle noise and start in "
+        "every rule (paired).",
         "",
         "## (a) TRO MSN007, the AMP alone (`cptbt.batch.engine.simulate`)",
         "",
