@@ -96,7 +96,7 @@ def fly(job: tuple[str, str, dict[str, Any], int]) -> dict[str, Any]:
                                vehicle_rngs=vehicle_rngs)
     sources = [Point(*params.source_xy_m), *(Point(*xy) for xy in params.extra_sources_xy_m)]
     s = summarise(run, mission, sources[0], SEED, wall, sources=sources,
-                  success_radius_m=FALSE_M)
+                  success_radius_m=FALSE_M).to_dict()
     keep = ("outcome", "error_m", "t3", "T_D", "D3", "sources_true", "sources_declared",
             "sources_found", "false_declarations", "flybys", "withdrawn", "sim_time_s",
             "wall_time_s")

@@ -26,7 +26,7 @@ def fly(seed: int) -> dict:  # type: ignore[type-arg]
     params = to_sim_params(mission, seed)
     (run,), _, wall = simulate(mission, params, [launch_pose(mission)])
     sources = [Point(*params.source_xy_m), *(Point(*xy) for xy in params.extra_sources_xy_m)]
-    return summarise(run, mission, sources[0], seed, wall, sources=sources)
+    return summarise(run, mission, sources[0], seed, wall, sources=sources).to_dict()
 
 
 def test_the_shipped_run_declares_both_sources_and_draws_the_map(tmp_path: Path) -> None:
