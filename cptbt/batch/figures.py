@@ -183,6 +183,7 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
                 label="withdrawn after fly-by")
     _sources(ax, truth, declared, label=False)
     ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m), 90° clockwise from x")
 
 
