@@ -63,6 +63,10 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=1.0, ge=0, description="A pass that saw nothing withdraws the declaration only "
         "if the map expected at least this many detections on it"
     )
+    flyby_keep_fraction: float = Field(
+        default=0.5, gt=0, le=1, description="After the fly-by, the map must still hold this "
+        "fraction of the confidence within radius_m of the declared point, or it is withdrawn"
+    )
     flyby_timeout_s: float = Field(
         default=300.0, gt=0, description="The fly-by ends (and is judged) after this long, s"
     )
@@ -101,6 +105,11 @@ class LikelihoodMapDeclare(SourceDeclaration):
     detections (the sum of the model's detection chance over the pass) withdraws it: the search
     resumes, and a new declaration needs ``min_detections`` fresh detections. A pass the map
     expected little of (its waypoints clipped by the OpArea, say) cannot refute, and confirms.
+    Seeing plume down-flow does not show that none comes from farther up-flow (a candidate on a
+    plume's axis, short of its source, passes that test), so the map itself is asked again at
+    the end of the fly-by, with everything the manoeuvre observed folded in: unless it still
+    holds ``flyby_keep_fraction`` × ``confidence`` within ``radius_m`` of the candidate, the
+    candidate is withdrawn.
 
     With ``max_sources > 1`` each confirmed source is added to ``declared_sources``, its
     neighbourhood ruled out and its plume explained away in the map (rebuilt from the history),
@@ -225,7 +234,10 @@ class LikelihoodMapDeclare(SourceDeclaration):
         timed_out = p.t - self.flyby_t0 >= self.params.flyby_timeout_s
         if self.route_index < len(self.route) and not timed_out:
             return
-        if self.flyby_seen > 0 or self.flyby_expected < self.params.flyby_min_expected:
+        mass, _ = self.map.mass_and_mean(self.candidate, self.params.radius_m)
+        supported = mass >= self.params.flyby_keep_fraction * self.params.confidence
+        if supported and (self.flyby_seen > 0
+                          or self.flyby_expected < self.params.flyby_min_expected):
             self._accept(self.candidate)
         else:
             self.withdrawn += 1
