@@ -118,6 +118,23 @@ class Planner:
         return self._storage[self._key["declared_source"]]
 
     @property
+    def declared_sources(self) -> tuple[Point, ...]:
+        """Every source declared so far (a multi-source declaration publishes them all)."""
+        many = self.read("declared_sources")
+        if isinstance(many, tuple) and many:
+            return many
+        one = self.declared_source
+        return () if one is None else (one,)
+
+    def read(self, key: str) -> object:
+        """A behaviour-published blackboard key of this planner (None when unset).
+
+        For reports after a run (``source_map``, ``declaration_report``); behaviours declare
+        their own keys with their access.
+        """
+        return self._storage.get(f"{self.namespace}/{key}")
+
+    @property
     def done(self) -> bool:
         """Declared and home: the AMP has finished its job."""
         return bool(self._storage[self._key["mission_done"]])

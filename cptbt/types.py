@@ -8,6 +8,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+from numpy.typing import NDArray
+
 from cptbt.angles import bearing_deg, wrap_deg
 
 
@@ -127,3 +130,24 @@ class Percept:
         if self.last_detection is None:
             return math.inf
         return self.t - self.last_detection.t
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class SourceBelief:
+    """A gridded belief over where the source is, published by map-keeping behaviours.
+
+    Attributes:
+        t: planner time of the belief, seconds.
+        xs: cell-centre x coordinates (nx,), planning metres.
+        ys: cell-centre y coordinates (ny,), planning metres.
+        posterior: probability of each cell (ny, nx), summing to 1 (read-only array).
+        declared: sources declared so far (their plumes are explained away in the belief).
+        explored: cells the vehicle has passed near (ny, nx), or None.
+    """
+
+    t: float
+    xs: NDArray[np.float64]
+    ys: NDArray[np.float64]
+    posterior: NDArray[np.float64]
+    declared: tuple[Point, ...] = ()
+    explored: NDArray[np.bool_] | None = None

@@ -58,6 +58,11 @@ class EnvironmentParams(BaseModel):
         description="Area of interest (xmin, xmax, ymin, ymax), m.",
     )
     source_xy_m: tuple[float, float] = (-70.0, 6.0)
+    extra_sources_xy_m: tuple[tuple[float, float], ...] = Field(
+        default=(),
+        description="More sources (x, y), m, each with a plume of its own in the same flow; "
+        "the concentration is the sum of the plumes.",
+    )
     flow: FlowParams = FlowParams(preset="ocean")
     plume: PlumeParams = PlumeParams(preset="ocean")
     vehicle: VehicleParams = VehicleParams()
@@ -201,6 +206,11 @@ class World:
         per_sensor = [g.spawn(3) for g in vehicle_rngs]  # loop at construction only
         self.flow = make_flow(params.flow, params.area_m, env_rng)
         self.plume = PuffPlume(params.plume, params.source_xy_m, self.flow, env_rng)
+        # More sources draw from the same environment stream after the first plume, so a
+        # single-source world is unchanged by their existence in the model.
+        self.extra_plumes = [
+            PuffPlume(params.plume, xy, self.flow, env_rng) for xy in params.extra_sources_xy_m
+        ]
         heading = np.broadcast_to(np.asarray(heading_deg, dtype=float), (n,))
         self.vehicles = Vehicles(params.vehicle, xy, heading)
         self.fluorometer = Fluorometer(params.fluorometer, [s[0] for s in per_sensor])
@@ -249,6 +259,8 @@ class World:
         for _ in range(math.ceil(seconds / h)):
             self.flow.step(h)
             self.plume.step(h)
+            for plume in self.extra_plumes:
+                plume.step(h)
 
     def set_commands(
         self, heading_deg: NDArray[np.float64], speed_mps: NDArray[np.float64]
@@ -259,7 +271,19 @@ class World:
 
     def concentration_at(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
         """True instantaneous concentration at points (M, 2) (for plots and metrics)."""
-        return self.plume.concentration(xy)
+        return self._concentration(xy)
+
+    def _concentration(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The sum of every source's plume at points (M, 2)."""
+        out = self.plume.concentration(xy)
+        for plume in self.extra_plumes:
+            out = out + plume.concentration(xy)
+        return out
+
+    @property
+    def sources_xy_m(self) -> list[tuple[float, float]]:
+        """Every true source (x, y), the first one first."""
+        return [self.params.source_xy_m, *self.params.extra_sources_xy_m]
 
     def step(self) -> StepOutput:
         """Advance everything by ``dt_s`` and return the samples due at the end of the step."""
@@ -269,6 +293,8 @@ class World:
             h = self._plume_stride * dt
             self.flow.step(h)
             self.plume.step(h)
+            for plume in self.extra_plumes:
+                plume.step(h)
             # The current is looked up once per plume step: the flow changes no faster, and the
             # vehicle moves ≤ 2.8 m per 1 s step against a flow grid of ~20 m.
             self._current = self.flow.velocity_at(veh.xy)
@@ -279,7 +305,7 @@ class World:
         t = self.t_s
         fluor = None
         if self._fluor_sched.due(t):
-            fluor = self.fluorometer.sample(self.plume.concentration(veh.xy))
+            fluor = self.fluorometer.sample(self._concentration(veh.xy))
         adcp = None
         if self._adcp_sched.due(t):
             adcp = self.adcp.sample(self.flow.velocity_at(veh.xy))

@@ -89,6 +89,9 @@ class VehicleRun:
     t3: float | None = None
     distance_at_end_m: float = math.nan
     declared: Point | None = None
+    declared_all: tuple[Point, ...] = ()
+    source_map: Any = None
+    declaration_report: dict[str, Any] | None = None
     lost_contacts: tuple[Point, ...] = ()
     plume: PlumeSnapshot | None = None
 
@@ -125,6 +128,18 @@ class VehicleRun:
             return None
         table = rec.table(self.index, extra=("phase",) if len(rec.phases) > 1 else ())
         return {c: table[c] for c in (*TRACE, *(["phase"] if "phase" in table else []))}
+
+
+def collect_declarations(run: VehicleRun, planner: Planner) -> None:
+    """Copy what map-keeping declarations publish into the run (absent for the others).
+
+    Every source declared, the belief at the last declaration (or the latest one), and the
+    fly-by report.
+    """
+    run.declared_all = planner.declared_sources
+    run.source_map = planner.read("source_map_at_declaration") or planner.read("source_map")
+    report = planner.read("declaration_report")
+    run.declaration_report = report if isinstance(report, dict) else None
 
 
 def simulate(
@@ -225,6 +240,7 @@ def simulate(
             if outcome is not None:
                 run.outcome, run.t_end, run.distance_at_end_m = outcome, t, d_true
                 run.declared = pl.declared_source
+                collect_declarations(run, pl)
                 run.lost_contacts = p.lost_contacts
                 if plume_grid is not None and run.plume is None:
                     run.plume = PlumeSnapshot.of(world, plume_grid)

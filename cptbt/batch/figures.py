@@ -12,7 +12,7 @@ import numpy as np
 from cptbt.batch.engine import VehicleRun
 from cptbt.frames import OpArea
 from cptbt.mission import MissionBase
-from cptbt.types import Point
+from cptbt.types import Point, SourceBelief
 
 BEHAVIOUR_COLOURS = {
     "safety": "#d62728",
@@ -78,6 +78,7 @@ def trajectory_figure(
     *,
     threshold: float | None = None,
     waypoints: Sequence[Point] | None = None,
+    sources: Sequence[Point] = (),
 ) -> None:
     """The run in the planning frame, drawn as TRO Figs. 10–12 (y positive down).
 
@@ -87,11 +88,20 @@ def trajectory_figure(
     with the bearing of +x, and for missions with a geodetic anchor a latitude/longitude
     graticule. With a ``phase`` column in the trace (a phased run) the parts outside the AMP
     override are drawn dashed (Mission A) or dotted (return to the break-off point), and the
-    planned Mission A ``waypoints`` as a light dashed line (TRO Fig. 1).
+    planned Mission A ``waypoints`` as a light dashed line (TRO Fig. 1). ``sources`` are every
+    true source (default: ``source``). When the run's declaration kept a source-likelihood map,
+    a second panel draws its posterior at the (last) declaration with the declared points, the
+    withdrawn fly-by candidates and the true sources.
     """
     plt = pyplot()
     area = mission.op_area_geometry()
-    fig, ax = plt.subplots(figsize=(12.5, 5.6), layout="constrained")
+    belief = run.source_map if isinstance(run.source_map, SourceBelief) else None
+    truth = list(sources) or [source]
+    if belief is None:
+        fig, ax = plt.subplots(figsize=(12.5, 5.6), layout="constrained")
+    else:
+        fig, (ax, ax_map) = plt.subplots(2, 1, figsize=(12.5, 10.4), layout="constrained",
+                                         sharex=True, sharey=True)
     snap = run.plume
     if snap is not None:
         vmax = max(float(np.percentile(snap.conc, 99.7)), (threshold or 0.0) * 2, 1e-9)
@@ -121,10 +131,10 @@ def trajectory_figure(
                 label="mission start (move-to-field goal)")
     home = mission.to_xy(mission.home)
     ax.plot(home.x, home.y, "^", mfc="#8c564b", mec="black", ms=9, label="home")
-    ax.plot(source.x, source.y, "*", color="gold", mec="black", ms=16, label="true source")
-    if run.declared is not None:
-        ax.plot(run.declared.x, run.declared.y, "o", color="#9467bd", mec="black", ms=9,
-                label="declared source")
+    declared = list(run.declared_all) or ([run.declared] if run.declared is not None else [])
+    _sources(ax, truth, declared)
+    if belief is not None:
+        _map_panel(ax_map, belief, area, truth, declared, run.declaration_report or {}, plt)
     ax.set_aspect("equal")
     ax.invert_yaxis()  # TRO draws the planning y axis positive downward
     _north_arrow(ax, mission, area)
@@ -135,6 +145,46 @@ def trajectory_figure(
     fig.legend(loc="outside right upper", fontsize=8, frameon=False)
     fig.savefig(path, dpi=150)
     plt.close(fig)
+
+
+def _sources(ax: Any, truth: Sequence[Point], declared: Sequence[Point],
+             label: bool = True) -> None:
+    """True sources (stars) and declared sources (circles) on one panel."""
+    ax.plot([q.x for q in truth], [q.y for q in truth], "*", color="gold", mec="black", ms=16,
+            ls="none", label=(("true source" if len(truth) == 1 else "true sources")
+                              if label else None))
+    if declared:
+        ax.plot([q.x for q in declared], [q.y for q in declared], "o", color="#9467bd",
+                mec="black", ms=9, ls="none",
+                label=(("declared source" if len(declared) == 1 else "declared sources")
+                       if label else None))
+
+
+def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Point],
+               declared: Sequence[Point], report: dict[str, Any], plt: Any) -> None:
+    """The source-likelihood posterior (log scale, four decades) with the declarations."""
+    from matplotlib.colors import LogNorm
+
+    post = np.asarray(belief.posterior, dtype=float)
+    top = float(post.max()) if post.size else 0.0
+    if top > 0:
+        shown = np.where(post >= top * 1e-4, post, np.nan)
+        mesh = ax.pcolormesh(belief.xs, belief.ys, shown, cmap="viridis", shading="auto",
+                             norm=LogNorm(vmin=top * 1e-4, vmax=top), rasterized=True)
+        bar = plt.colorbar(mesh, ax=ax, location="bottom", shrink=0.5, aspect=40, pad=0.02)
+        bar.set_label(f"source-likelihood posterior per cell at t = {belief.t:.0f} s (last "
+                      "declaration), log scale", fontsize=8)
+    ax.add_patch(plt.Rectangle((area.xmin, area.ymin), area.xmax - area.xmin,
+                               area.ymax - area.ymin, fill=False, lw=1.5, ec="black"))
+    withdrawn = report.get("withdrawn_at") or []
+    if withdrawn:
+        w = np.asarray(withdrawn, dtype=float)
+        ax.plot(w[:, 0], w[:, 1], "X", color="#d62728", mec="black", ms=9, ls="none",
+                label="withdrawn after fly-by")
+    _sources(ax, truth, declared, label=False)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m), 90° clockwise from x")
 
 
 def _track(ax: Any, run: VehicleRun, waypoints: Sequence[Point] | None) -> None:

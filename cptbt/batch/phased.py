@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from cptbt.batch.engine import PlumeSnapshot, VehicleRun
+from cptbt.batch.engine import PlumeSnapshot, VehicleRun, collect_declarations
 from cptbt.batch.outcome import Outcome, outcome_of
 from cptbt.batch.recorder import Recorder
 from cptbt.batch.scenario import environment_of, planning_angle
@@ -159,6 +159,7 @@ def simulate_phased(
         run.declared = planner.declared_source
     if amp_rows.count[0]:
         run.start = (float(run.path_true[0, 0]), float(run.path_true[0, 1]))
+    collect_declarations(run, planner)
     planner.close()
     result = PhasedRun(
         amp=run,

@@ -12,13 +12,14 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema
 
-from cptbt.mission import Coord, MissionBase, Problem
+from cptbt.mission import Coord, Loc, MissionBase, Problem
 from cptbt.schema import partial_schema
 from cptbt.sim.flow import FlowParams
 from cptbt.sim.plume import PlumeParams
 from cptbt.sim.sensors import ADCPParams, FluorometerParams, NavigationParams
 from cptbt.sim.vehicle import VehicleParams
 from cptbt.sim.world import EnvironmentParams, EnvPreset
+from cptbt.types import Point
 
 Overrides = dict[str, Any]
 
@@ -45,6 +46,11 @@ class Environment(BaseModel):
     source: Coord | None = Field(
         default=None, description="True source position in the mission frame (required: the "
         "presets' own sources lie in their own areas, not in yours); inside the OpArea unless "
+        "the mission lists 'source' in allow_outside"
+    )
+    extra_sources: list[Coord] = Field(
+        default_factory=list, description="More true sources, in the mission frame, each with "
+        "a plume of its own in the same flow (multi-source missions); inside the OpArea unless "
         "the mission lists 'source' in allow_outside"
     )
     flow_toward_deg: float | None = Field(
@@ -124,12 +130,18 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
                                             and -180 <= env.source[1] <= 180):
         return [(("environment", "source"), "not [latitude, longitude]")]
     area = mission.op_area_geometry()
-    src = mission.to_xy(env.source)
-    if "source" not in mission.allow_outside and not area.contains(src.x, src.y):
-        return [(("environment", "source"),
-                 f"{area.distance_outside(src.x, src.y):.1f} m outside the OpArea (list 'source' "
-                 "in allow_outside if that is intended)")]
-    return []
+    places: list[tuple[Loc, Coord]] = [(("environment", "source"), env.source)]
+    places += [(("environment", "extra_sources", i), c) for i, c in enumerate(env.extra_sources)]
+    out: list[Problem] = []
+    for loc, coord in places:
+        if mission.frame == "geodetic" and not (-90 < coord[0] < 90 and -180 <= coord[1] <= 180):
+            out.append((loc, "not [latitude, longitude]"))
+            continue
+        src = mission.to_xy(coord)
+        if "source" not in mission.allow_outside and not area.contains(src.x, src.y):
+            out.append((loc, f"{area.distance_outside(src.x, src.y):.1f} m outside the OpArea "
+                             "(list 'source' in allow_outside if that is intended)"))
+    return out
 
 
 def to_sim_params(mission: MissionBase, seed: int | None = None) -> EnvironmentParams:
@@ -149,6 +161,9 @@ def to_sim_params(mission: MissionBase, seed: int | None = None) -> EnvironmentP
     if env.source is not None:
         src = mission.to_xy(env.source)
         over["source_xy_m"] = (src.x, src.y)
+    if env.extra_sources:
+        extra = [mission.to_xy(c) for c in env.extra_sources]
+        over["extra_sources_xy_m"] = [(q.x, q.y) for q in extra]
     flow: dict[str, Any] = dict(env.flow)
     if env.flow_toward_deg is not None:
         flow["mean_dir_deg"] = planning_angle(mission, env.flow_toward_deg)
@@ -161,6 +176,13 @@ def to_sim_params(mission: MissionBase, seed: int | None = None) -> EnvironmentP
         over[key] = getattr(env, key)
     over["flow"] = flow
     return EnvironmentParams.model_validate(_merge(base, over))
+
+
+def true_sources(mission: MissionBase) -> list[Point]:
+    """Every true source of a mission's environment (planning frame), ``source`` first."""
+    env = environment_of(mission)
+    coords = ([env.source] if env.source is not None else []) + list(env.extra_sources)
+    return [mission.to_xy(c) for c in coords]
 
 
 def planning_angle(mission: MissionBase, angle_deg: float) -> float:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -74,6 +75,13 @@ class RunSummary:
     wall_time_s: float
     time_in_behaviour_s: dict[str, float] = field(default_factory=dict)
     time_share: dict[str, float] = field(default_factory=dict)
+    sources_true: int = 1
+    sources_declared: int = 0
+    sources_found: int = 0
+    false_declarations: int = 0
+    declared_sources: list[dict[str, float] | None] = field(default_factory=list)
+    flybys: int | None = None
+    withdrawn: int | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data for ``summary.json`` and the results table."""
@@ -87,6 +95,9 @@ def summarise(
     seed: int | None,
     wall_time_s: float,
     t0: float = 0.0,
+    *,
+    sources: Sequence[Point] | None = None,
+    success_radius_m: float | None = None,
 ) -> RunSummary:
     """One run's :class:`RunSummary`.
 
@@ -96,6 +107,12 @@ def summarise(
     source (under the arrival criterion with no declaration, the vehicle's distance to the source
     when it stopped). ``t0`` is the start of Mission B (the AMP take-over; 0 when the AMP drives
     from launch).
+
+    Every declared point (a multi-source declaration makes several) is matched one-to-one to the
+    nearest unmatched true source in ``sources`` (default: ``source`` alone): ``sources_found``
+    counts true sources with a declared point within ``success_radius_m`` (default: the
+    mission's), ``false_declarations`` the declared points matched to none; ``flybys`` and
+    ``withdrawn`` count a likelihood-map declaration's fly-bys and withdrawn declarations.
     """
     t1, t3 = run.t1, run.t3
     declared = run.declared
@@ -125,6 +142,11 @@ def summarise(
     verdict = judge(run.outcome, declared, source, run.distance_at_end_m, mission.evaluation)
     time_in = run.time_in
     total_time = sum(time_in.values()) or 1.0
+    truth = list(sources) if sources else [source]
+    radius = success_radius_m or mission.evaluation.success_radius_m
+    declared_all = list(run.declared_all) or ([declared] if declared is not None else [])
+    found = _match(declared_all, truth, radius)
+    report = run.declaration_report or {}
     return RunSummary(
         mission=mission.name,
         seed=seed,
@@ -149,4 +171,26 @@ def summarise(
         wall_time_s=wall_time_s,
         time_in_behaviour_s=dict(sorted(time_in.items())),
         time_share={k: v / total_time for k, v in sorted(time_in.items())},
+        sources_true=len(truth),
+        sources_declared=len(declared_all),
+        sources_found=found,
+        false_declarations=len(declared_all) - found,
+        declared_sources=[where(mission, p) for p in declared_all],
+        flybys=report.get("flybys"),
+        withdrawn=report.get("withdrawn"),
     )
+
+
+def _match(declared: Sequence[Point], truth: Sequence[Point], radius_m: float) -> int:
+    """True sources matched one-to-one, nearest pairs first, to a declared point within reach."""
+    pairs = sorted((d.distance_to(s), i, j) for i, d in enumerate(declared)
+                   for j, s in enumerate(truth))
+    used_d: set[int] = set()
+    used_s: set[int] = set()
+    for dist, i, j in pairs:
+        if dist > radius_m:
+            break
+        if i not in used_d and j not in used_s:
+            used_d.add(i)
+            used_s.add(j)
+    return len(used_s)

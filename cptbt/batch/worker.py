@@ -14,7 +14,13 @@ from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.integrity import code_identity
 from cptbt.batch.report import config_label
-from cptbt.batch.scenario import Environment, launch_pose, planning_angle, to_sim_params
+from cptbt.batch.scenario import (
+    Environment,
+    launch_pose,
+    planning_angle,
+    to_sim_params,
+    true_sources,
+)
 from cptbt.batch.study import GroupTask, group_seeds
 from cptbt.batch.summary import summarise
 from cptbt.loader import loads_mission
@@ -71,7 +77,7 @@ def flatten(summary: dict[str, Any]) -> dict[str, Any]:
     """One flat row of a run summary (nested places become ``<name>_<axis>`` columns)."""
     row: dict[str, Any] = {}
     for key, value in summary.items():
-        if key in ("time_in_behaviour_s", "time_share"):
+        if key in ("time_in_behaviour_s", "time_share", "declared_sources"):
             continue
         if isinstance(value, dict):
             for sub, v in value.items():
@@ -142,7 +148,8 @@ def row_of(task: GroupTask, k: int, run: VehicleRun, mission: MissionBase, sourc
     """The results row of the group's ``k``-th start: the one table schema of every study."""
     i = task.ids[k]
     row = {"config": task.config, **task.coords, "replicate": task.replicate, "start": i}
-    row.update(flatten(summarise(run, mission, source, task.root_seed, wall_s).to_dict()))
+    row.update(flatten(summarise(run, mission, source, task.root_seed, wall_s,
+                                 sources=true_sources(mission)).to_dict()))
     x, y = task.starts[k]
     row.update({"start_x": x, "start_y": y, "start_mode": task.start_mode,
                 "seed_key": f"{task.root_seed}/{task.replicate}/{i}",

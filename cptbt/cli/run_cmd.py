@@ -14,7 +14,7 @@ from cptbt.batch.engine import PlumeSnapshot, VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.figures import plume_grid, trajectory_figure
 from cptbt.batch.phased import phase_summary, simulate_phased
-from cptbt.batch.scenario import Environment, launch_pose, to_sim_params
+from cptbt.batch.scenario import Environment, launch_pose, to_sim_params, true_sources
 from cptbt.batch.store import load_results
 from cptbt.batch.study import GroupTask
 from cptbt.batch.summary import summarise
@@ -116,6 +116,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else run_folder(mission, seed)
     out.mkdir(parents=True, exist_ok=True)
     source = Point(*params.source_xy_m)
+    sources = [source, *(Point(*xy) for xy in params.extra_sources_xy_m)]
     waypoints = None
     grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
     try:
@@ -133,13 +134,13 @@ def cmd_run(args: argparse.Namespace) -> int:
             if cycle_log is not None:
                 cycle_log.close()
         run, waypoints = phased.amp, phased.waypoints
-        summary = summarise(run, mission, source, seed, wall,
-                            t0=phased.t_amp_start or 0.0).to_dict()
+        summary = summarise(run, mission, source, seed, wall, t0=phased.t_amp_start or 0.0,
+                            sources=sources).to_dict()
         summary["phases"] = phase_summary(phased, mission)
     else:
         (run,), world, wall = simulate(mission, params, [launch_pose(mission)], trace=True,
                                        plume_grid=grid)
-        summary = summarise(run, mission, source, seed, wall).to_dict()
+        summary = summarise(run, mission, source, seed, wall, sources=sources).to_dict()
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     trace_path = write_trace(run, out)
     figure = None
@@ -152,7 +153,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                                              "reacquire_plume", "find_plume"))
         trajectory_figure(figure, run, mission, source,
                           f"{mission.name} (seed {seed}): {summary['outcome']}\n{variants}",
-                          threshold=mission.perception.threshold, waypoints=waypoints)
+                          threshold=mission.perception.threshold, waypoints=waypoints,
+                          sources=sources)
     if not args.quiet:
         s = summary
         verdict = "success" if s["success"] else (
@@ -164,6 +166,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             d = s["declared_source"]
             print(f"  declared at t3 = {_fmt(s['t3'], ' s')}: source N {d['north']:.1f} m, "
                   f"E {d['east']:.1f} m; error {_fmt(s['error_m'], ' m')}")
+        if s["sources_true"] > 1 or s["sources_declared"] > 1 or s["withdrawn"]:
+            print(f"  sources: {s['sources_found']} of {s['sources_true']} found, "
+                  f"{s['false_declarations']} false; fly-bys {s['flybys']}, "
+                  f"withdrawn {s['withdrawn']}")
         print(f"  T_F {_fmt(s['T_F'], ' s')}  T_T {_fmt(s['T_T'], ' s')}  "
               f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}")
         for c in s.get("phases", {}).get("timeline", []):
@@ -204,7 +210,8 @@ def refly(args: argparse.Namespace) -> int:
                             Environment)
     grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
     mission, (run,), source, wall = fly_group(task, trace=True, plume_grid=grid)
-    summary = summarise(run, mission, source, task.root_seed, wall).to_dict()
+    summary = summarise(run, mission, source, task.root_seed, wall,
+                        sources=true_sources(mission)).to_dict()
     again = row_of(task, 0, run, mission, source, wall)
     diff = sorted(k for k, v in again.items() if k in row and k not in COMPARED_AWAY
                   and not _same(v, row[k]))
@@ -219,7 +226,8 @@ def refly(args: argparse.Namespace) -> int:
         trajectory_figure(out / "trajectory.png", run, mission, source,
                           f"{mission.name}, study row {args.row} ({task.key}, start "
                           f"{row['start']}): {summary['outcome']}",
-                          threshold=mission.perception.threshold)
+                          threshold=mission.perception.threshold,
+                          sources=true_sources(mission))
     if not args.quiet:
         same = "the same as the study's row, bit for bit" if not diff else (
             f"DIFFERENT from the study's row in {', '.join(diff)}")

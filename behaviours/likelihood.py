@@ -1,0 +1,369 @@
+"""Behaviours built on the source-likelihood map (:mod:`cptbt.behaviours.source_map`).
+
+- ``declare_source: {variant: likelihood_map}`` keeps the map, declares when its posterior is
+  concentrated, optionally verifies the declaration with a fly-by (TRO VI's future work), and
+  may declare several sources one after another;
+- ``reacquire_plume: {variant: map_guided}`` heads for the most likely unexplored source region
+  up-flow after losing contact, instead of flying a fixed pattern.
+
+Blackboard keys (STYLE 4): the declaration writes ``source_map`` (a
+:class:`~cptbt.types.SourceBelief`, every cycle), ``source_map_at_declaration`` (the belief at the
+latest declaration), ``declared_sources`` (every source declared so far) and
+``declaration_report`` (fly-bys and withdrawals), besides the planner's ``declared_source``;
+map-guided reacquire reads ``source_map``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+from py_trees.common import Access
+from pydantic import Field
+
+from cptbt.angles import unit
+from cptbt.behaviours.declare_source import DeclareParams, SourceDeclaration
+from cptbt.behaviours.source_map import SOURCE_MAP_KEY, MapModelParams, SourceMap, best_target
+from cptbt.node import BehaviourParams, Contract, PlanBehaviour
+from cptbt.registry import BehaviourSpec
+from cptbt.types import Command, Percept, Point, SourceBelief
+
+
+class LikelihoodMapParams(DeclareParams, MapModelParams):
+    """Parameters of the likelihood-map declaration: the map's model, the rule, the fly-by."""
+
+    radius_m: float = Field(
+        default=8.0, gt=0, description="Declare when the posterior mass within this of the map's "
+        "maximum exceeds the confidence, m"
+    )
+    confidence: float = Field(default=0.9, gt=0, lt=1, description="Posterior mass to declare")
+    min_detections: int = Field(
+        default=10, ge=0, description="Detections needed (since the last declaration or "
+        "withdrawal) before declaring"
+    )
+    min_lost_contacts: int = Field(
+        default=0, ge=0, description="Lost contacts (SPEC §2) needed before declaring"
+    )
+    max_sources: int = Field(
+        default=1, ge=1, le=20, description="Sources to declare before heading home"
+    )
+    flyby: bool = Field(
+        default=False, description="Verify each declaration with a pass across the flow "
+        "down-flow of it (TRO VI)"
+    )
+    flyby_offset_m: float = Field(
+        default=8.0, gt=0, description="How far down-flow of the declared point the pass runs, m"
+    )
+    flyby_half_width_m: float = Field(
+        default=15.0, gt=0, description="Half the length of a pass, across the flow, m"
+    )
+    flyby_passes: int = Field(default=2, ge=1, le=10, description="Passes across the flow")
+    flyby_min_expected: float = Field(
+        default=1.0, ge=0, description="A pass that saw nothing withdraws the declaration only "
+        "if the map expected at least this many detections on it"
+    )
+    flyby_keep_fraction: float = Field(
+        default=0.5, gt=0, le=1, description="After the fly-by, the map must still hold this "
+        "fraction of the confidence within radius_m of the declared point, or it is withdrawn"
+    )
+    flyby_timeout_s: float = Field(
+        default=300.0, gt=0, description="The fly-by ends (and is judged) after this long, s"
+    )
+    arrive_radius_m: float = Field(
+        default=3.0, gt=0, description="A fly-by or search waypoint counts as reached within "
+        "this, m"
+    )
+    search_replan_s: float = Field(
+        default=20.0, gt=0, description="Between declarations, the search target is re-chosen "
+        "at least this often, s"
+    )
+
+
+def _radius_fits_grid(params: BehaviourParams, perception: Any) -> str | None:
+    assert isinstance(params, LikelihoodMapParams)
+    if params.radius_m < 0.5 * params.cell_m:
+        return (f"radius_m {params.radius_m:g} is smaller than half a cell (cell_m "
+                f"{params.cell_m:g}): the declaration mass would be one cell's")
+    return None
+
+
+class LikelihoodMapDeclare(SourceDeclaration):
+    """Declare from a Bayesian source-likelihood map (Pang & Farrell, IEEE SMC-B 36(5), 2006).
+
+    Every cycle (in :meth:`watch`, so also while safety or the fly-by drive) the percept updates
+    the map (see :mod:`cptbt.behaviours.source_map` for the likelihood model and its
+    assumptions) and the posterior is published on ``source_map``. The rule: once
+    ``min_detections`` detections have been folded in, take the map's most probable cell; when
+    the posterior mass within ``radius_m`` of it exceeds ``confidence``, the source is declared
+    at the posterior mean of that disc.
+
+    With ``flyby``, a declaration is first a *candidate*: the vehicle flies ``flyby_passes``
+    straight passes across the flow, ``flyby_offset_m`` down-flow of it (TRO VI: "drive the AUV
+    past the declared source location in the downflow direction"). A detection on a pass confirms
+    it. A pass that saw nothing where the map expected at least ``flyby_min_expected``
+    detections (the sum of the model's detection chance over the pass) withdraws it: the search
+    resumes, and a new declaration needs ``min_detections`` fresh detections. A pass the map
+    expected little of (its waypoints clipped by the OpArea, say) cannot refute, and confirms.
+    Seeing plume down-flow does not show that none comes from farther up-flow (a candidate on a
+    plume's axis, short of its source, passes that test), so the map itself is asked again at
+    the end of the fly-by, with everything the manoeuvre observed folded in: unless it still
+    holds ``flyby_keep_fraction`` × ``confidence`` within ``radius_m`` of the candidate, the
+    candidate is withdrawn.
+
+    With ``max_sources > 1`` each confirmed source is added to ``declared_sources``, its
+    neighbourhood ruled out and its plume explained away in the map (rebuilt from the history),
+    and the search resumes; after the last, the vehicle goes to it and home (TRO IV-D).
+    ``declared_source`` is written once, at the last declaration.
+
+    Readings chosen: the declaration time is the confirmation's (the fly-by is part of
+    declaring); the map, the fly-by and the declarations persist across pre-emption.
+    """
+
+    variant: ClassVar[str] = "likelihood_map"
+    Params: ClassVar[type[BehaviourParams]] = LikelihoodMapParams
+    params: LikelihoodMapParams
+    contract: ClassVar[Contract] = Contract(check=_radius_fits_grid)
+    persistent_state: ClassVar[tuple[str, ...]] = (
+        "declared", "heading_home", "map", "sources", "candidate", "route", "route_index",
+        "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn", "withdrawn_at",
+        "detections_used", "at_declaration", "search_target", "search_t",
+    )
+
+    def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
+        super().__init__(params, **kwargs)
+        for key in (SOURCE_MAP_KEY, "source_map_at_declaration", "declared_sources",
+                    "declaration_report"):
+            self.bb.register_key(key, access=Access.WRITE)
+        self.map: SourceMap | None = None
+        self.sources: tuple[Point, ...] = ()
+        self.candidate: Point | None = None
+        self.route: tuple[Point, ...] = ()
+        self.route_index = 0
+        self.flyby_seen = 0
+        self.flyby_expected = 0.0
+        self.flyby_t0 = math.nan
+        self.flybys = 0
+        self.withdrawn = 0
+        self.withdrawn_at: tuple[Point, ...] = ()
+        self.detections_used = 0
+        self.at_declaration: SourceBelief | None = None
+        self.search_target: Point | None = None
+        self.search_t = -math.inf
+
+    def setup(self, **kwargs: Any) -> None:
+        """Bind the context and lay the grid over its OpArea."""
+        super().setup(**kwargs)
+        assert self.context is not None
+        self.map = SourceMap(self.context.op_area, self.params)
+        self.bb.declared_sources = ()
+        self._report()
+
+    def _report(self) -> None:
+        self.bb.declaration_report = {
+            "flybys": self.flybys, "withdrawn": self.withdrawn,
+            "withdrawn_at": [(q.x, q.y) for q in self.withdrawn_at],
+        }
+
+    def watch(self, p: Percept) -> None:
+        """Update the map; run the fly-by's bookkeeping; test the rule; publish the map."""
+        assert self.map is not None, "call setup()"
+        self.map.observe(p)
+        post = self.map.posterior()
+        if self.candidate is not None:
+            self._flyby_step(p)
+        elif len(self.sources) < self.params.max_sources:
+            self._test_rule(p, post)
+        self.bb.set(SOURCE_MAP_KEY, self.map.belief(post))
+
+    def _test_rule(self, p: Percept, post: np.ndarray) -> None:
+        assert self.map is not None
+        if self.map.detections - self.detections_used < self.params.min_detections:
+            return
+        if len(p.lost_contacts) < self.params.min_lost_contacts:
+            return
+        peak = self.map.peak(post)
+        mass, mean = self.map.mass_and_mean(peak, self.params.radius_m, post)
+        if mass < self.params.confidence or not (math.isfinite(mean.x) and math.isfinite(mean.y)):
+            return
+        if self.params.flyby and p.flow is not None:
+            self._start_flyby(p, mean)
+        else:
+            self._accept(mean)
+
+    def _accept(self, source: Point) -> None:
+        assert self.map is not None
+        self.candidate, self.route = None, ()
+        self.sources = (*self.sources, source)
+        self.detections_used = self.map.detections
+        self.at_declaration = self.map.belief()
+        self.bb.set("source_map_at_declaration", self.at_declaration)
+        self.bb.declared_sources = self.sources
+        if len(self.sources) >= self.params.max_sources:
+            self.declared = source
+            self.bb.declared_source = source
+        else:
+            self.map.explain(self.sources)
+
+    # -- fly-by ---------------------------------------------------------------------------
+    def _start_flyby(self, p: Percept, candidate: Point) -> None:
+        assert self.context is not None and p.flow is not None
+        a = self.context.op_area
+        fx, fy = unit(p.flow.toward_deg)
+        off, hw = self.params.flyby_offset_m, self.params.flyby_half_width_m
+        cx, cy = candidate.x + off * fx, candidate.y + off * fy
+        ends = [Point(min(max(cx + s * hw * -fy, a.xmin), a.xmax),
+                      min(max(cy + s * hw * fx, a.ymin), a.ymax)) for s in (1, -1)]
+        here = p.pose.point
+        ends.sort(key=here.distance_to)  # start at the nearer end
+        self.route = tuple(ends[i % 2] for i in range(self.params.flyby_passes + 1))
+        self.candidate, self.route_index = candidate, 0
+        self.flyby_seen, self.flyby_expected, self.flyby_t0 = 0, 0.0, p.t
+        self.flybys += 1
+        self._report()
+
+    def _flyby_step(self, p: Percept) -> None:
+        assert self.map is not None and self.candidate is not None
+        here = p.pose.point
+        if self.route_index >= 1 and math.isfinite(p.concentration) and p.in_op_area:
+            self.flyby_seen += int(p.detected)
+            self.flyby_expected += self.map.expected_detection(self.candidate, here.x, here.y)
+        while (self.route_index < len(self.route)
+               and here.distance_to(self.route[self.route_index]) <= self.params.arrive_radius_m):
+            self.route_index += 1
+        timed_out = p.t - self.flyby_t0 >= self.params.flyby_timeout_s
+        if self.route_index < len(self.route) and not timed_out:
+            return
+        mass, _ = self.map.mass_and_mean(self.candidate, self.params.radius_m)
+        supported = mass >= self.params.flyby_keep_fraction * self.params.confidence
+        if supported and (self.flyby_seen > 0
+                          or self.flyby_expected < self.params.flyby_min_expected):
+            self._accept(self.candidate)
+        else:
+            self.withdrawn += 1
+            self.withdrawn_at = (*self.withdrawn_at, self.candidate)
+            self.detections_used = self.map.detections
+            self.candidate, self.route = None, ()
+        self._report()
+
+    def decide(self, p: Percept) -> Command | None:
+        """Fly the fly-by while one is under way; search on between declarations; otherwise go
+        to the source, then home."""
+        if self.candidate is not None and self.route_index < len(self.route):
+            return self.command(p.pose.point.bearing_to(self.route[self.route_index]))
+        if self.sources and self.declared is None:
+            return self._search_on(p)
+        return super().decide(p)
+
+    def _search_on(self, p: Percept) -> Command | None:
+        """Between declarations: while the latest detection is one a declared source explains,
+        steer for the most probable unexplored cell of the map rather than let maintain-plume
+        follow a known plume back to its source; an unexplained detection hands control back."""
+        assert self.map is not None
+        last = p.last_detection
+        here = p.pose.point
+        if last is not None and not self._explained(last.point):
+            self.search_target = None
+            return None
+        if (self.search_target is None or p.t - self.search_t >= self.params.search_replan_s
+                or here.distance_to(self.search_target) <= self.params.arrive_radius_m):
+            self.search_target = best_target(self.map.belief(), here, explored_weight=0.1,
+                                             min_distance_m=self.params.arrive_radius_m)
+            self.search_t = p.t
+        if self.search_target is None:
+            return None
+        return self.command(here.bearing_to(self.search_target))
+
+    def _explained(self, at: Point) -> bool:
+        assert self.map is not None
+        return any(self.map.expected_detection(s, at.x, at.y) >= self.params.explained_prob
+                   for s in self.sources)
+
+
+class MapGuidedParams(BehaviourParams):
+    """Parameters of the map-guided reacquire."""
+
+    give_up_s: float = Field(
+        default=180.0, gt=0, description="Find-plume takes over after this long without a "
+        "detection (the cloverleaf's 3 repeats take about as long), s"
+    )
+    replan_s: float = Field(
+        default=15.0, gt=0, description="The target is re-chosen at least this often, s"
+    )
+    arrive_radius_m: float = Field(
+        default=4.0, gt=0, description="A target counts as reached within this distance, m"
+    )
+    explored_weight: float = Field(
+        default=0.1, ge=0, le=1, description="Weight of cells near the track flown (1: no "
+        "preference for unexplored cells)"
+    )
+    behind_m: float = Field(
+        default=5.0, ge=0, description="Cells more than this down-flow of the last detection "
+        "are not targets, m"
+    )
+
+
+class MapGuidedReacquire(PlanBehaviour):
+    """Reacquire by heading for the most likely unexplored source region up-flow.
+
+    While contact is lost (a detection was made, none within λ), the target is the cell of the
+    published ``source_map`` with the highest posterior × (``explored_weight`` for cells near the
+    track already flown, else 1), among cells no more than ``behind_m`` down-flow of the last
+    detection and outside ``arrive_radius_m`` of the vehicle. It is re-chosen on arrival and
+    every ``replan_s``; the non-detections on the way lower the cells it passes up-flow of, so
+    the target moves on. After ``give_up_s`` without a detection the behaviour has no output for
+    that lost contact and find-plume takes over (like the cloverleaf's last repeat). Without a
+    published map (no ``likelihood_map`` declaration in the mission) it has no output.
+    """
+
+    family: ClassVar[str] = "reacquire_plume"
+    variant: ClassVar[str] = "map_guided"
+    Params: ClassVar[type[BehaviourParams]] = MapGuidedParams
+    params: MapGuidedParams
+    contract: ClassVar[Contract] = Contract(pairs_with=(("declare_source", "likelihood_map"),))
+    persistent_state: ClassVar[tuple[str, ...]] = ("gave_up_for",)
+
+    def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
+        super().__init__(params, **kwargs)
+        self.bb.register_key(SOURCE_MAP_KEY, access=Access.READ)
+        self.gave_up_for: float | None = None
+        self.target: Point | None = None
+        self.planned_t = -math.inf
+
+    def initialise(self) -> None:
+        """A new activation chooses a new target."""
+        self.target = None
+        self.planned_t = -math.inf
+
+    def decide(self, p: Percept) -> Command | None:
+        """Steer for the target while contact is lost and the give-up time has not passed."""
+        last = p.last_detection
+        if p.in_plume or last is None or p.flow is None or last.t == self.gave_up_for:
+            return None
+        if p.since_detection() > self.params.give_up_s:
+            self.gave_up_for = last.t
+            return None
+        belief = self.bb.get(SOURCE_MAP_KEY) if self.bb.exists(SOURCE_MAP_KEY) else None
+        if not isinstance(belief, SourceBelief):
+            return None
+        here = p.pose.point
+        if (self.target is None or here.distance_to(self.target) <= self.params.arrive_radius_m
+                or p.t - self.planned_t >= self.params.replan_s):
+            self.target = self._choose(belief, p)
+            self.planned_t = p.t
+        if self.target is None:
+            return None
+        return self.command(here.bearing_to(self.target))
+
+    def _choose(self, belief: SourceBelief, p: Percept) -> Point | None:
+        assert p.last_detection is not None and p.flow is not None
+        return best_target(belief, p.pose.point, explored_weight=self.params.explored_weight,
+                           min_distance_m=self.params.arrive_radius_m,
+                           upflow_deg=p.flow.upflow_deg, behind=p.last_detection.point,
+                           behind_m=self.params.behind_m)
+
+
+BEHAVIOURS = [
+    BehaviourSpec.of(LikelihoodMapDeclare),
+    BehaviourSpec.of(MapGuidedReacquire),
+]

@@ -1,0 +1,340 @@
+"""A recursive Bayesian map of where the source is, from detections and non-detections.
+
+After Pang & Farrell, "Chemical plume source localization", IEEE Trans. SMC-B 36(5), 2006: the
+OpArea is a grid of cells, each a hypothesis "the source is here"; every planning cycle the
+percept (a detection or a non-detection at the vehicle's estimated position) multiplies each
+cell's probability by the likelihood of that observation if the source were there, and the map
+is renormalised.
+
+The likelihood model
+--------------------
+A filament detected at ``x`` at time ``t`` left the source some time ``τ`` earlier and has since
+been carried by the flow, so the source lies up-flow of ``x`` along the *back-trajectory* of the
+water: ``B(τ) = x - ∫_{t-τ}^{t} U(t') dt'``, where ``U`` is the planner's own flow estimate
+(the vector mean of SPEC §2) recorded every cycle. Turbulent dispersion and meander spread the
+possible origins sideways. For a cell ``s`` whose along-flow distance up-flow of ``x`` is ``a``
+(measured along the mean direction of the recent back-trajectory) and whose cross-flow distance
+from the back-trajectory at that range is ``c``, the probability of a detection at ``x`` in one
+cycle, if the source were at ``s``, is
+
+    K(s; x) = p0 · exp(-a / L) · exp(-c² / (2 σ(a)²)),   σ(a)² = σ0² + (a · tan φ)²,
+
+for ``0 <= a <= max_range_m``; down-flow of ``x`` (``a < 0``) it falls off as
+``exp(-a² / (2 σ0²))`` (the vehicle's navigation error and the puff size blur "up-flow"), and
+beyond ``max_range_m`` it is 0. ``p0`` is the chance of a detection on the plume's mean axis near
+the source, ``L`` how fast that chance decays with range (filaments thin out and meander), ``σ0``
+the spread at the source (navigation error, puff size), ``φ`` the half-angle of the meander.
+
+- A **detection** multiplies cell ``s`` by ``1 - (1 - ε)(1 - K(s; x))(1 - q)``: a false alarm
+  (``ε``), the hypothesised source, or one of the already *declared* sources (``q``, the chance
+  that a declared source's plume explains a detection at ``x``) could have caused it. A detection
+  straight down-flow of a cell raises it. A detection with ``q >= explained_prob`` is taken as
+  the declared source's and is no observation at all: a partial explanation, repeated over the
+  hundreds of correlated detections a known plume gives, would otherwise still pile up.
+- A **non-detection** multiplies cell ``s`` by ``1 - K(s; x)``: it lowers the cells whose plume
+  would probably have been seen at ``x`` (those up-flow of ``x`` along the back-trajectory), and
+  leaves the cells it says nothing about (down-flow or far to the side) alone.
+
+Assumptions, stated because the model is only as good as they are:
+
+- one source per hypothesis; a declared source's plume is known exactly (multi-source search
+  explains it away rather than estimating the sources jointly);
+- the flow is uniform in space over the plume (the vehicle's estimate stands for the water's
+  motion along the whole back-trajectory) and its history is the planner's own estimate;
+- cycles are conditionally independent given the source. They are not (a plume contact gives a
+  run of correlated detections, intermittency a run of misses), so each log-likelihood is
+  tempered by ``detection_weight`` / ``nondetection_weight`` (< 1 keeps the map from growing
+  over-confident on correlated evidence);
+- the source lies inside the OpArea (the prior is uniform over it); cycles without a valid
+  sample (NaN), without a flow estimate or outside the OpArea are not observations.
+
+No simulator truth enters: the inputs are the percept's estimated position, detection flag and
+flow estimate.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import Field
+
+from cptbt.angles import unit
+from cptbt.frames import OpArea
+from cptbt.node import BehaviourParams
+from cptbt.types import Percept, Point, SourceBelief
+
+Array = NDArray[np.float64]
+
+MAX_CELLS = 250_000
+"""A finer grid is coarsened to this many cells (per-cycle cost grows with the cell count)."""
+
+SOURCE_MAP_KEY = "source_map"
+"""Blackboard key of the published :class:`~cptbt.types.SourceBelief`."""
+
+
+class MapModelParams(BehaviourParams):
+    """The grid and the likelihood model of the source map (see the module docstring)."""
+
+    cell_m: float = Field(default=2.0, gt=0.1, le=100, description="Grid resolution, m")
+    detection_prob: float = Field(
+        default=0.6, gt=0, lt=1, description="p0: chance of a detection per cycle on the plume's "
+        "mean axis next to the source"
+    )
+    detection_decay_m: float = Field(
+        default=1000.0, gt=0, description="L: range over which that chance falls by a factor e, m "
+        "(long by default: see the module docstring)"
+    )
+    false_alarm_prob: float = Field(
+        default=0.02, gt=0, lt=1, description="ε: chance of a detection with no plume, per cycle"
+    )
+    near_spread_m: float = Field(
+        default=3.0, gt=0, description="σ0: cross-flow spread at the source (navigation error, "
+        "puff size), m"
+    )
+    spread_deg: float = Field(
+        default=12.0, ge=0, lt=80, description="φ: half-angle of the meander; the cross-flow "
+        "spread grows by tan φ per metre of range, deg"
+    )
+    max_range_m: float = Field(
+        default=250.0, gt=0, description="Detections are not traced back farther than this, m"
+    )
+    detection_weight: float = Field(
+        default=0.5, gt=0, le=1, description="Tempering exponent of a detection's likelihood"
+    )
+    nondetection_weight: float = Field(
+        default=0.3, gt=0, le=1, description="Tempering exponent of a non-detection's likelihood"
+    )
+    explored_radius_m: float = Field(
+        default=6.0, gt=0, description="Cells within this of the vehicle's track count as "
+        "explored (for map-guided reacquire), m"
+    )
+    mask_radius_m: float = Field(
+        default=6.0, gt=0, description="Cells within this of a declared source are ruled out "
+        "as another source, m"
+    )
+    explained_prob: float = Field(
+        default=0.05, gt=0, lt=1, description="A detection a declared source's plume would "
+        "cause with at least this chance is explained by it and says nothing about other sources"
+    )
+    trajectory_points: int = Field(
+        default=200, ge=2, le=10_000, description="Back-trajectory samples per observation"
+    )
+
+
+class SourceMap:
+    """The grid, the log-posterior over it, and the history it was built from.
+
+    Args:
+        area: the OpArea; the grid covers it with cells of ``model.cell_m`` (coarsened to at most
+            :data:`MAX_CELLS` cells).
+        model: the likelihood model's parameters.
+    """
+
+    def __init__(self, area: OpArea, model: MapModelParams) -> None:
+        self.model = model
+        w, h = area.xmax - area.xmin, area.ymax - area.ymin
+        cell = max(model.cell_m, math.sqrt(w * h / MAX_CELLS))
+        nx, ny = max(1, math.ceil(w / cell)), max(1, math.ceil(h / cell))
+        self.xs: Array = np.asarray(area.xmin + (np.arange(nx) + 0.5) * (w / nx), dtype=float)
+        self.ys: Array = np.asarray(area.ymin + (np.arange(ny) + 0.5) * (h / ny), dtype=float)
+        gx, gy = np.meshgrid(self.xs, self.ys)
+        self._cx: Array = gx.ravel()
+        self._cy: Array = gy.ravel()
+        self.shape = (ny, nx)
+        self._tan = math.tan(math.radians(model.spread_deg))
+        self._t = np.empty(1024)
+        self._cum = np.empty((1024, 2))  # cumulative flow displacement ∫U dt at each cycle
+        self._n = 0
+        self._flow = (0.0, 0.0)
+        self._obs: list[tuple[int, float, float, bool]] = []
+        self.known: tuple[Point, ...] = ()
+        self.t = math.nan
+        self.detections = 0
+        self.explored = np.zeros(self._cx.size, dtype=bool)
+        self._log = np.zeros(self._cx.size)
+        self._excluded = np.zeros(self._cx.size, dtype=bool)
+
+    # -- updating ------------------------------------------------------------------------
+    def observe(self, p: Percept) -> bool:
+        """Fold one cycle's percept into the map; True when it was an observation."""
+        self._record_flow(p)
+        self.t = p.t
+        x, y = p.pose.x, p.pose.y
+        if not (math.isfinite(x) and math.isfinite(y)):
+            return False
+        r = self.model.explored_radius_m
+        self.explored |= (self._cx - x) ** 2 + (self._cy - y) ** 2 <= r * r
+        if p.flow is None or not p.in_op_area or not math.isfinite(p.concentration):
+            return False
+        obs = (self._n - 1, x, y, p.detected)
+        self._obs.append(obs)
+        self.detections += int(p.detected)
+        self._log += self._log_likelihood(*obs)
+        self._log -= self._log[~self._excluded].max()
+        return True
+
+    def _record_flow(self, p: Percept) -> None:
+        if self._n == len(self._t):  # grow the history (amortised doubling)
+            self._t = np.concatenate([self._t, np.empty_like(self._t)])
+            self._cum = np.concatenate([self._cum, np.empty_like(self._cum)])
+        if self._n == 0:
+            cum = (0.0, 0.0)
+        else:
+            dt = max(p.t - self._t[self._n - 1], 0.0)
+            prev = self._cum[self._n - 1]
+            cum = (prev[0] + self._flow[0] * dt, prev[1] + self._flow[1] * dt)
+        if p.flow is not None:
+            self._flow = (p.flow.vx, p.flow.vy)
+        self._t[self._n] = p.t
+        self._cum[self._n] = cum
+        self._n += 1
+
+    def explain(self, sources: tuple[Point, ...]) -> None:
+        """Declare sources known: rule out their neighbourhood and explain away their plumes.
+
+        The map is rebuilt from the whole observation history under the new model (a detection
+        a declared source explains no longer raises the cells up-flow of it).
+        """
+        self.known = tuple(sources)
+        self._excluded[:] = False
+        r2 = self.model.mask_radius_m**2
+        for s in self.known:
+            self._excluded |= (self._cx - s.x) ** 2 + (self._cy - s.y) ** 2 <= r2
+        self._log = np.zeros(self._cx.size)
+        for obs in self._obs:
+            self._log += self._log_likelihood(*obs)
+        if (~self._excluded).any():
+            self._log -= self._log[~self._excluded].max()
+
+    # -- the model -----------------------------------------------------------------------
+    def kernel(self, k: int, x: float, y: float, sx: Array, sy: Array) -> Array:
+        """``K(s; x)``: the chance of a detection at ``(x, y)`` on cycle ``k`` from sources ``s``.
+
+        The back-trajectory is the flow history up to cycle ``k``, traced back until it has
+        covered ``max_range_m`` (or the history runs out, when it is extended straight along its
+        mean direction).
+        """
+        m = self.model
+        cum = self._cum[: k + 1]
+        disp = cum[k] - cum[::-1]  # displacement of the water over the last τ, newest first
+        along_total = np.hypot(disp[:, 0], disp[:, 1])
+        stop = int(np.searchsorted(np.maximum.accumulate(along_total), m.max_range_m)) + 1
+        disp = disp[: min(stop, len(disp))]
+        if len(disp) > m.trajectory_points:
+            disp = disp[np.linspace(0, len(disp) - 1, m.trajectory_points).astype(np.intp)]
+        end = disp[-1]
+        norm = math.hypot(end[0], end[1])
+        if norm > 1e-6:
+            ux, uy = end[0] / norm, end[1] / norm
+        else:
+            fx, fy = self._flow
+            ux, uy = unit(math.degrees(math.atan2(fy, fx))) if (fx or fy) else (1.0, 0.0)
+        along = np.maximum.accumulate(disp[:, 0] * ux + disp[:, 1] * uy)
+        a = (x - sx) * ux + (y - sy) * uy  # how far up-flow of the detection each source is
+        dx = np.interp(a, along, disp[:, 0])
+        dy = np.interp(a, along, disp[:, 1])
+        c = (sx - (x - dx)) * -uy + (sy - (y - dy)) * ux  # cross-flow offset from B(τ)
+        ap = np.maximum(a, 0.0)
+        var = m.near_spread_m**2 + (self._tan * ap) ** 2
+        expo = -c * c / (2.0 * var) - ap / m.detection_decay_m
+        expo -= np.where(a < 0, a * a / (2.0 * m.near_spread_m**2), 0.0)
+        return np.where(a <= m.max_range_m, m.detection_prob * np.exp(expo), 0.0)
+
+    def _log_likelihood(self, k: int, x: float, y: float, detected: bool) -> Array:
+        m = self.model
+        if not detected:
+            k_cells = self.kernel(k, x, y, self._cx, self._cy)
+            out = m.nondetection_weight * np.log1p(-k_cells)
+        else:
+            k_cells = self.kernel(k, x, y, self._cx, self._cy)
+            miss_known = 1.0
+            if self.known:
+                kx = np.array([s.x for s in self.known])
+                ky = np.array([s.y for s in self.known])
+                miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
+                if miss_known <= 1.0 - m.explained_prob:
+                    return np.where(self._excluded, -np.inf, 0.0)
+            like = 1.0 - (1.0 - m.false_alarm_prob) * (1.0 - k_cells) * miss_known
+            out = m.detection_weight * np.log(like)
+        return np.where(self._excluded, -np.inf, out)
+
+    def expected_detection(self, source: Point, x: float, y: float) -> float:
+        """``K(source; (x, y))`` on the latest cycle: how likely a detection there is now."""
+        if self._n == 0:
+            return 0.0
+        return float(self.kernel(self._n - 1, x, y, np.array([source.x]), np.array([source.y]))[0])
+
+    # -- reading -------------------------------------------------------------------------
+    def posterior(self) -> Array:
+        """Cell probabilities (flat), summing to 1 over the cells not ruled out."""
+        post = np.exp(self._log - self._log[~self._excluded].max()) if (~self._excluded).any() \
+            else np.zeros_like(self._log)
+        post[self._excluded] = 0.0
+        total = post.sum()
+        return post / total if total > 0 else post
+
+    def peak(self, post: Array | None = None) -> Point:
+        """Centre of the most probable cell."""
+        post = self.posterior() if post is None else post
+        i = int(np.argmax(post))
+        return Point(float(self._cx[i]), float(self._cy[i]))
+
+    def within(self, centre: Point, radius_m: float) -> NDArray[np.bool_]:
+        """Which cells lie within ``radius_m`` of ``centre``."""
+        return (self._cx - centre.x) ** 2 + (self._cy - centre.y) ** 2 <= radius_m**2
+
+    def mass_and_mean(self, centre: Point, radius_m: float,
+                      post: Array | None = None) -> tuple[float, Point]:
+        """Posterior mass within ``radius_m`` of ``centre`` and its weighted mean position."""
+        post = self.posterior() if post is None else post
+        sel = self.within(centre, radius_m)
+        w = post[sel]
+        mass = float(w.sum())
+        if mass <= 0:
+            return 0.0, centre
+        return mass, Point(float(w @ self._cx[sel] / mass), float(w @ self._cy[sel] / mass))
+
+    def cells(self) -> tuple[Array, Array]:
+        """Flat cell-centre coordinates ``(x, y)``."""
+        return self._cx, self._cy
+
+    def belief(self, post: Array | None = None) -> SourceBelief:
+        """A read-only snapshot for the blackboard."""
+        post = (self.posterior() if post is None else post).reshape(self.shape).copy()
+        post.flags.writeable = False
+        explored = self.explored.reshape(self.shape).copy()
+        explored.flags.writeable = False
+        return SourceBelief(self.t, self.xs, self.ys, post, self.known, explored)
+
+
+def best_target(
+    belief: SourceBelief,
+    here: Point,
+    *,
+    explored_weight: float,
+    min_distance_m: float,
+    upflow_deg: float | None = None,
+    behind: Point | None = None,
+    behind_m: float = 0.0,
+) -> Point | None:
+    """The most promising cell to head for: posterior × (``explored_weight`` where explored).
+
+    Cells within ``min_distance_m`` of ``here`` are skipped (the vehicle is there already), and,
+    given ``upflow_deg`` and ``behind``, so are cells more than ``behind_m`` down-flow of
+    ``behind``. None when no cell qualifies.
+    """
+    gx, gy = np.meshgrid(belief.xs, belief.ys)
+    score = np.array(belief.posterior, dtype=float)
+    if belief.explored is not None:
+        score = np.where(belief.explored, score * explored_weight, score)
+    keep = (gx - here.x) ** 2 + (gy - here.y) ** 2 > min_distance_m**2
+    if upflow_deg is not None and behind is not None:
+        ux, uy = unit(upflow_deg)
+        keep &= (gx - behind.x) * ux + (gy - behind.y) * uy >= -behind_m
+    score = np.where(keep, score, 0.0)
+    i = int(np.argmax(score))
+    if not score.flat[i] > 0:
+        return None
+    return Point(float(gx.flat[i]), float(gy.flat[i]))

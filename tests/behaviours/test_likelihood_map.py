@@ -1,0 +1,354 @@
+"""The source-likelihood map and the behaviours built on it, tick by tick (issue 13).
+
+The map's update is checked on hand-built histories; the declaration on a synthetic plume swept
+by a lawnmower (detections only down-flow of a point source, inside a cone, with a seeded chance
+per cycle), and on false alarms alone; the fly-by in closed loop with a fake vehicle.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import py_trees
+import pytest
+from py_trees.common import Status
+
+from cptbt.behaviours.likelihood import (
+    LikelihoodMapDeclare,
+    LikelihoodMapParams,
+    MapGuidedParams,
+    MapGuidedReacquire,
+)
+from cptbt.behaviours.source_map import MapModelParams, SourceMap, best_target
+from cptbt.cli import main
+from cptbt.registry import BehaviourSpec
+from cptbt.testing import (
+    FakeVehicle,
+    ScriptedPerception,
+    TreeHarness,
+    check_behaviour,
+    fresh_namespace,
+    make_context,
+    run_script,
+    square_area,
+)
+from cptbt.types import Percept, Point, SourceBelief
+
+ROOT = Path(__file__).resolve().parents[2]
+AREA = square_area(100.0)  # x 0..100, y -50..50
+FLOW = (0.2, 0.0)  # toward +x: up-flow is -x
+Plume = Callable[[float, float], float]
+
+
+def cell(m: SourceMap, x: float, y: float) -> int:
+    cx, cy = m.cells()
+    return int(np.argmin((cx - x) ** 2 + (cy - y) ** 2))
+
+
+def warmed_map(cycles: int = 30) -> tuple[SourceMap, ScriptedPerception]:
+    """A map with a flow history: the vehicle waits far down-flow seeing nothing."""
+    m = SourceMap(AREA, MapModelParams())
+    script = ScriptedPerception(AREA, flow=FLOW)
+    for t in range(cycles):
+        m.observe(script.step(t, 99.0, 49.0))
+    return m, script
+
+
+def cone_plume(source: tuple[float, float], rng: np.random.Generator, p: float = 0.6) -> Plume:
+    """A synthetic plume: a detection (conc 1) down-flow of ``source``, within a cone, at rate p."""
+    sx, sy = source
+
+    def conc(x: float, y: float) -> float:
+        a = x - sx
+        inside = a > 0 and abs(y - sy) <= 1.5 + 0.15 * a
+        return 1.0 if inside and rng.random() < p else 0.0
+
+    return conc
+
+
+def lawnmower(xs: list[float], y_span: tuple[float, float] = (-40.0, 40.0),
+              step_m: float = 1.5) -> list[tuple[float, float]]:
+    """Rows across the flow at each x in turn, alternating direction."""
+    out: list[tuple[float, float]] = []
+    for i, x in enumerate(xs):
+        ys = np.arange(y_span[0], y_span[1] + 1e-9, step_m)
+        out += [(x, float(y)) for y in (ys if i % 2 == 0 else ys[::-1])]
+    return out
+
+
+def sweep(node: LikelihoodMapDeclare, plume: Plume, path: list[tuple[float, float]],
+          t0: int = 0) -> tuple[TreeHarness, ScriptedPerception, int]:
+    """Fly a scripted path past a plume, one cycle per point; returns the harness and time."""
+    harness = TreeHarness(node, make_context(AREA))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    t = t0
+    for x, y in path:
+        harness.tick(script.step(t, x, y, conc=plume(x, y)))
+        t += 1
+        if node.declared is not None or node.candidate is not None:
+            break
+    return harness, script, t
+
+
+# -- the map's update ----------------------------------------------------------------------
+def test_a_detection_raises_the_cells_straight_up_flow() -> None:
+    m, script = warmed_map()
+    before = m.posterior()
+    m.observe(script.step(30, 60.0, 0.0, conc=1.0))
+    after = m.posterior()
+    gain = after / before
+    up, down, side = cell(m, 40, 0), cell(m, 80, 0), cell(m, 40, 35)
+    assert gain[up] > 1.5 * gain[down]
+    assert gain[up] > 1.5 * gain[side]
+    assert after[up] > before[up]
+
+
+def test_a_non_detection_lowers_the_cells_it_rules_out_and_only_those() -> None:
+    m, script = warmed_map()
+    before = m.posterior()
+    m.observe(script.step(30, 60.0, 0.0, conc=0.0))
+    after = m.posterior()
+    ratio = after / before
+    up, down, side = cell(m, 45, 0), cell(m, 80, 0), cell(m, 40, 40)
+    assert ratio[up] < 0.95 * ratio[down]  # up-flow on the axis: it would have been seen
+    assert ratio[up] < 0.95 * ratio[side]
+    assert ratio[down] == pytest.approx(ratio[side], rel=1e-3)  # neither would have been seen
+
+
+def test_the_back_trajectory_follows_the_flow_history() -> None:
+    # Flow toward +y for a long time, then toward +x for 30 s: a detection's source lies up the
+    # bent path (-x first, then -y), not straight up-flow of the latest flow.
+    m = SourceMap(AREA, MapModelParams())
+    script = ScriptedPerception(AREA, flow=(0.0, 0.2), flow_window_s=1.0)
+    for t in range(300):
+        m.observe(script.step(t, 99.0, -49.0))
+    for t in range(300, 330):
+        m.observe(script.step(t, 99.0, -49.0, flow=(0.2, 0.0)))
+    k = m.kernel(m._n - 1, 60.0, 10.0, np.array([54.0, 30.0]), np.array([-20.0, 10.0]))
+    assert k[0] > 0.5  # 6 m up the recent leg (-x), then 30 m against the older flow (-y)
+    assert k[1] < 0.01  # 30 m straight against the latest flow: not where the water came from
+
+
+def test_cycles_without_a_sample_flow_or_inside_the_op_area_are_no_observations() -> None:
+    m, script = warmed_map()
+    before = m.posterior().copy()
+    assert not m.observe(script.step(30, 60.0, 0.0, conc=math.nan))  # no valid sample
+    assert not m.observe(script.step(31, 160.0, 0.0, conc=1.0))  # outside the OpArea
+    assert np.allclose(m.posterior(), before)
+    no_flow = replace(ScriptedPerception(AREA).step(0, 50.0, 0.0), flow=None)
+    assert not SourceMap(AREA, MapModelParams()).observe(no_flow)
+
+
+def test_declared_sources_explain_their_plume_away() -> None:
+    m, script = warmed_map()
+    m.explain((Point(40.0, 0.0),))
+    before = m.posterior()
+    m.observe(script.step(30, 60.0, 0.0, conc=1.0))  # straight down-flow of the known source
+    assert np.allclose(m.posterior(), before)
+    assert m.posterior()[cell(m, 40, 0)] == 0.0  # its neighbourhood is ruled out
+
+
+# -- declaring -----------------------------------------------------------------------------
+def test_declares_near_the_source_of_a_synthetic_plume() -> None:
+    node = LikelihoodMapDeclare(namespace=fresh_namespace())
+    plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
+    harness, _, _ = sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20, 12]))
+    assert node.declared is not None, "no declaration"
+    # within the declaration radius (8 m); the posterior mean lies a little down-flow
+    assert node.declared.distance_to(Point(30.0, 5.0)) < 8.0
+    assert harness.get("declared_source") == node.declared
+    belief = harness.get("source_map")
+    assert isinstance(belief, SourceBelief) and belief.posterior.shape == (50, 50)
+    assert belief.posterior.sum() == pytest.approx(1.0)
+
+
+def test_no_declaration_on_false_alarms_alone() -> None:
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        node = LikelihoodMapDeclare(namespace=fresh_namespace())
+        path = lawnmower([95, 80, 65, 50, 35, 20, 5]) * 2
+        sweep(node, lambda x, y, rng=rng: float(rng.random() < 0.03), path)
+        assert node.declared is None and node.candidate is None, seed
+
+
+def test_no_declaration_before_the_minimum_detections() -> None:
+    params = LikelihoodMapParams(min_detections=10_000)
+    node = LikelihoodMapDeclare(params, namespace=fresh_namespace())
+    plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
+    sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20, 12]))
+    assert node.declared is None
+
+
+def test_after_declaring_it_goes_to_the_source_then_home() -> None:
+    node = LikelihoodMapDeclare(LikelihoodMapParams(source_radius_m=1.0),
+                                namespace=fresh_namespace())
+    plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
+    harness, script, t = sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20]))
+    src = node.declared
+    assert src is not None and not node.heading_home
+    far = harness.tick(script.step(t, 80.0, 5.0))  # carried away before reaching it
+    assert far.command is not None
+    assert far.command.heading_deg == pytest.approx(Point(80, 5).bearing_to(src))
+    near = harness.tick(script.step(t + 1, src.x + 0.5, src.y))  # within reach: home is (0, 0)
+    assert near.command is not None
+    assert near.command.heading_deg == pytest.approx(Point(src.x + 0.5, src.y).bearing_to(
+        Point(0, 0)))
+    harness.tick(script.step(t + 2, 3.0, 0.0))
+    assert harness.get("mission_done") is True
+
+
+# -- fly-by ---------------------------------------------------------------------------------
+def fly_by(plume_on_pass: Plume) -> tuple[LikelihoodMapDeclare, list[Point]]:
+    """Make a candidate, then fly the fly-by it commands in closed loop past ``plume_on_pass``."""
+    params = LikelihoodMapParams(flyby=True)
+    node = LikelihoodMapDeclare(params, namespace=fresh_namespace())
+    plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
+    harness, script, t = sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20]))
+    assert node.candidate is not None and node.declared is None, "no candidate"
+    assert harness.get("declared_source") is None  # a candidate is not a declaration
+    route = list(node.route)
+    x, y = lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20])[t - 1]
+    vehicle = FakeVehicle(x, y)
+    while node.candidate is not None and t < 2000:
+        tk = harness.tick(script.step(t, vehicle.x, vehicle.y,
+                                      conc=plume_on_pass(vehicle.x, vehicle.y)))
+        vehicle.apply(tk.command, 1.0)
+        t += 1
+    return node, route
+
+
+def test_a_fly_by_that_sees_nothing_where_the_map_expects_plume_withdraws() -> None:
+    node, route = fly_by(lambda x, y: 0.0)
+    assert node.withdrawn == 1 and node.declared is None and node.sources == ()
+    assert node.withdrawn_at and node.flybys == 1
+    # the passes ran across the flow, down-flow of the candidate
+    assert all(q.x > node.withdrawn_at[0].x for q in route)
+    assert abs(route[0].y - route[1].y) > 20
+
+
+def test_a_fly_by_that_crosses_the_plume_confirms() -> None:
+    node, _ = fly_by(cone_plume((30.0, 5.0), np.random.default_rng(2), p=0.9))
+    assert node.withdrawn == 0 and node.declared is not None
+    assert node.declared.distance_to(Point(30.0, 5.0)) < 8.0
+
+
+# -- several sources ----------------------------------------------------------------------
+def test_declares_two_sources_one_after_the_other() -> None:
+    rng = np.random.default_rng(3)
+    a, b = cone_plume((30.0, 25.0), rng), cone_plume((45.0, -25.0), rng)
+    node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=2), namespace=fresh_namespace())
+    harness = TreeHarness(node, make_context(AREA))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    path = lawnmower([95, 80, 65, 55, 50, 45, 42, 38, 34, 30, 26, 22, 15, 8]) * 2
+    for t, (x, y) in enumerate(path):
+        harness.tick(script.step(t, x, y, conc=max(a(x, y), b(x, y))))
+        if node.declared is not None:
+            break
+    found = sorted(node.sources, key=lambda q: q.y)
+    assert len(found) == 2, found
+    assert found[0].distance_to(Point(45, -25)) < 8 and found[1].distance_to(Point(30, 25)) < 8
+    assert harness.get("declared_sources") == node.sources
+
+
+# -- map-guided reacquire -----------------------------------------------------------------
+def belief_peaked_at(x: float, y: float) -> SourceBelief:
+    xs = np.arange(1.0, 100.0, 2.0)
+    ys = np.arange(-49.0, 50.0, 2.0)
+    gx, gy = np.meshgrid(xs, ys)
+    post = np.exp(-((gx - x) ** 2 + (gy - y) ** 2) / 50.0)
+    return SourceBelief(0.0, xs, ys, post / post.sum())
+
+
+def lost_contact(script: ScriptedPerception, t_now: float, at: tuple[float, float]) -> Percept:
+    script.step(0, 50.0, 0.0, conc=1.0)  # a detection at (50, 0)
+    return script.step(t_now, *at)
+
+
+def test_map_guided_heads_for_the_most_likely_region_up_flow() -> None:
+    node = MapGuidedReacquire(namespace=fresh_namespace())
+    harness = TreeHarness(node, make_context(AREA))
+    py_trees.blackboard.Blackboard.set(f"{node.namespace}/source_map", belief_peaked_at(31, -9))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    tk = harness.tick(lost_contact(script, 20, (52.0, 3.0)))
+    assert tk.status == Status.RUNNING and tk.command is not None
+    assert tk.command.heading_deg == pytest.approx(Point(52, 3).bearing_to(Point(31, -9)))
+
+
+def test_map_guided_ignores_regions_down_flow_and_gives_up_in_time() -> None:
+    node = MapGuidedReacquire(MapGuidedParams(give_up_s=60), namespace=fresh_namespace())
+    harness = TreeHarness(node, make_context(AREA))
+    py_trees.blackboard.Blackboard.set(f"{node.namespace}/source_map", belief_peaked_at(85, 0))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    tk = harness.tick(lost_contact(script, 20, (52.0, 3.0)))
+    assert tk.command is not None and node.target is not None
+    assert node.target.x <= 50 + node.params.behind_m  # not down-flow to the peak at x = 85
+    assert harness.tick(script.step(61, 40.0, 3.0)).status == Status.FAILURE  # gave up
+    assert harness.tick(script.step(62, 40.0, 3.0)).status == Status.FAILURE  # stays given up
+
+
+def test_map_guided_has_no_output_without_a_map_or_while_in_the_plume() -> None:
+    script = ScriptedPerception(AREA, flow=FLOW)
+    ticks = run_script(MapGuidedReacquire(namespace=fresh_namespace()),
+                       [lost_contact(script, 20, (52.0, 3.0))])
+    assert ticks[0].status == Status.FAILURE
+    node = MapGuidedReacquire(namespace=fresh_namespace())
+    harness = TreeHarness(node, make_context(AREA))
+    py_trees.blackboard.Blackboard.set(f"{node.namespace}/source_map", belief_peaked_at(31, -9))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    assert harness.tick(script.step(0, 50.0, 0.0, conc=1.0)).status == Status.FAILURE
+
+
+def test_best_target_prefers_unexplored_cells() -> None:
+    belief = belief_peaked_at(31, -9)
+    explored = np.zeros_like(belief.posterior, dtype=bool)
+    gx, gy = np.meshgrid(belief.xs, belief.ys)
+    explored[(gx - 31) ** 2 + (gy + 9) ** 2 < 30] = True
+    seen = SourceBelief(0.0, belief.xs, belief.ys, belief.posterior, (), explored)
+    target = best_target(seen, Point(90, 40), explored_weight=0.0, min_distance_m=3)
+    assert target is not None and 30 <= Point(31, -9).distance_to(target) ** 2 <= 60
+
+
+# -- conformance ------------------------------------------------------------------------
+@pytest.mark.parametrize("params", [
+    LikelihoodMapParams(),
+    LikelihoodMapParams(flyby=True, min_detections=3, confidence=0.5),
+    LikelihoodMapParams(max_sources=3, min_detections=3, confidence=0.5, cell_m=4),
+], ids=["default", "flyby", "three_sources"])
+def test_likelihood_map_conforms(params: LikelihoodMapParams) -> None:
+    check_behaviour(BehaviourSpec.of(LikelihoodMapDeclare), params)
+
+
+def test_map_guided_conforms_with_a_map_beside_it() -> None:
+    def build(params: object, namespace: str) -> py_trees.behaviour.Behaviour:
+        declare = LikelihoodMapDeclare(
+            LikelihoodMapParams(min_detections=10_000), namespace=namespace)
+        reacquire = MapGuidedReacquire(MapGuidedParams(give_up_s=20), namespace=namespace)
+        return py_trees.composites.Selector("amp", memory=False, children=[declare, reacquire])
+
+    spec = BehaviourSpec("reacquire_plume", "map_guided", MapGuidedParams, build,
+                         behaviour_classes=(LikelihoodMapDeclare, MapGuidedReacquire))
+    check_behaviour(spec, MapGuidedParams())
+
+
+# -- contracts, checked by validate ----------------------------------------------------------
+@pytest.mark.parametrize(("edit", "where", "says"), [
+    (("likelihood_map, max_sources: 2", "upflow_cluster"), "behaviours[3].reacquire_plume.variant",
+     "must be paired with declare_source likelihood_map"),
+    (("max_sources: 2", "max_sources: 2, cell_m: 20, radius_m: 4"), "behaviours[1].declare_source",
+     "smaller than half a cell"),
+])
+def test_validate_names_a_broken_contract_at_its_key(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], edit: tuple[str, str], where: str,
+    says: str,
+) -> None:
+    text = (ROOT / "missions/two_sources.yaml").read_text(encoding="utf-8")
+    assert edit[0] in text
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text.replace(edit[0], edit[1], 1), encoding="utf-8")
+    assert main(["validate", str(bad)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert where in line and says in line
