@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from . import kernels
 from .flow import Domain, FlowField
 
 PlumePreset = Literal["ab", "ocean"]
@@ -171,8 +172,13 @@ class PuffPlume:
         if n:
             vel = self.flow.velocity_at(xy)
             walk = math.sqrt(2.0 * p.centre_rel_diffusivity_m2ps * dt)
-            xy += vel * dt + walk * rng.standard_normal((n, 2))
-            self._r2[:n] += p.spread_rate_m2ps * dt
+            if kernels.EXACT:
+                noise = rng.standard_normal((n, 2))
+                kernels.advance_puffs(xy, self._r2[:n], vel, noise, dt, walk,
+                                      p.spread_rate_m2ps * dt)
+            else:
+                xy += vel * dt + walk * rng.standard_normal((n, 2))
+                self._r2[:n] += p.spread_rate_m2ps * dt
         self._release(dt)
         self._drop_outside()
         self.time_s += dt
@@ -201,6 +207,11 @@ class PuffPlume:
     def _drop_outside(self) -> None:
         n = self.n
         if not n:
+            return
+        if kernels.EXACT:
+            kept = kernels.compact_inside(self._xy, self._r2, n, self.domain)
+            self.dropped += n - kept
+            self.n = kept
             return
         xmin, xmax, ymin, ymax = self.domain
         x = self._xy[:n, 0]
@@ -242,10 +253,12 @@ class PuffPlume:
         px = px[idx]
         py = py[idx]
         r2 = self._r2[idx]
-        weight = self.params.puff_mass / (2.0 * math.pi * r2)
-        inv = -0.5 / r2
         # Per-puff cut-off too, so a point's value does not depend on the other query points.
         floor = -0.5 * self.params.cutoff_sigmas**2
+        if kernels.FAST:
+            return kernels.concentration_direct(q, px, py, r2, self.params.puff_mass, floor)
+        weight = self.params.puff_mass / (2.0 * math.pi * r2)
+        inv = -0.5 / r2
         chunk = max(1, 2_000_000 // idx.size)
         for start in range(0, len(q), chunk):
             qs = q[start : start + chunk]

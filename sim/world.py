@@ -76,6 +76,14 @@ class EnvironmentParams(BaseModel):
         ge=0.0,
         description="Plume spin-up before t = 0, s; None = time to cross the domain.",
     )
+    warm_up_step_s: float | None = Field(
+        default=None,
+        gt=0.0,
+        description=(
+            "Flow and plume step during the spin-up, s; None = the plume step. A longer step "
+            "spins the plume up in fewer steps with the same statistics (another realisation)."
+        ),
+    )
     seed: int | None = Field(
         default=0, ge=0, description="Seed for all streams when none are passed in."
     )
@@ -248,6 +256,10 @@ class World:
     def warm_up(self, seconds: float | None = None) -> None:
         """Spin the flow and plume up (vehicles and sensors frozen, mission time unchanged).
 
+        The spin-up steps by ``params.warm_up_step_s`` if set (the puffs' Euler step and the
+        release are step-size independent in distribution; ``tests/sim/test_sim_warm_up.py``
+        compares such a plume with a long fine-stepped spin-up), else by the plume step.
+
         Args:
             seconds: Spin-up time; ``params.warm_up_s`` or ``default_warm_up_s()`` if None.
         """
@@ -256,6 +268,8 @@ class World:
         if seconds is None:
             seconds = self.default_warm_up_s()
         h = self._plume_stride * self.params.dt_s
+        if self.params.warm_up_step_s is not None:
+            h = max(h, self.params.warm_up_step_s)
         for _ in range(math.ceil(seconds / h)):
             self.flow.step(h)
             self.plume.step(h)

@@ -61,12 +61,23 @@ def source_hash() -> str:
     return h.hexdigest()
 
 
-@functools.cache
 def code_identity() -> str:
-    """``<version>+src.<hash>``: the package version and a hash of its source (see above)."""
-    from cptbt import __version__
+    """``<version>+src.<hash>``: the package version and a hash of its source (see above).
 
-    return f"{__version__}+src.{source_hash()[:16]}"
+    Under the ``fast`` simulator-kernel tier (``CPTBT_KERNELS=fast``), whose concentrations
+    differ from numpy's in the last bits, ``+kernels.fast`` is appended: its rows are another
+    code's rows. The ``exact`` tier gives numpy's numbers and so the same identity.
+    """
+    from cptbt import __version__
+    from cptbt.sim import kernels
+
+    tier = "+kernels.fast" if kernels.tier() == "fast" else ""
+    return f"{__version__}+src.{_source_hash_cached()[:16]}{tier}"
+
+
+@functools.cache
+def _source_hash_cached() -> str:
+    return source_hash()
 
 
 def fingerprint(study_identity: str, code: str) -> str:

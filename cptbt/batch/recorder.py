@@ -37,8 +37,11 @@ class Recorder:
         self.count = np.zeros(n, dtype=np.int64)
         cap = max(int(capacity), 8)
         columns = PATH_COLUMNS + (TRACE_COLUMNS if trace else ())
+        # np.empty: the pages of rows never written (vehicles that end early) are never
+        # touched, so they cost no memory; readers stop at each vehicle's count, and add()
+        # writes NaN into the columns a row does not give.
         self.floats: dict[str, NDArray[np.float64]] = {
-            c: np.full((n, cap), np.nan) for c in columns
+            c: np.empty((n, cap)) for c in columns
         }
         self.detected = np.zeros((n, cap), dtype=bool)
         self.active = np.zeros((n, cap), dtype=np.int16)
@@ -82,9 +85,8 @@ class Recorder:
         rows = self.count[idx]
         if int(rows.max()) >= self.capacity:
             self._grow()
-        for col, v in values.items():
-            if col in self.floats:
-                self.floats[col][idx, rows] = v
+        for col, a in self.floats.items():
+            a[idx, rows] = values.get(col, np.nan)
         self.detected[idx, rows] = detected
         self.active[idx, rows] = active
         self.phase[idx, rows] = phase
@@ -96,7 +98,12 @@ class Recorder:
             out[:, : a.shape[1]] = a
             return out
 
-        self.floats = {c: wider(a, np.nan) for c, a in self.floats.items()}
+        def wider_lazy(a: NDArray[np.float64]) -> NDArray[np.float64]:
+            out = np.empty((a.shape[0], 2 * a.shape[1]))
+            out[:, : a.shape[1]] = a
+            return out
+
+        self.floats = {c: wider_lazy(a) for c, a in self.floats.items()}
         self.detected = wider(self.detected, False)
         self.active = wider(self.active, 0)
         self.phase = wider(self.phase, 0)

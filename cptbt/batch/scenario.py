@@ -70,6 +70,10 @@ class Environment(BaseModel):
     dt_s: float | None = Field(default=None, gt=0, description="Vehicle step, s")
     plume_dt_s: float | None = Field(default=None, gt=0, description="Flow and plume step, s")
     warm_up_s: float | None = Field(default=None, ge=0, description="Plume spin-up, s")
+    warm_up_step_s: float | None = Field(
+        default=None, gt=0, description="Flow and plume step of the spin-up, s (faster, same "
+        "statistics, another realisation; default: the plume step)"
+    )
     flow: FlowOverrides = Field(
         default_factory=dict, description="Flow model overrides"
     )
@@ -169,7 +173,7 @@ def to_sim_params(mission: MissionBase, seed: int | None = None) -> EnvironmentP
         flow["mean_dir_deg"] = planning_angle(mission, env.flow_toward_deg)
     if env.flow_speed_mps is not None:
         flow["mean_speed_mps"] = env.flow_speed_mps
-    for key in ("dt_s", "plume_dt_s", "warm_up_s"):
+    for key in ("dt_s", "plume_dt_s", "warm_up_s", "warm_up_step_s"):
         if getattr(env, key) is not None:
             over[key] = getattr(env, key)
     for key in ("plume", "vehicle", "fluorometer", "adcp", "navigation"):

@@ -80,3 +80,15 @@ def test_recorder_rows_per_vehicle_codes_and_growth() -> None:
     table = rec.table(0)
     assert set(table) == {"t", "x", "y", "x_est", "y_est", "detected", "active"}
     assert len(table["active"]) == 20
+
+
+def test_recorder_columns_a_row_does_not_give_are_nan() -> None:
+    rec = Recorder(2, capacity=2, trace=True)
+    for k in range(5):  # past the capacity: the grown arrays keep the rule
+        values = {"t": float(k), "x": 1.0, "y": 2.0, "x_est": 1.0, "y_est": 2.0}
+        if k % 2:
+            values["concentration"] = 0.5
+        rec.add(np.array([0, 1]), values)
+    assert np.isnan(rec.column("heading", 0)).all()
+    conc = rec.column("concentration", 1)
+    assert np.isnan(conc[::2]).all() and (conc[1::2] == 0.5).all()

@@ -213,3 +213,18 @@ def test_line_of_starts_includes_its_end() -> None:
     assert line_xs("0:100:5") == [5.0 * i for i in range(21)]
     assert line_xs("0:0.3:0.1") == pytest.approx([0.0, 0.1, 0.2, 0.3])
     assert line_xs("7:7:1") == [7.0]
+
+
+def test_the_fast_kernel_tier_is_another_code_identity() -> None:
+    from cptbt.sim import kernels
+
+    if not kernels.HAVE_NUMBA:
+        pytest.skip("needs numba (pip install '.[fast]')")
+    before = kernels.tier()
+    try:
+        kernels.use("exact")
+        exact = code_identity()
+        kernels.use("fast")
+        assert code_identity() == f"{exact}+kernels.fast"
+    finally:
+        kernels.use(before)
