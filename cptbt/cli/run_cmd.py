@@ -113,6 +113,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     mission = load(args.mission, simulate=True)
     params = to_sim_params(mission, args.seed)
     seed = params.seed
+    assert seed is not None, "to_sim_params always sets the seed"
     out = Path(args.out) if args.out else run_folder(mission, seed)
     out.mkdir(parents=True, exist_ok=True)
     source = Point(*params.source_xy_m)
