@@ -347,8 +347,18 @@ class AppendixBilliardFindPlume(_Billiard):
 
 
 def _eta_side(here: Point, area: OpArea, ref_deg: float) -> int:
-    """``sign(eta)``, ``eta = (centre - here)·n``: the larger cross-flow side (sign(0) = +1)."""
-    nx, ny = unit(ref_deg + 90.0)
+    """``sign(eta)``, ``eta = (centre - here)·n``: the larger cross-flow side (sign(0) = +1).
+
+    ``n`` is the normal of the OpArea axis nearest to ``ref_deg``, not of ``ref_deg`` itself: with
+    ``reference: flow`` the reference is the instantaneous, noisy flow, and a few degrees of it
+    times the along-flow distance to the centre would outweigh the cross-flow offset and send
+    the vehicle away from the centre line (AB's ``sign((ymin+ymax)/2 - y0)``). Measured: that
+    sent 6 of 64 paired AB searchers the wrong way.
+    """
+    axis = min((0.0, 90.0, 180.0, -90.0), key=lambda a: abs(wrap_deg(ref_deg - a)))
+    sense = 1.0 if math.cos(math.radians(ref_deg - axis)) >= 0 else -1.0
+    nx, ny = unit(axis + 90.0)
+    nx, ny = sense * nx, sense * ny
     c = area.centre
     return sign((c.x - here.x) * nx + (c.y - here.y) * ny)
 
