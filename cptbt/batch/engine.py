@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,13 +23,28 @@ from cptbt.batch.recorder import PATH_COLUMNS, TRACE_COLUMNS, Recorder
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
 from cptbt.policy import give_back_trigger
-from cptbt.sim.world import EnvironmentParams, World
+from cptbt.sim.world import EnvironmentParams, StepOutput, World
 from cptbt.types import Point
 
 TRACE = ("t", "x", "y", "heading", "x_est", "y_est", "heading_est", "concentration", "detected",
          "flow_vx", "flow_vy", "active", "cmd_heading", "cmd_speed")
 """Columns of a run's trace, in order."""
 assert set(TRACE) == {*PATH_COLUMNS, *TRACE_COLUMNS, "detected", "active"}
+
+
+def run_loop(world: World, prepare: Callable[[], None],
+             observe: Callable[[StepOutput], bool]) -> None:
+    """The one stepping loop of every simulated run: prepare, step the world, observe.
+
+    ``prepare`` sets the vehicles' commands (the planner's, or the vehicle executive's over the
+    link); ``observe`` takes the step's samples — feeding and ticking planners, recording rows,
+    applying the stop policy — and says whether to go on. The batch engine (N vehicles, planners
+    fed directly) and the phased run (one vehicle over the vehicle link) are two pairs of these.
+    """
+    while True:
+        prepare()
+        if not observe(world.step()):
+            return
 
 
 @dataclass(frozen=True)
@@ -187,8 +202,16 @@ def simulate(
     cmd_speed = np.full(n, np.nan)
     active = np.arange(n)
     next_tick = 0.0
-    while len(active):
-        out = world.step()
+    commanded = False  # the planners ticked: their commands go to the world before its next step
+
+    def prepare() -> None:
+        nonlocal commanded
+        if commanded:
+            world.set_commands(cmd_heading, cmd_speed)
+            commanded = False
+
+    def observe(out: StepOutput) -> bool:
+        nonlocal active, next_tick, commanded
         t = out.t_s
         if out.fluorometer is not None:
             for i in active:
@@ -197,7 +220,7 @@ def simulate(
             for i in active:
                 runs[i].planner.add_flow(t, float(out.adcp_flow[i, 0]), float(out.adcp_flow[i, 1]))
         if t + 1e-9 < next_tick:
-            continue
+            return True
         next_tick += period
         m = len(active)
         detected = np.zeros(m, dtype=bool)
@@ -257,7 +280,11 @@ def simulate(
         rec.add(active, values, detected, codes)
         cmd_speed[active[~keep]] = 0.0
         active = active[keep]
-        world.set_commands(cmd_heading, cmd_speed)
+        commanded = True
+        return len(active) > 0
+
+    if n:
+        run_loop(world, prepare, observe)
     for run in runs:
         run.planner.close()
     return runs, world, time.perf_counter() - wall0

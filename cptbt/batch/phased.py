@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from cptbt.batch.engine import PlumeSnapshot, VehicleRun, collect_declarations
+from cptbt.batch.engine import PlumeSnapshot, VehicleRun, collect_declarations, run_loop
 from cptbt.batch.outcome import Outcome, outcome_of
 from cptbt.batch.recorder import Recorder
 from cptbt.batch.scenario import environment_of, planning_angle
@@ -26,7 +26,7 @@ from cptbt.mission import MissionBase
 from cptbt.phases import GIVE_BACK_TRIGGERS, PhaseChange
 from cptbt.planner import Planner
 from cptbt.session import AmpSession
-from cptbt.sim.world import EnvironmentParams, World
+from cptbt.sim.world import EnvironmentParams, StepOutput, World
 from cptbt.types import Point
 
 
@@ -114,12 +114,19 @@ def simulate_phased(
     resumed_at = None
     ended: PhaseChange | None = None
     session.update()
-    while True:
+    phase_before = session.phases.state
+
+    def prepare() -> None:
+        nonlocal phase_before
         phase_before = session.phases.state
-        out = link.step()
+        link.prepare()
+
+    def observe(out: StepOutput) -> bool:
+        nonlocal ended, next_row, resumed_at
+        link.observe(out)
         session.update()
-        for observe in observers:
-            observe(session)
+        for watcher in observers:
+            watcher(session)
         t = out.t_s
         tx, ty = float(out.true_xy[0, 0]), float(out.true_xy[0, 1])
         ex, ey = float(out.nav_xy[0, 0]), float(out.nav_xy[0, 1])
@@ -150,8 +157,9 @@ def simulate_phased(
         if rows is not None and (ticked or (grid_due and not session.in_override)):
             # under override a row per planner tick; otherwise one per cycle period
             _record_row(rows, one, out, planner if ticked else None, session.phases.state, values)
-        if session.phases.state == "post_mission" or t + 1e-9 >= cap:
-            break
+        return not (session.phases.state == "post_mission" or t + 1e-9 >= cap)
+
+    run_loop(world, prepare, observe)
     if run.outcome is None:
         amp_on = session.t_amp_start is not None
         run.outcome = Outcome.AMP_RUNNING if amp_on else Outcome.AMP_NOT_ENABLED

@@ -98,6 +98,13 @@ class SimVehicleLink:
     # -- the vehicle ------------------------------------------------------------------------
     def step(self) -> StepOutput:
         """Act on the AMP's messages, steer, advance the world one step and report."""
+        self.prepare()
+        out = self.world.step()
+        self.observe(out)
+        return out
+
+    def prepare(self) -> None:
+        """Before a world step: act on the AMP's messages and steer."""
         t = self.world.t_s
         if self.mode == "pre_launch":
             self.mode = "mission"
@@ -106,7 +113,9 @@ class SimVehicleLink:
         self._outbox.clear()
         heading, speed = self._steer()
         self.world.set_commands(np.array([heading]), np.array([speed]))
-        out = self.world.step()
+
+    def observe(self, out: StepOutput) -> None:
+        """After a world step: the vehicle's own events, and its reports to the AMP."""
         t = out.t_s
         self._nav = (float(out.nav_xy[0, 0]), float(out.nav_xy[0, 1]))
         self._nav_heading = float(out.nav_heading_deg[0])
@@ -117,7 +126,6 @@ class SimVehicleLink:
         if out.fluorometer is not None:
             self._inbox.append(ConcentrationSample(t, float(out.fluorometer[0])))
         self._report(t)
-        return out
 
     def _apply(self, msg: OutMessage, t: float) -> None:
         if isinstance(msg, OverrideRequest) and self.mode == "mission":
