@@ -48,21 +48,32 @@ def bounding_box(points: Sequence[Point]) -> tuple[float, float, float, float]:
     return min(xs), max(xs), min(ys), max(ys)
 
 
-class _Declaration(PlanBehaviour):
-    """Checks a declaration rule every cycle (in :meth:`watch`) until it declares, once.
+class SourceDeclaration(PlanBehaviour):
+    """Base of the declaration rules: declare once, then go to the source and on home (TRO IV-D).
 
-    The declaration is kept across pre-emption (``persistent_state``): it is made once per
-    mission. On declaring it writes ``declared_source`` to the blackboard.
+    The rule (:meth:`estimate`) is checked every cycle in :meth:`watch` until it declares, once;
+    on declaring it writes ``declared_source`` to the blackboard. After the declaration the
+    heading is ``theta = atan2(y_t - y, x_t - x)``, the target being the declared source until
+    the vehicle is within ``source_radius_m`` of it, then home. Within ``home_radius_m`` of home
+    it writes ``mission_done = True`` and keeps heading home.
+
+    Reading chosen: the switch from source to home is latched (once within ``source_radius_m``,
+    the target stays home even if the vehicle is carried away again), otherwise heading home from
+    inside the 10-m circle would immediately re-target the source. The declaration and the latch
+    are kept across pre-emption (``persistent_state``): a declaration is made once per mission.
     """
 
     family: ClassVar[str] = "declare_source"
-    persistent_state: ClassVar[tuple[str, ...]] = ("declared",)
+    Params: ClassVar[type[BehaviourParams]] = DeclareParams
+    params: DeclareParams
+    persistent_state: ClassVar[tuple[str, ...]] = ("declared", "heading_home")
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
         super().__init__(params, **kwargs)
         self.bb.register_key("declared_source", access=Access.WRITE)
         self.bb.register_key("mission_done", access=Access.WRITE)
         self.declared: Point | None = None
+        self.heading_home = False
 
     def initialise(self) -> None:
         """A new activation: nothing to reset, every piece of state is persistent on purpose."""
@@ -79,28 +90,6 @@ class _Declaration(PlanBehaviour):
         if source is not None and math.isfinite(source.x) and math.isfinite(source.y):
             self.declared = source
             self.bb.declared_source = source
-
-
-class SourceDeclaration(_Declaration):
-    """Base of the declaration rules: declare once, then go to the source and on home (TRO IV-D).
-
-    After the declaration the heading is ``theta = atan2(y_t - y, x_t - x)``, the target being the
-    declared source until the vehicle is within ``source_radius_m`` of it, then home. Within
-    ``home_radius_m`` of home it writes ``mission_done = True`` and keeps heading home.
-
-    Reading chosen: the switch from source to home is latched (once within ``source_radius_m``,
-    the target stays home even if the vehicle is carried away again), otherwise heading home from
-    inside the 10-m circle would immediately re-target the source. The declaration and the latch
-    are kept across pre-emption (``persistent_state``).
-    """
-
-    Params: ClassVar[type[BehaviourParams]] = DeclareParams
-    params: DeclareParams
-    persistent_state: ClassVar[tuple[str, ...]] = ("declared", "heading_home")
-
-    def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
-        super().__init__(params, **kwargs)
-        self.heading_home = False
 
     def decide(self, p: Percept) -> Command | None:
         """No output until declared; then head for the source, and from within reach, home."""
