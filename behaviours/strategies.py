@@ -185,6 +185,11 @@ class StrategyIIIParams(StrategyParams):
     beta_late_deg: float = Field(
         default=85.0, ge=0, le=90, description="|beta| once t - T_first > mid_until_s, deg"
     )
+    beta1_deg: float | None = Field(
+        default=None, ge=0, le=30,
+        description="beta_1 of AB eq. 11: if set, |beta| is beta_1, 2 beta_1, 3 beta_1 in the "
+        "three bands (AB Fig. 9's sweep), in place of the three beta_*_deg, deg",
+    )
     early_until_s: float = Field(default=0.2, ge=0, description="tau_1 of AB eq. 11, s")
     mid_until_s: float = Field(default=0.5, ge=0, description="tau_2 of AB eq. 11, s")
     timer: Literal["contact", "last_detection"] = Field(
@@ -205,8 +210,10 @@ class StrategyIIIMaintain(_CounterturningMaintain):
     """AB Strategy III, maintain: ``psi_u + beta(t)`` within λ, ``|beta|`` growing (AB eq. 11–12).
 
     ``|beta|`` is ``beta_early_deg`` for ``t - T < early_until_s``, ``beta_mid_deg`` up to and
-    including ``mid_until_s``, ``beta_late_deg`` after. Sign: see the base class. ``T`` depends on
-    ``timer`` (SPEC §5c, which requires both readings):
+    including ``mid_until_s``, ``beta_late_deg`` after (AB eq. 12's 10°, 65°, 85° by default);
+    with ``beta1_deg`` set, ``beta_1``, ``2 beta_1``, ``3 beta_1`` (AB eq. 11, Fig. 9's sweep).
+    Sign: see the base class. ``T`` depends on ``timer`` (SPEC §5c, which requires both
+    readings):
 
     - ``contact`` (default): ``T = T_first``, the current contact's first detection (redefined
       on each reacquisition): the letter of AB eq. 11 and Table 3. With AB's heading dynamics
@@ -236,11 +243,12 @@ class StrategyIIIMaintain(_CounterturningMaintain):
         else:
             start = p.first_detection_t if p.first_detection_t is not None else p.t
         dt = round(p.t - start, 9)
+        b1 = self.params.beta1_deg
         if dt < self.params.early_until_s:
-            return self.params.beta_early_deg
+            return self.params.beta_early_deg if b1 is None else b1
         if dt <= self.params.mid_until_s:
-            return self.params.beta_mid_deg
-        return self.params.beta_late_deg
+            return self.params.beta_mid_deg if b1 is None else 2 * b1
+        return self.params.beta_late_deg if b1 is None else 3 * b1
 
 
 class CastParams(BehaviourParams):

@@ -85,14 +85,24 @@ class EvaluationSpec(BaseModel):
     ``success_radius_m`` of the true one; a declaration farther off is a *false declaration*.
     ``criterion: arrival`` (AB appendix, the old "oracle"): the run ends, successfully, the first
     time the vehicle's true position comes within ``success_radius_m`` of the true source.
+    ``criterion: maintain`` (AB §4.3, Fig. 9): a study of how long a maintain strategy keeps
+    the plume. The run ends the first time contact, once made, is lost for good — a cycle after
+    the first detection on which find-plume (or anything below it in the tree) drives — or at
+    the time limit; ``T_M`` is AB eq. 3's ``T_Last - T_First`` over that span. Success = the
+    vehicle came within ``success_radius_m`` of the true source before the run ended (it does
+    not end the run). Reading chosen: AB keeps ``T_M`` running while the searcher "reacquired
+    the plume within λ", i.e. while its reacquire half recovers contact; a wall turn by safety
+    does not end contact.
     """
 
     model_config = FINITE
 
-    criterion: Literal["declaration", "arrival"] = Field(
+    criterion: Literal["declaration", "arrival", "maintain"] = Field(
         default="declaration",
         description="'declaration': success = a declaration within the radius (TRO); 'arrival': "
-        "success = the vehicle within the radius of the true source, which ends the run (AB)",
+        "success = the vehicle within the radius of the true source, which ends the run (AB); "
+        "'maintain': the run ends when contact, once made, is lost for good; T_M = last minus "
+        "first detection (AB eq. 3, Fig. 9)",
     )
     success_radius_m: float = Field(
         default=15.0, gt=0, le=10_000, description="Success radius around the true source, m"
@@ -294,6 +304,13 @@ class MissionBase(BaseModel):
             why = e.contract.check(e.params, self.perception) if e.contract.check else None
             if why:
                 out.append((("behaviours", i, e.family), why))
+        if self.evaluation.criterion == "maintain":
+            if "maintain_plume" not in chosen:
+                out.append((("evaluation", "criterion"),
+                            "'maintain' measures a maintain_plume behaviour, and there is none"))
+            if self.mission_a is not None:
+                out.append((("evaluation", "criterion"),
+                            "'maintain' studies the AMP alone: remove the mission_a section"))
         needy = [f"{e.family} {e.variant}" for e in entries if e.contract.needs_flow]
         if needy and self.perception.flow_source == "none":
             out.append((("perception", "flow_source"),

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cptbt.batch.outcome import Outcome, outcome_of
+from cptbt.batch.outcome import Outcome, contact_ended, outcome_of
 from cptbt.batch.recorder import PATH_COLUMNS, TRACE_COLUMNS, Recorder
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
@@ -87,6 +87,7 @@ class VehicleRun:
         t_end: when it ended (mission clock).
         t1: first detection; t3: declaration.
         distance_at_end_m: the vehicle's true distance to the true source when it ended.
+        closest_m: its closest true approach to the true source during the recorded part.
         declared: the declared source (planning frame).
         lost_contacts: the perception's lost-contact points at the end.
         plume: the plume when the source was declared (or the run ended), if asked for.
@@ -103,6 +104,7 @@ class VehicleRun:
     t1: float | None = None
     t3: float | None = None
     distance_at_end_m: float = math.nan
+    closest_m: float = math.inf
     declared: Point | None = None
     declared_all: tuple[Point, ...] = ()
     source_map: Any = None
@@ -187,6 +189,7 @@ def simulate(
     world.warm_up()
     source = Point(*params.source_xy_m)
     arrival = mission.evaluation.criterion == "arrival"
+    maintain = mission.evaluation.criterion == "maintain"
     radius = mission.evaluation.success_radius_m
     limit = mission.time_limit_s if time_limit_s is None else time_limit_s
     period = 1.0 / mission.cycle_hz
@@ -252,9 +255,12 @@ def simulate(
                     run.plume = PlumeSnapshot.of(world, plume_grid)
             d_true = math.hypot(float(out.true_xy[i, 0]) - source.x,
                                 float(out.true_xy[i, 1]) - source.y)
+            run.closest_m = min(run.closest_m, d_true)
             outcome = None
             if arrival and d_true <= radius:
                 outcome = Outcome.FOUND  # AB appendix: success on reaching the source
+            elif maintain and contact_ended(run.t1, pl.active):
+                outcome = Outcome.CONTACT_LOST  # AB Fig. 9: the end of T_M
             else:
                 assert area is not None
                 due = give_back_trigger(pl.done, t, limit, area.distance_outside(ex, ey))

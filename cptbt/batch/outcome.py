@@ -1,7 +1,8 @@
 """How a run ends and how it is judged: one outcome enum and one verdict for every runner.
 
 The run ends on a give-back trigger (:func:`cptbt.policy.give_back_trigger`), on the vehicle's
-watchdog, or — for ``evaluation.criterion: arrival`` — when the vehicle reaches the true source.
+watchdog, or — for ``evaluation.criterion: arrival`` — when the vehicle reaches the true source,
+or — for ``maintain`` — when contact, once made, is lost for good (:func:`contact_ended`).
 The *verdict* then compares what the planner did with the simulator's truth (SPEC §11): a
 declaration within ``evaluation.success_radius_m`` of the true source is a success, one beyond it
 a *false declaration*; under ``arrival`` only reaching the source counts.
@@ -34,6 +35,8 @@ class Outcome(StrEnum):
     """The vehicle's own mission ended during the override."""
     ABORTED = "aborted"
     """The AMP computer stopped driving and gave back (operator stop, link lost, error)."""
+    CONTACT_LOST = "contact_lost"
+    """Maintain criterion: contact, once made, was lost for good (AB Fig. 9's end of T_M)."""
     AMP_NOT_ENABLED = "amp_not_enabled"
     """The run stopped before the AMP took over."""
     AMP_RUNNING = "amp_running"
@@ -48,6 +51,22 @@ _BY_TRIGGER = {
     "watchdog_timeout": Outcome.WATCHDOG,
     "amp_abort": Outcome.ABORTED,
 }
+
+
+CONTACT_FAMILIES = frozenset({"maintain_plume", "reacquire_plume", "safety", "declare_source"})
+"""Behaviour families that may drive without ending a contact (criterion ``maintain``)."""
+
+
+def contact_ended(first_detection_t: float | None, active: str | None) -> bool:
+    """Criterion ``maintain``: has contact, once made, been lost for good this cycle?
+
+    True on a cycle after the first detection on which the active behaviour (``family.variant``)
+    is not one of :data:`CONTACT_FAMILIES` — find-plume or anything below it drives, or nothing
+    does: the maintain and reacquire halves have both let go.
+    """
+    if first_detection_t is None:
+        return False
+    return active is None or active.partition(".")[0] not in CONTACT_FAMILIES
 
 
 def outcome_of(trigger: str, declared: bool) -> Outcome:
@@ -83,8 +102,13 @@ def judge(
     source: Point,
     distance_at_end_m: float,
     evaluation: EvaluationSpec,
+    closest_m: float = math.inf,
 ) -> Verdict:
-    """Judge one run by the mission's ``evaluation`` section."""
+    """Judge one run by the mission's ``evaluation`` section.
+
+    ``closest_m`` is the vehicle's closest true approach to the source over the run (the
+    ``maintain`` criterion's success: within the radius at some point).
+    """
     radius = evaluation.success_radius_m
     error = None if declared is None else math.hypot(declared.x - source.x,
                                                      declared.y - source.y)
@@ -92,4 +116,6 @@ def judge(
     if evaluation.criterion == "arrival":
         success = outcome is Outcome.FOUND
         return Verdict(success, false, error if error is not None else distance_at_end_m)
+    if evaluation.criterion == "maintain":
+        return Verdict(closest_m <= radius, false, error if error is not None else closest_m)
     return Verdict(error is not None and not false, false, error)

@@ -133,8 +133,10 @@ def simulate_phased(
         phase_time[phase_before] = phase_time.get(phase_before, 0.0) + world.params.dt_s
         ticked = session.ticked
         values: dict[str, Any] = {"t": t, "x": tx, "y": ty, "x_est": ex, "y_est": ey}
-        if session.t_amp_start is not None and ended is None and ticked:
-            _record_amp(run, planner, t, values, world, plume_grid)
+        if session.t_amp_start is not None and ended is None:
+            run.closest_m = min(run.closest_m, math.hypot(tx - source.x, ty - source.y))
+            if ticked:
+                _record_amp(run, planner, t, values, world, plume_grid)
         if ended is None:
             ended = _amp_end(session.phases.timeline)
             if (ended is None and arrival and session.in_override

@@ -82,6 +82,8 @@ class RunSummary:
     declared_sources: list[dict[str, float] | None] = field(default_factory=list)
     flybys: int | None = None
     withdrawn: int | None = None
+    closest_approach_m: float | None = None
+    T_M: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data for ``summary.json`` and the results table."""
@@ -113,6 +115,10 @@ def summarise(
     counts true sources with a declared point within ``success_radius_m`` (default: the
     mission's), ``false_declarations`` the declared points matched to none; ``flybys`` and
     ``withdrawn`` count a likelihood-map declaration's fly-bys and withdrawn declarations.
+    ``closest_approach_m`` is the vehicle's closest true approach to the true source while the
+    AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
+    maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before
+    contact was lost for good (or the time limit) minus the first detection.
     """
     t1, t3 = run.t1, run.t3
     declared = run.declared
@@ -139,7 +145,8 @@ def summarise(
         d1 = _path_length(true[i1 : i2 + 1])
         d2 = _path_length(true[i2 : i3 + 1])
     assert run.outcome is not None, "summarise a finished run"
-    verdict = judge(run.outcome, declared, source, run.distance_at_end_m, mission.evaluation)
+    verdict = judge(run.outcome, declared, source, run.distance_at_end_m, mission.evaluation,
+                    run.closest_m)
     time_in = run.time_in
     total_time = sum(time_in.values()) or 1.0
     truth = list(sources) if sources else [source]
@@ -178,7 +185,17 @@ def summarise(
         declared_sources=[where(mission, p) for p in declared_all],
         flybys=report.get("flybys"),
         withdrawn=report.get("withdrawn"),
+        closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
+        T_M=_maintain_time(run) if mission.evaluation.criterion == "maintain" else None,
     )
+
+
+def _maintain_time(run: VehicleRun) -> float | None:
+    """AB eq. 3: the last detection minus the first; None without a detection."""
+    if run.t1 is None:
+        return None
+    hits = run.path_t[run.recorder.column("detected", run.index)]
+    return float(hits[-1] - run.t1) if len(hits) else 0.0
 
 
 def _match(declared: Sequence[Point], truth: Sequence[Point], radius_m: float) -> int:

@@ -245,6 +245,18 @@ def test_strategy_3_last_detection_timer_with_a_gap_inside_the_contact() -> None
     check(h, percepts, span(10, 11, -170.0) + span(12, 15, -115.0) + span(16, 18, -95.0))
 
 
+def test_strategy_3_beta1_gives_eq_11_s_schedule() -> None:
+    # AB eq. 11 with beta_1 = 20: |beta| = 20, 40, 60 at dt 0.1, 0.3, 0.6 from T_first = 1.0;
+    # entry heading -90 → sign +1: 180 + 20 = 200 ≡ -160, 220 ≡ -140, 240 ≡ -120. The three
+    # beta_*_deg are ignored while beta1_deg is set.
+    params = StrategyIIIParams(beta1_deg=20.0, beta_early_deg=1.0, beta_late_deg=2.0)
+    h = TreeHarness(StrategyIIIMaintain(params, namespace=fresh_namespace()))
+    percepts = script(range(10, 17), {10}, {}, default_heading=-90.0)
+    check(h, percepts, span(10, 11, -160.0) + span(12, 15, -140.0) + [(16, -120.0)])
+    with pytest.raises(ValidationError):
+        StrategyIIIParams(beta1_deg=31.0)  # 3 beta_1 must stay within 90°
+
+
 def test_strategy_3_timer_is_validated() -> None:
     with pytest.raises(ValidationError):
         StrategyIIIParams(timer="first")  # type: ignore[arg-type]

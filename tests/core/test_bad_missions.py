@@ -152,6 +152,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      "behaviours[2].maintain_plume.lambda_s", "moved to perception.lambda_s"),
     ("old oracle", sub("{variant: upflow_cluster}", "{variant: oracle, radius_m: 1}"), 16,
      "behaviours[1].declare_source.variant", "evaluation: {criterion: arrival"),
+    ("maintain criterion with mission_a",
+     sub("cycle_hz: 1", "cycle_hz: 1\nevaluation: {criterion: maintain}"), 9,
+     "evaluation.criterion", "remove the mission_a section"),
 ]
 
 
