@@ -197,13 +197,15 @@ def refly(args: argparse.Namespace) -> int:
     try:
         meta = json.loads((folder / "study.json").read_text(encoding="utf-8"))
         mission_yaml = meta["config_missions"][int(row["config"])]
+        coords = dict(meta.get("configs", [])[int(row["config"])]) if meta.get("configs") \
+            else {}
     except (OSError, ValueError, KeyError, IndexError, TypeError):
         raise BatchError(f"{folder}: its study.json does not say how its rows were flown (a "
                          "study from an older cptbt?); run the study again") from None
     task = GroupTask(
         int(row["config"]), int(row["replicate"]), mission_yaml,
         ((float(row["start_x"]), float(row["start_y"])),), int(meta["root_seed"]),
-        float(meta.get("heading_deg", 0.0)), meta.get("time_limit_s"),
+        float(meta.get("heading_deg", 0.0)), meta.get("time_limit_s"), coords=coords,
         start_mode=str(row.get("start_mode") or meta.get("start_mode", "place")),
         start_ids=(int(row["start"]),),
     )

@@ -93,6 +93,21 @@ def test_a_row_flies_again_bit_for_bit(study: Path, tmp_path: Path, row: int) ->
     assert again["refly"]["same_as_study"] and again["refly"]["differs_in"] == []
 
 
+def test_a_row_of_a_swept_study_flies_again_bit_for_bit(tmp_path: Path) -> None:
+    # The configuration label (from the sweep's coordinates) is part of the row: a re-flown row
+    # of a swept study must carry it too, or every swept row reads "DIFFERENT".
+    mission = tmp_path / "m.yaml"
+    mission.write_text(planner_only("study:\n  grid: [1, 1]\n  runs_per_start: 1\n"),
+                       encoding="utf-8")
+    res = cptbt("batch", str(mission), "--sweep", "speed_mps=1.0,1.2", "--time-limit", "20",
+                "--out", str(tmp_path / "o"), "--workers", "1", "--no-plots", "--quiet")
+    assert res.returncode == 0, res.stderr
+    res = cptbt("run", "--from", str(tmp_path / "o"), "--row", "1", "--out", str(tmp_path / "r"),
+                "--no-figure")
+    assert res.returncode == 0, res.stderr + res.stdout
+    assert "bit for bit" in res.stdout
+
+
 def test_a_row_flown_with_another_seed_is_reported_different(study: Path, tmp_path: Path
                                                              ) -> None:
     copy = tmp_path / "copy"
