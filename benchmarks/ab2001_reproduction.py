@@ -82,10 +82,13 @@ CONFIGS = {
                ("maintain_plume.cast_rule=lagging_heading",)),
         Config("I_fig6", "I (T_W = 3 s, Fig. 6)", "ab2001_strategy1.yaml",
                ("reacquire_plume.give_up_s=3",)),
+        Config("III_restart_initial", "III (last_detection, find-plume restart: initial)",
+               "ab2001_strategy3.yaml",
+               ("maintain_plume.timer=last_detection", "find_plume.restart=initial")),
     )
 }
 LINE_CONFIGS = ("I", "II", "III_last", "III_contact")
-GRID_CONFIGS = ("III_last", "III_contact")
+GRID_CONFIGS = ("III_last", "III_contact", "III_restart_initial")
 
 Row = dict[str, Any]
 
@@ -432,7 +435,11 @@ def main() -> int:
         "- Environment: the missions' `ab_large_meander` preset (filament plume, Farrell 2002 "
         "sizes, 3 filaments/s; second-order boundary noise; instantaneous local flow with a "
         "10° direction error redrawn at 1 Hz)"
-        + (": with " + ", ".join(f"`{v}`" for v in args.set) if args.set else "") + ".", "",
+        + (": with " + ", ".join(f"`{v}`" for v in args.set) if args.set else "") + ".",
+        "- Find-plume: the appendix's billiard; after a lost plume it restarts into the larger "
+        "along-flow part (`restart: largest_area`, SPEC §4a's rule; AB is silent). The grid row "
+        "*find-plume restart: initial* restarts at theta_0 every time, as the appendix starts.",
+        "",
     ]
     body: list[str] = []
     if grids:

@@ -150,6 +150,28 @@ def test_appendix_billiard_with_flow_toward_minus_x() -> None:
 
 
 @pytest.mark.parametrize(
+    ("restart", "want"),
+    [
+        # initial (the appendix's letter): every restart is theta_0 = 70 toward the larger y
+        # side: at (80, 30) the -y side -> -70; at (30, -30) the +y side -> +70.
+        ("initial", [70, -70, -70, -70, 70, 70]),
+        # largest_area: the first start is still theta_0 (70); a restart after a contact heads
+        # into the larger along-flow part: at (80, 30) up-flow (80 m > 20 m) -> 110 on the -y
+        # side = -110; at (30, -30) down-flow (70 m > 30 m) -> 70 on the +y side = +70.
+        ("largest_area", [70, -110, -110, -110, 70, 70]),
+    ],
+)
+def test_appendix_billiard_restart_after_a_contact(restart: str, want: list[float]) -> None:
+    params = AppendixBilliardFindPlume.Params(restart=restart)
+    node = AppendixBilliardFindPlume(params, namespace=fresh_namespace())
+    harness = TreeHarness(node)
+    # Contacts at ticks 1 and 4 (lost at tick 3, λ = 1 s): each restarts find-plume.
+    ps = percepts([(80, -30), (80, 30), (80, 30), (80, 30), (30, -30), (30, -30)], PLUS_X,
+                  hit_at=(1, 4))
+    assert headings_of(harness, ps) == pytest.approx(want)
+
+
+@pytest.mark.parametrize(
     ("cls", "heading"), [(BilliardFindPlume, 60.0), (AppendixBilliardFindPlume, 70.0)]
 )
 def test_no_output_until_the_field_is_reached(cls: type[BilliardFindPlume], heading: float) -> None:
