@@ -79,6 +79,7 @@ def trajectory_figure(
     threshold: float | None = None,
     waypoints: Sequence[Point] | None = None,
     sources: Sequence[Point] = (),
+    goal: Point | None = None,
 ) -> None:
     """The run in the planning frame, drawn as TRO Figs. 10–12 (y positive down).
 
@@ -89,18 +90,23 @@ def trajectory_figure(
     graticule. With a ``phase`` column in the trace (a phased run) the parts outside the AMP
     override are drawn dashed (Mission A) or dotted (return to the break-off point), and the
     planned Mission A ``waypoints`` as a light dashed line (TRO Fig. 1). ``sources`` are every
-    true source (default: ``source``). When the run's declaration kept a source-likelihood map,
-    a second panel draws its posterior at the (last) declaration with the declared points, the
-    withdrawn fly-by candidates and the true sources.
+    true source (default: ``source``); ``goal`` is the run's move-to-field goal when it is not
+    the mission's start point (a study row's start). When the run's declaration kept a
+    source-likelihood map, a second panel draws its posterior at the (last) declaration with the
+    declared points, the withdrawn fly-by candidates and the true sources.
     """
     plt = pyplot()
     area = mission.op_area_geometry()
     belief = run.source_map if isinstance(run.source_map, SourceBelief) else None
     truth = list(sources) or [source]
+    # As wide as the OpArea's shape needs (a square AB area would leave half the page blank),
+    # plus room for the legend on the right.
+    aspect = (area.xmax - area.xmin) / max(area.ymax - area.ymin, 1e-9)
+    width = min(12.5, max(8.0, 3.8 + 4.6 * aspect))
     if belief is None:
-        fig, ax = plt.subplots(figsize=(12.5, 5.6), layout="constrained")
+        fig, ax = plt.subplots(figsize=(width, 5.6), layout="constrained")
     else:
-        fig, (ax, ax_map) = plt.subplots(2, 1, figsize=(12.5, 10.4), layout="constrained",
+        fig, (ax, ax_map) = plt.subplots(2, 1, figsize=(width, 10.4), layout="constrained",
                                          sharex=True, sharey=True)
     snap = run.plume
     if snap is not None:
@@ -125,10 +131,12 @@ def trajectory_figure(
         lc = np.asarray([(p.x, p.y) for p in run.lost_contacts])
         ax.plot(lc[:, 0], lc[:, 1], "s", mfc="none", mec="#ff7f0e", ms=6, label="lost contact")
     ax.plot(*run.start, "o", mfc="white", mec="black", ms=8, label="vehicle at AMP start")
-    if mission.start is not None:
-        st = mission.to_xy(mission.start)
+    st = goal if goal is not None else (
+        mission.to_xy(mission.start) if mission.start is not None else None)
+    if st is not None:
         ax.plot(st.x, st.y, "D", mfc="none", mec="#1f77b4", ms=8, mew=1.5,
-                label="mission start (move-to-field goal)")
+                label="start point (move-to-field goal)" if goal is not None
+                else "mission start (move-to-field goal)")
     home = mission.to_xy(mission.home)
     ax.plot(home.x, home.y, "^", mfc="#8c564b", mec="black", ms=9, label="home")
     declared = list(run.declared_all) or ([run.declared] if run.declared is not None else [])

@@ -230,7 +230,7 @@ def refly(args: argparse.Namespace) -> int:
                           f"{mission.name}, study row {args.row} ({task.key}, start "
                           f"{row['start']}): {summary['outcome']}",
                           threshold=mission.perception.threshold,
-                          sources=true_sources(mission))
+                          sources=true_sources(mission), goal=Point(*task.starts[0]))
     if not args.quiet:
         same = "the same as the study's row, bit for bit" if not diff else (
             f"DIFFERENT from the study's row in {', '.join(diff)}")
