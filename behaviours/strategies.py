@@ -193,7 +193,7 @@ class StrategyIIIParams(StrategyParams):
     early_until_s: float = Field(default=0.2, ge=0, description="tau_1 of AB eq. 11, s")
     mid_until_s: float = Field(default=0.5, ge=0, description="tau_2 of AB eq. 11, s")
     timer: Literal["contact", "last_detection"] = Field(
-        default="contact",
+        default="last_detection",
         description="What t is measured from in the |beta| schedule: 'contact' (the contact's "
         "first detection, T_first: the letter of AB eq. 11) or 'last_detection' (restarted at "
         "every detection: the reading that reproduces AB Figs. 10-11)",
@@ -215,16 +215,19 @@ class StrategyIIIMaintain(_CounterturningMaintain):
     Sign: see the base class. ``T`` depends on ``timer`` (SPEC §5c, which requires both
     readings):
 
-    - ``contact`` (default): ``T = T_first``, the current contact's first detection (redefined
+    - ``contact``: ``T = T_first``, the current contact's first detection (redefined
       on each reacquisition): the letter of AB eq. 11 and Table 3. With AB's heading dynamics
       (a = 5) the heading never settles near upflow before ``|beta|`` reaches 65° and 85°, so
       the searcher crosses the plume almost crosswind and gains ground up-plume mainly in the
       turns: 0.15–0.37 m/s in an idealised straight plume against 1 m/s for Strategy I (SPEC
       §5c), and far below AB's 97 % on the Fig. 11 grid (benchmarks/results/ab2001).
-    - ``last_detection``: ``T`` is the latest detection, so the searcher holds near-upflow while
-      filaments keep arriving (more often than every ``early_until_s``: the > 5 Hz surge of the
-      moths AB §1 cites) and turns crosswind within ``mid_until_s`` of the last hit. This is the
-      reading that reproduces AB's Fig. 11 success rate in a filament plume.
+    - ``last_detection`` (default): ``T`` is the latest detection, so the searcher holds
+      near-upflow while filaments keep arriving (more often than every ``early_until_s``: the
+      > 5 Hz surge of the moths AB §1 cites) and turns crosswind within ``mid_until_s`` of the
+      last hit. This is the reading that reproduces AB's ranking of the strategies. It is the
+      default (SPEC §5c fixes none) so that a mission reaching Strategy III by a variant sweep
+      from another strategy (``--sweep maintain_plume.variant+...=strategy_1,strategy_3``,
+      which resets the parameters) compares the strategies as AB did, not the slow letter.
 
     Reading chosen: eq. 12 leaves both switch instants open (eq. 11 puts the first one in the
     early band); SPEC's "10° for < 0.2 s, 65° until 0.5 s" is followed, and ``t - T`` is rounded

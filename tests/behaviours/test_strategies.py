@@ -187,7 +187,8 @@ def test_strategy_3_pair_beta_schedule_and_flip() -> None:
         [BehaviourSpec.of(StrategyIIIMaintain), BehaviourSpec.of(StrategyIIICast)]
     )
     entries = [
-        BehaviourEntry(family="maintain_plume", variant="strategy_3", params=StrategyIIIParams()),
+        BehaviourEntry(family="maintain_plume", variant="strategy_3",
+                       params=StrategyIIIParams(timer="contact")),
         BehaviourEntry(
             family="reacquire_plume", variant="strategy_3", params=StrategyIIICast.Params()
         ),
@@ -202,22 +203,29 @@ def test_strategy_3_pair_beta_schedule_and_flip() -> None:
 def test_strategy_3_maintain_alone_schedule_at_0_1_0_3_0_6() -> None:
     # Entry heading -90: wrap(-90 - 180) = 90 → sign +1. T_first = 1.0 (one detection).
     # dt 0.1 → 180 + 10 = 190 ≡ -170; dt 0.3 → 180 + 65 = 245 ≡ -115; dt 0.6 → 265 ≡ -95.
-    h = TreeHarness(StrategyIIIMaintain(namespace=fresh_namespace()))
+    h = TreeHarness(StrategyIIIMaintain(StrategyIIIParams(timer="contact"),
+                                        namespace=fresh_namespace()))
     percepts = script(range(10, 17), {10}, {}, default_heading=-90.0)
     ticks = h.run(percepts)
     headings = {round(tk.t * 10): tk.command.heading_deg for tk in ticks if tk.command}
     assert (headings[11], headings[13], headings[16]) == (-170.0, -115.0, -95.0)
 
 
-def test_strategy_3_contact_timer_is_the_default_and_runs_from_the_first_detection() -> None:
+def test_strategy_3_contact_timer_runs_from_the_first_detection() -> None:
     # Detections every 0.1 s from 1.3 to 1.9 (a dense run of filaments), heading 90 → sign -1.
     # contact: dt from T_first = 1.3: 1.3-1.4 → 170; 1.5-1.8 → 115; 1.9 on → 95 although the
     # searcher is still detecting; in the plume to 2.9.
-    assert StrategyIIIParams().timer == "contact"
     ns = fresh_namespace()
-    h = TreeHarness(pair(StrategyIIIMaintain(namespace=ns), StrategyIIICast(namespace=ns)))
+    contact = StrategyIIIParams(timer="contact")
+    h = TreeHarness(pair(StrategyIIIMaintain(contact, namespace=ns), StrategyIIICast(namespace=ns)))
     expected = span(13, 14, 170.0) + span(15, 18, 115.0) + span(19, 29, 95.0) + [(30, -90.0)]
     check(h, script(range(13, 31), set(range(13, 20)), {}), expected)
+
+
+def test_strategy_3_last_detection_timer_is_the_default() -> None:
+    # The reading that reproduces AB's ranking, so that a variant sweep reaching strategy_3
+    # (which resets its parameters) does not silently fly the slow letter of eq. 11.
+    assert StrategyIIIParams().timer == "last_detection"
 
 
 def test_strategy_3_last_detection_timer_restarts_at_every_detection() -> None:
@@ -241,7 +249,8 @@ def test_strategy_3_last_detection_timer_with_a_gap_inside_the_contact() -> None
     h = TreeHarness(StrategyIIIMaintain(params, namespace=ns))
     expected = span(10, 11, -170.0) + span(12, 15, -115.0) + span(16, 17, -170.0) + [(18, -115.0)]
     check(h, percepts, expected)
-    h = TreeHarness(StrategyIIIMaintain(namespace=fresh_namespace()))
+    h = TreeHarness(StrategyIIIMaintain(StrategyIIIParams(timer="contact"),
+                                        namespace=fresh_namespace()))
     check(h, percepts, span(10, 11, -170.0) + span(12, 15, -115.0) + span(16, 18, -95.0))
 
 
