@@ -160,8 +160,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         s = summary
         verdict = "success" if s["success"] else (
             "FALSE DECLARATION" if s["false_declaration"] else "no success")
-        print(f"{mission.name}, seed {seed}: {s['outcome']} ({verdict}: {s['criterion']} within "
-              f"{s['success_radius_m']:g} m); the AMP ended at {_fmt(s['sim_time_s'], ' s')} "
+        judged = f"{s['criterion']} within {s['success_radius_m']:g} m"
+        if s["criterion"] == "maintain":
+            judged = ("came" if s["success"] else "never came") + \
+                f" within {s['success_radius_m']:g} m of the source"
+        print(f"{mission.name}, seed {seed}: {s['outcome']} ({verdict}: {judged}); the AMP "
+              f"ended at {_fmt(s['sim_time_s'], ' s')} "
               f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
         if s["declared_source"]:
             d = s["declared_source"]
@@ -171,8 +175,13 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"  sources: {s['sources_found']} of {s['sources_true']} found, "
                   f"{s['false_declarations']} false; fly-bys {s['flybys']}, "
                   f"withdrawn {s['withdrawn']}")
-        print(f"  T_F {_fmt(s['T_F'], ' s')}  T_T {_fmt(s['T_T'], ' s')}  "
-              f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}")
+        if s["criterion"] == "maintain":
+            print(f"  first detection {_fmt(s['t1'], ' s')}; maintain time T_M "
+                  f"{_fmt(s['T_M'], ' s')} (AB eq. 3); closest to the source "
+                  f"{_fmt(s['closest_approach_m'], ' m')}")
+        else:
+            print(f"  T_F {_fmt(s['T_F'], ' s')}  T_T {_fmt(s['T_T'], ' s')}  "
+                  f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}")
         for c in s.get("phases", {}).get("timeline", []):
             print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})")
         share = ", ".join(f"{k} {v:.0%}" for k, v in s["time_share"].items())
