@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 from cptbt.link import InMessage, OutMessage
+from cptbt.mission import MissionBase
 
 PROTOCOLS = ("backseat", "mavlink")
 TRANSPORTS = ("udp", "udpin")
@@ -100,11 +101,17 @@ class WireLink(Protocol):
         ...
 
 
-def open_link(uri: str) -> WireLink:
+def open_link(uri: str, mission: MissionBase | None = None) -> WireLink:
     """The adapter a URI names, connected.
 
+    Args:
+        uri: the link URI.
+        mission: the mission flown; the MAVLink adapter needs its frames (geodetic positions
+            on the wire), the backseat protocol already speaks the planning frame.
+
     Raises:
-        LinkURIError: a bad URI, or the adapter's optional dependency is missing.
+        LinkURIError: a bad URI, the adapter's optional dependency is missing, or a MAVLink
+            link without a mission.
     """
     u = parse_uri(uri)
     if u.protocol == "backseat":
@@ -116,4 +123,6 @@ def open_link(uri: str) -> WireLink:
     except ImportError as exc:
         raise LinkURIError(f"link {uri!r} needs pymavlink: pip install 'cptbt[mavlink]' "
                            f"({exc})") from None
-    return MavlinkLink(u)
+    if mission is None:
+        raise LinkURIError(f"link {uri!r}: a MAVLink link needs the mission (its frames)")
+    return MavlinkLink(u, mission)
