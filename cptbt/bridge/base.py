@@ -40,8 +40,13 @@ class LinkURI:
         return f"{self.protocol}:{self.transport}:{self.host}:{self.port}"
 
 
-def parse_uri(uri: str) -> LinkURI:
+def parse_uri(uri: str, listen: bool = False) -> LinkURI:
     """Parse a link URI such as ``backseat:udp:127.0.0.1:14600``.
+
+    Args:
+        uri: the URI.
+        listen: the URI names where to listen (a front-seat double): port 0, any free port,
+            is allowed.
 
     Raises:
         LinkURIError: with a one-line reason.
@@ -62,7 +67,7 @@ def parse_uri(uri: str) -> LinkURI:
         n = int(port)
     except ValueError:
         raise LinkURIError(f"link {uri!r}: port {port!r} is not a number") from None
-    if not 0 < n < 65536:
+    if not (0 if listen else 1) <= n < 65536:
         raise LinkURIError(f"link {uri!r}: port {n} out of range")
     return LinkURI(proto, transport, host, n)
 

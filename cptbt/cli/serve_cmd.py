@@ -202,7 +202,7 @@ def cmd_frontseat(args: argparse.Namespace) -> int:
     protocol, listen = args.protocol, args.listen
     if args.link is not None:
         try:
-            u = parse_uri(args.link)
+            u = parse_uri(args.link, listen=True)
         except LinkURIError as exc:
             print(f"cptbt: {exc}", file=sys.stderr)
             return EXIT_USAGE
