@@ -56,8 +56,10 @@ unless it is older by :data:`~cptbt.bridge.mavlink_wire.RESTART_GAP_S` (a reboot
 leaving GUIDED while the AMP holds control, without the AMP's give-back, is reported as an
 :class:`~cptbt.link.OverrideEnded` with reason ``watchdog`` (the vehicle's failsafe, or its
 pilot, took control back — the AMP cannot tell which and must stop either way), ``mission_end``
-if the vehicle's mission is complete. Take and give are sent once each; a refused take is
-retried every :data:`RETAKE_S` vehicle seconds while the AMP wants control.
+if the vehicle's mission is complete. UDP may lose a mode change: while the AMP wants control
+and the vehicle is not in GUIDED (the take was lost, or refused), the take is sent again every
+:data:`RETAKE_S` vehicle seconds; while the vehicle stays in GUIDED after a give-back, so is the
+give-back.
 """
 
 from __future__ import annotations
@@ -88,7 +90,8 @@ from cptbt.mission import MissionBase
 log = logging.getLogger(__name__)
 
 RETAKE_S = 2.0
-"""A refused mode change to GUIDED is asked again after this many vehicle seconds."""
+"""A mode change the vehicle has not made (lost or refused) is asked again after this many
+vehicle seconds."""
 
 _RESULTS = {v: k for k, v in vars(mavlink).items()
             if k.startswith("MAV_RESULT_") and isinstance(v, int) and k != "MAV_RESULT_ENUM_END"}
@@ -114,7 +117,7 @@ class MavlinkLink:
         self.parser = mw.DatagramParser(mw.AMP_SYSTEM, mw.AMP_COMPONENT)
         self.mav = mw.encoder(mw.AMP_SYSTEM, mw.AMP_COMPONENT)
         self.counts: dict[str, int] = {"late": 0, "vehicle_heartbeats": 0, "other_system": 0,
-                                       "acks_refused": 0}
+                                       "acks_refused": 0, "mode_requests_repeated": 0}
         self.target = (mw.VEHICLE_SYSTEM, mw.VEHICLE_COMPONENT)
         self._last_heard: float | None = None
         self._boot0 = time.monotonic()
@@ -136,7 +139,7 @@ class MavlinkLink:
         self._break_off: tuple[float, float] | None = None
         self._in_guided = False
         self._refused_take = ""
-        self._take_t = -math.inf
+        self._asked_t = -math.inf
         self._last_cmd: HeadingSpeedCommand | None = None
         self._out: list[InMessage] = []
 
@@ -146,6 +149,7 @@ class MavlinkLink:
         for datagram in self.udp.recv_all():
             for m in self.parser.feed(datagram):
                 self._handle(m)
+        self._ask_again()
         out, self._out = self._out, []
         return out
 
@@ -166,8 +170,6 @@ class MavlinkLink:
             self._last_cmd = message
             if self._refused_take and not self._in_guided:
                 self._out.append(CommandRefused(self._t, message, self._refused_take))
-                if self._t - self._take_t >= RETAKE_S:
-                    self._set_mode(mw.GUIDED)
             self._setpoint(message)
 
     # -- WireLink ---------------------------------------------------------------------------
@@ -207,10 +209,21 @@ class MavlinkLink:
         return int((time.monotonic() - self._boot0) * 1000) & 0xFFFFFFFF
 
     def _set_mode(self, custom_mode: int) -> None:
-        self._take_t = self._t if custom_mode == mw.GUIDED else self._take_t
+        self._asked_t = self._t
         self._send(self.mav.command_long_encode(
             self.target[0], self.target[1], mavlink.MAV_CMD_DO_SET_MODE, 0,
             mw.CUSTOM, custom_mode, 0, 0, 0, 0, 0))
+
+    def _ask_again(self) -> None:
+        """Repeat a mode change the vehicle has not made after :data:`RETAKE_S`."""
+        if self._t - self._asked_t < RETAKE_S:
+            return
+        if self._want and not self._in_guided:
+            self.counts["mode_requests_repeated"] += 1
+            self._set_mode(mw.GUIDED)
+        elif self._given and self._in_guided:
+            self.counts["mode_requests_repeated"] += 1
+            self._set_mode(self._previous_mode)
 
     def _setpoint(self, cmd: HeadingSpeedCommand) -> None:
         compass = self.frames.compass_deg(cmd.heading_deg)
@@ -280,7 +293,7 @@ class MavlinkLink:
         if self._in_guided and not guided:
             reason = ("released" if self._given else
                       "mission_end" if self._mode() == "post_mission" else "watchdog")
-            self._want = False
+            self._want = self._given = False
             b = self._break_off or self._xy or (math.nan, math.nan)
             self._out.append(OverrideEnded(self._t, reason, b))  # type: ignore[arg-type]
             self._break_off = None

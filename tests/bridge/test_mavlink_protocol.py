@@ -221,3 +221,27 @@ def test_the_mode_table(mode: str, custom: int, armed: bool, state: int | None) 
     assert mw.vehicle_mode(custom, mw.CUSTOM | (mw.ARMED if armed else 0), state) == mode
     if state is not None and mode in mw.WIRE_MODES and custom != mw.POSHOLD:
         assert mw.WIRE_MODES[mode] == (custom, armed, state)
+
+
+def test_a_lost_take_or_give_is_asked_again() -> None:
+    w = Wire(MSN007, MavlinkCodec(MSN007))
+    try:
+        w.send(VehicleState(10.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))
+        w.link.send(OverrideRequest())
+        w.sock.recvfrom(65535)  # the take is lost: the vehicle stays in AUTO
+        w.send(VehicleState(11.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))
+        assert w.amp_sent(0) == []  # not yet: within RETAKE_S
+        w.send(VehicleState(12.5, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))
+        assert w.amp_sent(1) == [OverrideRequest()]
+        w.send(VehicleState(13.0, 5.0, 5.0, 0.0, 1.5, 3.0, "override", 0))
+        w.link.send(OverrideRelease())
+        w.sock.recvfrom(65535)  # the give is lost: the vehicle stays in GUIDED
+        w.send(VehicleState(15.5, 5.0, 5.0, 0.0, 1.5, 3.0, "override", 0))
+        assert w.amp_sent(1) == [OverrideRelease()]
+        got = w.send(VehicleState(16.0, 5.0, 5.0, 0.0, 1.5, 3.0, "returning", 0))
+        assert [m.reason for m in got if isinstance(m, OverrideEnded)] == ["released"]
+        w.send(VehicleState(19.0, 5.0, 5.0, 0.0, 1.5, 3.0, "returning", 0))
+        assert w.amp_sent(0) == []  # done: nothing more to ask
+        assert w.link.stats()["mode_requests_repeated"] == 2
+    finally:
+        w.close()
