@@ -192,6 +192,7 @@ class MavlinkLink:
         """Datagrams in and out, messages decoded, and every kind ignored."""
         out = dict(self.parser.counts) | self.counts
         out |= {"sent": self.udp.sent, "send_errors": self.udp.send_errors,
+                "foreign": self.udp.foreign,
                 "ignored": self.parser.ignored + self.counts["late"]
                 + self.counts["other_system"]}
         return out
