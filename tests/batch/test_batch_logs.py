@@ -46,7 +46,7 @@ def _batch(out: Path, workers: int) -> Path:
     r = subprocess.run(
         [sys.executable, "-m", "cptbt", "batch", str(MSN007), "--amp-only", "--grid", "2x1",
          "--runs-per-start", "2",
-         "--time-limit", "400", "--out", str(out), "--log-runs", "2", "--workers", str(workers),
+         "--time-limit", "250", "--out", str(out), "--log-runs", "2", "--workers", str(workers),
          "--no-plots", "--quiet"], capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     return out / "logs"

@@ -99,12 +99,12 @@ def test_a_vehicle_that_refuses_every_command_ends_the_override(msn007) -> None:
 
 def test_a_vehicle_that_refuses_guided_never_flies_the_amp(msn007) -> None:
     codec = MavlinkCodec(msn007, refuse_guided=True)
-    with double_running(msn007, codec, max_time_s=120) as (a, report):
+    with double_running(msn007, codec, max_time_s=90) as (a, report):
         result = _serve(msn007, a)
         vehicle = report()
     assert "override" not in codec.modes_shown and vehicle.override_ended == []
     assert codec.counts()["set_mode_refused"] > 10  # asked again every 2 vehicle seconds
-    assert result.session.refusals > 40 and "command_refused" in triggers(result)
+    assert result.session.refusals > 30 and "command_refused" in triggers(result)
     reason = next(c.detail for c in result.session.phases.timeline
                   if c.trigger == "command_refused")
     assert "refused GUIDED" in reason
