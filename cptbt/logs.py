@@ -3,7 +3,9 @@
 Channels (message encoding ``json``, schema encoding ``jsonschema``, log time = the vehicle's
 clock, kept non-decreasing):
 
-- ``/cptbt/mission`` — once: the mission (normalised YAML), where the run came from, the version.
+- ``/cptbt/mission`` — once: the mission (normalised YAML), where the run came from, the version,
+  and (``start_xy``) the move-to-field goal the planner was given when it was not the mission's
+  start (a batch study's start point).
 - ``/cptbt/cycle`` — one per planner tick: the phase, the planner's inputs since the previous tick
   (``inputs``: ``["s", t, value]`` samples, ``["f", t, vx, vy]`` flow samples, ``["p", x, y,
   heading]`` poses, in the order they were given), the percept (with the flow estimate), the
@@ -32,7 +34,7 @@ from cptbt.loader import dump_mission
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
 from cptbt.session import AmpSession
-from cptbt.types import Command
+from cptbt.types import Command, Point
 
 PROFILE = "cptbt"
 TOPICS = ("/cptbt/mission", "/cptbt/cycle", "/cptbt/phase")
@@ -44,7 +46,10 @@ SCHEMAS: dict[str, dict[str, Any]] = {
     "/cptbt/mission": {
         "title": "cptbt.Mission", "type": "object",
         "properties": {"name": {"type": "string"}, "yaml": {"type": "string"},
-                       "source": {"type": "string"}, "cptbt_version": {"type": "string"}},
+                       "source": {"type": "string"}, "cptbt_version": {"type": "string"},
+                       "start_xy": {"type": "array", "items": _NUM,
+                                    "description": "the planner's move-to-field goal, planning "
+                                    "frame (when not the mission's start)"}},
     },
     "/cptbt/cycle": {
         "title": "cptbt.Cycle", "type": "object",
@@ -192,7 +197,7 @@ class CycleLog:
     """
 
     def __init__(self, stream: BinaryIO, mission: MissionBase, source: str,
-                 planner: RecordingPlanner | None = None) -> None:
+                 planner: RecordingPlanner | None = None, start: Point | None = None) -> None:
         writer_cls = _mcap()
         self._stream = stream
         self.writer = writer_cls(stream)
@@ -204,22 +209,27 @@ class CycleLog:
                 data=json.dumps(SCHEMAS[topic]).encode("utf-8"))
             self.channels[topic] = self.writer.register_channel(
                 topic=topic, message_encoding="json", schema_id=sid)
-        self.planner = planner or RecordingPlanner(mission)
+        self.planner = planner or RecordingPlanner(mission, start=start)
         self.cycles = 0
         self._phases_seen = 0
         self._t_ns = 0
         self._closed = False
         from cptbt import __version__
 
-        self._write("/cptbt/mission", 0.0, {"name": mission.name, "yaml": dump_mission(mission),
-                                            "source": source, "cptbt_version": __version__})
+        record: dict[str, Any] = {"name": mission.name, "yaml": dump_mission(mission),
+                                  "source": source, "cptbt_version": __version__}
+        if start is not None:
+            record["start_xy"] = [num(start.x), num(start.y)]
+        self._write("/cptbt/mission", 0.0, record)
 
     @classmethod
-    def open(cls, path: Path, mission: MissionBase, source: str = "") -> CycleLog:
-        """Start a log file at ``path``."""
+    def open(cls, path: Path, mission: MissionBase, source: str = "",
+             start: Point | None = None) -> CycleLog:
+        """Start a log file at ``path``; ``start``: the planner's move-to-field goal, when not
+        the mission's start."""
         _mcap()
         path.parent.mkdir(parents=True, exist_ok=True)
-        return cls(path.open("wb"), mission, source)
+        return cls(path.open("wb"), mission, source, start=start)
 
     def __call__(self, session: AmpSession) -> None:
         """Log new phase changes, and the cycle if the planner ticked."""
@@ -230,6 +240,11 @@ class CycleLog:
             self._phases_seen += 1
         if session.ticked and session.planner is self.planner:
             self.record(session.t, session.phases.state)
+
+    def phase(self, t: float, source: str, dest: str, trigger: str, detail: str = "") -> None:
+        """Log a phase change that no session made (a batch run's start and end)."""
+        self._write("/cptbt/phase", t, {"t": num(t), "from": source, "to": dest,
+                                        "trigger": trigger, "detail": detail})
 
     def record(self, t: float, phase: str) -> None:
         """Log the cycle the planner just ran."""

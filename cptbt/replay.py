@@ -2,7 +2,8 @@
 
 :func:`replay` feeds the recorded planner inputs of every cycle (samples, flow samples, poses, the
 tick time) to a fresh planner for the logged mission — or another mission, e.g. the same one with
-``reacquire_plume: {variant: three_point}`` — and compares its output with the log cycle by cycle:
+``reacquire_plume: {variant: three_point}``; with the log's move-to-field goal when it recorded
+one, as a batch study's logs do — and compares its output with the log cycle by cycle:
 the command (heading and speed, exactly: bit for bit), the active behaviour and the declared
 source. The replay is open loop: once the commands diverge, the recorded poses are those of the
 vehicle that followed the logged planner, so the report gives the first divergent cycle rather
@@ -20,6 +21,7 @@ from cptbt.loader import load_mission, loads_mission
 from cptbt.logs import LogData, feed, num, read_log, unnum
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
+from cptbt.types import Point
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,7 +105,9 @@ def replay(log: LogData | Path | str, mission: MissionBase | Path | str | None =
         m = mission
     else:
         m = load_mission(mission)
-    planner = Planner(m)
+    start = data.mission.get("start_xy")
+    planner = Planner(m, start=None if start is None else Point(unnum(start[0]),
+                                                                 unnum(start[1])))
     first: Divergence | None = None
     differing = 0
     try:

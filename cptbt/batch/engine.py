@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +25,9 @@ from cptbt.planner import Planner
 from cptbt.policy import give_back_trigger
 from cptbt.sim.world import EnvironmentParams, StepOutput, World
 from cptbt.types import Point
+
+if TYPE_CHECKING:
+    from cptbt.logs import CycleLog
 
 TRACE = ("t", "x", "y", "heading", "x_est", "y_est", "heading_est", "concentration", "detected",
          "flow_vx", "flow_vy", "active", "cmd_heading", "cmd_speed")
@@ -170,10 +173,13 @@ def simulate(
     time_limit_s: float | None = None,
     plume_grid: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
     goals: Sequence[Point | None] | None = None,
+    logs: Mapping[int, CycleLog] | None = None,
 ) -> tuple[list[VehicleRun], World, float]:
     """Fly one planner per start pose (x, y, heading; planning frame) in one shared world.
 
-    ``goals`` gives each vehicle's move-to-field goal (default: the mission's start).
+    ``goals`` gives each vehicle's move-to-field goal (default: the mission's start). ``logs``
+    maps a vehicle's index to a cycle log: that vehicle flies the log's (recording) planner, made
+    with the same goal, and every cycle it ticks is logged (the caller closes the logs).
 
     With ``plume_grid`` (xs, ys), each run keeps a :class:`PlumeSnapshot` taken when it declared
     (or, without a declaration, when it ended).
@@ -195,9 +201,10 @@ def simulate(
     period = 1.0 / mission.cycle_hz
     rec = Recorder(n, math.ceil(limit / period) + 4, trace=trace)
     goal = list(goals) if goals is not None else [None] * n
+    logs = logs or {}
     runs = [
-        VehicleRun(Planner(mission, start=goal[i]), (s[0], s[1]), rec, i, period,
-                   rec if trace else None)
+        VehicleRun(logs[i].planner if i in logs else Planner(mission, start=goal[i]),
+                   (s[0], s[1]), rec, i, period, rec if trace else None)
         for i, s in enumerate(starts)
     ]
     area = runs[0].planner.op_area if runs else None
@@ -237,6 +244,8 @@ def simulate(
             ex, ey = float(out.nav_xy[i, 0]), float(out.nav_xy[i, 1])
             pl.set_pose(ex, ey, float(out.nav_heading_deg[i]))
             cmd = pl.tick(t)
+            if logs and int(i) in logs:
+                logs[int(i)].record(t, "amp.override")
             p = pl.percept
             assert p is not None
             if cmd is not None:

@@ -44,7 +44,13 @@ _OUT = (HeadingSpeedCommand, OverrideRequest, OverrideRelease)
 
 
 class Codec(Protocol):
-    """A protocol as the vehicle's side speaks it."""
+    """A protocol as the vehicle's side speaks it.
+
+    Attributes:
+        junk: malformed datagrams in this protocol, for :attr:`WireFaults.junk_every`.
+    """
+
+    junk: Sequence[bytes]
 
     def decode(self, datagram: bytes) -> list[OutMessage]:
         """The AMP's messages in one datagram (invalid content ignored and counted)."""
@@ -63,8 +69,16 @@ class Codec(Protocol):
         ...
 
 
+JUNK = (b"{not json\n", b'{"v":1,"seq":1,"type":"nav","t_s":"soon"}\n',
+        b'{"v":99,"seq":1,"type":"nav"}\n', b'{"v":1,"seq":1,"type":"teleport"}\n',
+        b"\xff\xfe\x00garbage\n", b'[1,2,3]\n')
+"""Malformed backseat datagrams the double sprinkles in (``junk_every``)."""
+
+
 class BackseatCodec:
     """The vehicle's side of :mod:`cptbt.bridge.backseat`."""
+
+    junk: Sequence[bytes] = JUNK
 
     def __init__(self) -> None:
         self.decoder = backseat.Decoder()
@@ -120,10 +134,6 @@ class WireFaults:
     seed: int = 0
 
 
-JUNK = (b"{not json\n", b'{"v":1,"seq":1,"type":"nav","t_s":"soon"}\n',
-        b'{"v":99,"seq":1,"type":"nav"}\n', b'{"v":1,"seq":1,"type":"teleport"}\n',
-        b"\xff\xfe\x00garbage\n", b'[1,2,3]\n')
-"""Malformed datagrams the double sprinkles in (``junk_every``)."""
 
 
 @dataclass
@@ -281,7 +291,7 @@ class FrontSeatDouble:
         f = self.faults
         self._to_amp += 1
         if f.junk_every and self._to_amp % f.junk_every == 0:
-            junk = JUNK[(self._to_amp // f.junk_every) % len(JUNK)]
+            junk = self.codec.junk[(self._to_amp // f.junk_every) % len(self.codec.junk)]
             self.udp.send(junk)
             self.udp.send(b"x" * (backseat.MAX_DATAGRAM + 100))
             self.report.junk += 2

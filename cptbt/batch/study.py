@@ -10,6 +10,7 @@ the order in which groups finish.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Sequence
@@ -170,6 +171,10 @@ class GroupTask:
     with their start points as move-to-field goals."""
     start_ids: tuple[int, ...] | None = None
     """Each start's index in the study (seeds its vehicle); default 0, 1, 2, ..."""
+    log_ids: tuple[int, ...] = ()
+    """Study indices of the starts whose runs write a cycle log (see :func:`log_sample`)."""
+    log_dir: str = ""
+    """Where those logs go: ``<log_dir>/<group key>-s<start>.mcap``."""
 
     @property
     def ids(self) -> tuple[int, ...]:
@@ -237,3 +242,23 @@ def group_seeds(root_seed: int, replicate: int, ids: int | Sequence[int]
         for i in index
     ]
     return env, vehicles
+
+
+LOG_SAMPLE_KEY = 2**31 - 1
+"""``SeedSequence(root_seed, spawn_key=(LOG_SAMPLE_KEY,))`` draws the logged runs; the plume and
+vehicle streams use two- and three-element keys, so the draw cannot disturb them."""
+
+
+def log_sample(tasks: Sequence[GroupTask], k: int, root_seed: int,
+               log_dir: str) -> list[GroupTask]:
+    """The tasks, with ``k`` of their runs (drawn uniformly without replacement) marked to log.
+
+    The draw is seeded by the study's root seed, so the same study logs the same runs whatever
+    the workers or the order the groups finish in.
+    """
+    runs = [(j, i) for j, task in enumerate(tasks) for i in task.ids]
+    rng = np.random.default_rng(np.random.SeedSequence(root_seed, spawn_key=(LOG_SAMPLE_KEY,)))
+    chosen = {runs[n] for n in rng.choice(len(runs), size=min(k, len(runs)), replace=False)}
+    return [dataclasses.replace(task, log_ids=tuple(i for i in task.ids if (j, i) in chosen),
+                                log_dir=log_dir)
+            for j, task in enumerate(tasks)]

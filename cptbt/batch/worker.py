@@ -8,7 +8,8 @@ import signal
 import sys
 import threading
 import time
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.errors import BatchError
@@ -27,6 +28,9 @@ from cptbt.loader import loads_mission
 from cptbt.mission import MissionBase
 from cptbt.registry import default_registry
 from cptbt.types import Point
+
+if TYPE_CHECKING:
+    from cptbt.logs import CycleLog
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 WATCHDOG_PERIOD_S = 0.5
@@ -119,10 +123,39 @@ def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None
         poses = [(lx, ly, lh) for _ in task.starts]
     else:
         poses = [(x, y, heading) for x, y in task.starts]
-    runs, _, wall = simulate(mission, params, poses, env_rng=env_rng,
-                             vehicle_rngs=vehicle_rngs, time_limit_s=task.time_limit_s,
-                             goals=goals, trace=trace, plume_grid=plume_grid)
+    logs = _open_logs(task, mission, goals)
+    try:
+        runs, _, wall = simulate(mission, params, poses, env_rng=env_rng,
+                                 vehicle_rngs=vehicle_rngs, time_limit_s=task.time_limit_s,
+                                 goals=goals, trace=trace, plume_grid=plume_grid, logs=logs)
+        for k, log in logs.items():
+            run = runs[k]
+            outcome = run.outcome.value if run.outcome is not None else "not ended"
+            log.phase(run.t_end, "amp.override", "amp.give_back", "study_run_end",
+                      f"outcome {outcome}")
+    finally:
+        for log in logs.values():
+            log.close()
     return mission, runs, Point(*params.source_xy_m), wall
+
+
+def _open_logs(task: GroupTask, mission: MissionBase, goals: list[Point]) -> dict[int, CycleLog]:
+    """The cycle logs of the group's runs that :func:`cptbt.batch.study.log_sample` chose."""
+    if not task.log_ids:
+        return {}
+    from cptbt.logs import CycleLog
+
+    logs: dict[int, CycleLog] = {}
+    for k, i in enumerate(task.ids):
+        if i in task.log_ids:
+            path = Path(task.log_dir) / f"{task.key}-s{i:04d}.mcap"
+            source = (f"cptbt batch: config {task.config}, replicate {task.replicate}, start "
+                      f"{i}, root seed {task.root_seed}")
+            log = CycleLog.open(path, mission, source=source, start=goals[k])
+            log.phase(0.0, "pre_launch", "amp.override", "study_run_start",
+                      f"start ({goals[k].x:.1f}, {goals[k].y:.1f}), {task.start_mode}")
+            logs[k] = log
+    return logs
 
 
 def run_group(task: GroupTask) -> list[dict[str, Any]]:

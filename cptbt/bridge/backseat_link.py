@@ -83,6 +83,7 @@ class BackseatLink:
         """Datagrams sent and received, messages decoded, and every kind ignored."""
         out = dict(self.decoder.counts)
         out |= {"sent": self.udp.sent, "send_errors": self.udp.send_errors,
+                "foreign": self.udp.foreign,
                 "vehicle_heartbeats": self.vehicle_heartbeats, "ignored": self.decoder.ignored,
                 "wrong_direction": self.wrong_direction}
         return out

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 from cptbt.link import InMessage, OutMessage
+from cptbt.mission import MissionBase
 
 PROTOCOLS = ("backseat", "mavlink")
 TRANSPORTS = ("udp", "udpin")
@@ -39,8 +40,13 @@ class LinkURI:
         return f"{self.protocol}:{self.transport}:{self.host}:{self.port}"
 
 
-def parse_uri(uri: str) -> LinkURI:
+def parse_uri(uri: str, listen: bool = False) -> LinkURI:
     """Parse a link URI such as ``backseat:udp:127.0.0.1:14600``.
+
+    Args:
+        uri: the URI.
+        listen: the URI names where to listen (a front-seat double): port 0, any free port,
+            is allowed.
 
     Raises:
         LinkURIError: with a one-line reason.
@@ -61,7 +67,7 @@ def parse_uri(uri: str) -> LinkURI:
         n = int(port)
     except ValueError:
         raise LinkURIError(f"link {uri!r}: port {port!r} is not a number") from None
-    if not 0 < n < 65536:
+    if not (0 if listen else 1) <= n < 65536:
         raise LinkURIError(f"link {uri!r}: port {n} out of range")
     return LinkURI(proto, transport, host, n)
 
@@ -100,11 +106,17 @@ class WireLink(Protocol):
         ...
 
 
-def open_link(uri: str) -> WireLink:
+def open_link(uri: str, mission: MissionBase | None = None) -> WireLink:
     """The adapter a URI names, connected.
 
+    Args:
+        uri: the link URI.
+        mission: the mission flown; the MAVLink adapter needs its frames (geodetic positions
+            on the wire), the backseat protocol already speaks the planning frame.
+
     Raises:
-        LinkURIError: a bad URI, or the adapter's optional dependency is missing.
+        LinkURIError: a bad URI, the adapter's optional dependency is missing, or a MAVLink
+            link without a mission.
     """
     u = parse_uri(uri)
     if u.protocol == "backseat":
@@ -116,4 +128,6 @@ def open_link(uri: str) -> WireLink:
     except ImportError as exc:
         raise LinkURIError(f"link {uri!r} needs pymavlink: pip install 'cptbt[mavlink]' "
                            f"({exc})") from None
-    return MavlinkLink(u)
+    if mission is None:
+        raise LinkURIError(f"link {uri!r}: a MAVLink link needs the mission (its frames)")
+    return MavlinkLink(u, mission)

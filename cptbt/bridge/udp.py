@@ -13,12 +13,26 @@ RECV_BYTES = 65535
 class UdpEndpoint:
     """One UDP socket.
 
+    With a fixed ``peer`` only that address is heard: a datagram from any other is dropped and
+    counted in :attr:`foreign` (on a shared machine a stray sender — another vehicle double still
+    answering an earlier run on a port the system has since given to this socket — must not be
+    taken for the vehicle). A vehicle that answers from another port needs the listening
+    transport (``udpin``), which hears and answers whoever speaks.
+
     Args:
         bind: local address to bind (``("127.0.0.1", 0)`` for any free port).
         peer: where to send; None to answer whoever sent the latest datagram.
+
+    Raises:
+        ValueError: the peer's host name cannot be resolved.
     """
 
     def __init__(self, bind: tuple[str, int], peer: tuple[str, int] | None = None) -> None:
+        if peer is not None:
+            try:
+                peer = (socket.gethostbyname(peer[0]), peer[1])
+            except OSError:
+                raise ValueError(f"cannot resolve the host {peer[0]!r}") from None
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setblocking(False)
         self.sock.bind(bind)
@@ -26,6 +40,7 @@ class UdpEndpoint:
         self._fixed_peer = peer is not None
         self.sent = 0
         self.send_errors = 0
+        self.foreign = 0
 
     @property
     def address(self) -> tuple[str, int]:
@@ -43,8 +58,12 @@ class UdpEndpoint:
                 return out
             except OSError:  # e.g. ICMP port unreachable surfacing as ECONNREFUSED
                 continue
+            sender = (str(addr[0]), int(addr[1]))
             if not self._fixed_peer:
-                self.peer = (str(addr[0]), int(addr[1]))
+                self.peer = sender
+            elif sender != self.peer:
+                self.foreign += 1
+                continue
             out.append(data)
 
     def send(self, data: bytes) -> bool:

@@ -16,7 +16,7 @@ from cptbt.batch.integrity import code_identity
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
-from cptbt.batch.study import Study, Sweep, configurations, grid_starts
+from cptbt.batch.study import Study, Sweep, configurations, grid_starts, log_sample
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
@@ -70,6 +70,9 @@ def add_parsers(sub: Any) -> None:
                    metavar="S", help="give up connecting to --scheduler after S s (default 10)")
     p.add_argument("--restart", action="store_true",
                    help="discard the folder's finished runs (e.g. made by other code), start over")
+    p.add_argument("--log-runs", type=argtypes.non_negative_int, default=0, metavar="K",
+                   help="write an MCAP cycle log for K runs drawn at random (seeded by the root "
+                   "seed) to DIR/logs (needs cptbt[logs]); cptbt log summary / replay read them")
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     p.set_defaults(func=cmd_batch)
@@ -181,6 +184,11 @@ def cmd_batch(args: argparse.Namespace) -> int:
         print(f"cptbt: re-running part {key}: {reason}", file=sys.stderr)
 
     tasks = study.tasks(code)
+    if args.log_runs:
+        from cptbt.logs import _mcap
+
+        _mcap()  # one clear error before any run if mcap is missing
+        tasks = log_sample(tasks, args.log_runs, seed, str(Path(args.out) / "logs"))
     stats = run_study(tasks, store, workers=args.workers, scheduler=args.scheduler,
                       scheduler_timeout_s=args.scheduler_timeout, quiet=args.quiet,
                       on_rerun=rerun)
@@ -191,6 +199,11 @@ def cmd_batch(args: argparse.Namespace) -> int:
               f"success {stats['successes'] / max(stats['runs'], 1):.1%}; "
               f"{stats['wall_time_s']:.1f} s wall, {rate:.1f} missions/s")
         print(f"  wrote {table}")
+        if args.log_runs:
+            logged = sorted((Path(args.out) / "logs").glob("*.mcap"))
+            print(f"  cycle logs of {sum(len(t.log_ids) for t in tasks)} runs in "
+                  f"{Path(args.out) / 'logs'} ({len(logged)} files; groups resumed from disk "
+                  "are not flown again, so write no new log)")
     if not args.no_plots:
         _plots(table, Path(args.out), args.quiet, geometry)
     return 0

@@ -15,9 +15,10 @@ from typing import Any
 from cptbt.batch.frontseat import BackseatCodec, Codec, FrontSeatDouble, WireFaults
 from cptbt.batch.scenario import environment_of
 from cptbt.batch.served import AmpCycles, served_summary
-from cptbt.bridge import LinkURIError, open_link
+from cptbt.bridge import LinkURIError, open_link, parse_uri
 from cptbt.bridge.serve import ServeOptions, serve
 from cptbt.cli.inspect_cmds import load
+from cptbt.mission import MissionBase
 from cptbt.planner import Planner
 from cptbt.session import AmpSession
 
@@ -53,6 +54,9 @@ def add_parsers(sub: Any) -> None:
     f = sub.add_parser("frontseat", help="a simulated vehicle that speaks a link protocol",
                        description=cmd_frontseat.__doc__)
     f.add_argument("mission", metavar="MISSION", help="mission YAML file (mission_a, environment)")
+    f.add_argument("--link", default=None, metavar="URI",
+                   help="PROTOCOL:udp:HOST:PORT to listen on, e.g. mavlink:udp:127.0.0.1:14550 "
+                        "(port 0: any free port; printed on start); sets --protocol and --listen")
     f.add_argument("--protocol", choices=("backseat", "mavlink"), default="backseat")
     f.add_argument("--listen", default="127.0.0.1:14600", metavar="HOST:PORT",
                    help="where to listen (port 0: any free port; printed on start)")
@@ -65,6 +69,8 @@ def add_parsers(sub: Any) -> None:
                    help="cut the link both ways from vehicle time T")
     f.add_argument("--refuse-above", type=float, default=None, metavar="MPS",
                    help="refuse commands faster than this")
+    f.add_argument("--refuse-guided", action="store_true",
+                   help="mavlink: deny every mode change to GUIDED (never hand over control)")
     f.add_argument("--report", metavar="FILE", default=None, help="write what it saw as JSON")
     f.set_defaults(func=cmd_frontseat)
 
@@ -89,7 +95,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     try:
         options = ServeOptions(clock_scale=args.clock_scale, link_timeout_s=args.link_timeout,
                                connect_timeout_s=args.connect_timeout, until=args.until)
-        link = open_link(args.link)
+        link = open_link(args.link, mission)
     except (LinkURIError, ValueError) as exc:
         print(f"cptbt: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -174,13 +180,17 @@ def print_summary(s: dict[str, Any], session: AmpSession) -> None:
           f"{session.refusals} commands refused")
 
 
-def make_codec(protocol: str) -> Codec:
-    """The vehicle side of a protocol."""
+def make_codec(protocol: str, mission: MissionBase, refuse_guided: bool = False) -> Codec:
+    """The vehicle side of a protocol.
+
+    Raises:
+        ImportError: pymavlink is missing (mavlink).
+    """
     if protocol == "backseat":
         return BackseatCodec()
     from cptbt.batch.frontseat_mavlink import MavlinkCodec
 
-    return MavlinkCodec()
+    return MavlinkCodec(mission, refuse_guided=refuse_guided)
 
 
 def cmd_frontseat(args: argparse.Namespace) -> int:
@@ -189,9 +199,20 @@ def cmd_frontseat(args: argparse.Namespace) -> int:
     from cptbt.batch.scenario import to_sim_params
 
     mission = load(args.mission, simulate=True)
-    host, _, port = args.listen.rpartition(":")
+    protocol, listen = args.protocol, args.listen
+    if args.link is not None:
+        try:
+            u = parse_uri(args.link, listen=True)
+        except LinkURIError as exc:
+            print(f"cptbt: {exc}", file=sys.stderr)
+            return EXIT_USAGE
+        protocol, listen = u.protocol, f"{u.host}:{u.port}"
+    host, _, port = listen.rpartition(":")
+    if not port.isdigit():
+        print(f"cptbt: --listen {listen!r}: expected HOST:PORT", file=sys.stderr)
+        return EXIT_USAGE
     try:
-        codec = make_codec(args.protocol)
+        codec = make_codec(protocol, mission, args.refuse_guided)
     except ImportError as exc:
         print(f"cptbt: the mavlink protocol needs pymavlink: pip install 'cptbt[mavlink]' "
               f"({exc})", file=sys.stderr)
@@ -203,7 +224,7 @@ def cmd_frontseat(args: argparse.Namespace) -> int:
                              clock_scale=args.clock_scale, faults=faults,
                              params=to_sim_params(mission, args.seed))
     h, p = double.address
-    print(f"{mission.name}: simulated vehicle speaking {args.protocol} on {h}:{p} at "
+    print(f"{mission.name}: simulated vehicle speaking {protocol} on {h}:{p} at "
           f"{args.clock_scale:g}x real time; waiting for the AMP", flush=True)
     _sigterm_as_interrupt()
     try:

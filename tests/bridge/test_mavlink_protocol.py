@@ -1,0 +1,247 @@
+"""The MAVLink mapping, one datagram at a time over loopback: what the simulated vehicle says, the
+AMP's adapter reads back in the planning frame; what the AMP commands, the vehicle reads back;
+nothing that arrives from the wire can raise."""
+
+from __future__ import annotations
+
+import math
+import socket
+from collections.abc import Iterator
+
+import pytest
+from wire_doubles import MISSIONS
+
+from cptbt.batch.frontseat_mavlink import MavlinkCodec
+from cptbt.bridge import LinkURIError, open_link
+from cptbt.bridge import mavlink_wire as mw
+from cptbt.bridge.base import parse_uri
+from cptbt.bridge.mavlink_link import MavlinkLink
+from cptbt.bridge.mavlink_wire import mavlink
+from cptbt.link import (
+    CommandRefused,
+    ConcentrationSample,
+    FlowSample,
+    HeadingSpeedCommand,
+    InMessage,
+    OverrideEnded,
+    OverrideRelease,
+    OverrideRequest,
+    VehicleState,
+)
+from cptbt.loader import load_mission, loads_mission
+from cptbt.mission import MissionBase
+
+MSN007 = load_mission(MISSIONS / "tro2006_msn007.yaml")
+_TEXT = (MISSIONS / "tro2006_msn007.yaml").read_text(encoding="utf-8")
+_ANCHOR = "  geodetic_centre_deg: [32.980725, -118.536875]"
+assert _ANCHOR in _TEXT
+LOCAL = loads_mission(_TEXT.replace(_ANCHOR, ""))  # N-E metres, no geodetic anchor
+
+
+class Wire:
+    """The adapter listening on loopback, and a socket standing in for the vehicle."""
+
+    def __init__(self, mission: MissionBase, codec: MavlinkCodec) -> None:
+        self.link = MavlinkLink(parse_uri("mavlink:udpin:127.0.0.1:0", listen=True), mission)
+        self.codec = codec
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.settimeout(5.0)
+        self._sent = 0
+
+    def vehicle_says(self, *datagrams: bytes) -> list[InMessage]:
+        for d in datagrams:
+            self.sock.sendto(d, self.link.udp.address)
+        out: list[InMessage] = []
+        for _ in range(50):  # loopback delivers at once; the bound is for a loaded machine
+            self.link.wait(0.1)
+            out += self.link.receive()
+            if self.link.parser.counts["received"] >= self.sent_total:
+                break
+        return out
+
+    @property
+    def sent_total(self) -> int:
+        return self._sent
+
+    def send(self, *messages: InMessage) -> list[InMessage]:
+        data = self.codec.encode(list(messages))
+        self._sent = self.link.parser.counts["received"] + len(data)
+        return self.vehicle_says(*data)
+
+    def raw(self, *datagrams: bytes) -> list[InMessage]:
+        self._sent = self.link.parser.counts["received"] + len(datagrams)
+        return self.vehicle_says(*datagrams)
+
+    def amp_sent(self, datagrams: int) -> list:
+        """What the AMP sent to the vehicle (that many datagrams), as the vehicle reads it."""
+        out = []
+        self.sock.settimeout(5.0 if datagrams else 0.2)
+        try:
+            for _ in range(max(datagrams, 1)):
+                data, _ = self.sock.recvfrom(65535)
+                out += self.codec.decode(data)
+        except TimeoutError:
+            assert not datagrams, "the AMP's datagram did not arrive"
+        return out
+
+    def close(self) -> None:
+        self.link.close()
+        self.sock.close()
+
+
+@pytest.fixture(params=["geodetic", "local"])
+def wire(request: pytest.FixtureRequest) -> Iterator[Wire]:
+    mission = MSN007 if request.param == "geodetic" else LOCAL
+    w = Wire(mission, MavlinkCodec(mission))
+    yield w
+    w.close()
+
+
+def test_navigation_and_sensors_arrive_in_the_planning_frame(wire: Wire) -> None:
+    assert wire.link.frames.geodetic == (wire.link.frames.local is not None)
+    s = VehicleState(250.5, 61.3, -22.8, 137.25, 1.5, 3.0, "mission", 3)
+    got = wire.send(s, ConcentrationSample(250.5, 0.42), FlowSample(250.0, 0.11, -0.04))
+    nav = [m for m in got if isinstance(m, VehicleState)]
+    assert len(nav) == 1
+    n = nav[0]
+    assert n.t_s == 250.5 and n.mode == "mission" and n.waypoints_reached == 3
+    assert math.hypot(n.x_m - 61.3, n.y_m - -22.8) < 0.03  # 1e-7 degrees is about a centimetre
+    assert abs(n.heading_deg - 137.25) < 0.011 and n.speed_mps == pytest.approx(1.5)
+    assert n.depth_m == pytest.approx(3.0)
+    assert [m for m in got if isinstance(m, ConcentrationSample)] == [
+        ConcentrationSample(250.5, pytest.approx(0.42))]
+    flow = [m for m in got if isinstance(m, FlowSample)]
+    assert len(flow) == 1 and flow[0].t_s == 250.0
+    assert (flow[0].vx_mps, flow[0].vy_mps) == (pytest.approx(0.11, abs=1e-6),
+                                                pytest.approx(-0.04, abs=1e-6))
+
+
+def test_a_late_position_is_dropped_not_taken_for_the_clock_stepping_back(wire: Wire) -> None:
+    wire.send(VehicleState(300.0, 1.0, 2.0, 0.0, 1.5, 3.0, "mission", 0))
+    late = wire.send(VehicleState(299.0, 1.0, 2.0, 0.0, 1.5, 3.0, "mission", 0))
+    assert not [m for m in late if isinstance(m, VehicleState)]
+    assert wire.link.stats()["late"] == 1
+    reboot = wire.send(VehicleState(5.0, 1.0, 2.0, 0.0, 1.5, 3.0, "mission", 0))
+    assert [m.t_s for m in reboot if isinstance(m, VehicleState)] == [5.0]
+
+
+def test_a_command_reaches_the_vehicle_as_the_same_heading_speed_and_depth(wire: Wire) -> None:
+    wire.send(VehicleState(10.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))
+    for heading in (-170.0, -45.0, 0.0, 33.3, 179.0):
+        wire.link.send(HeadingSpeedCommand(heading, 1.5, 4.0))
+        (cmd,) = wire.amp_sent(1)
+        assert isinstance(cmd, HeadingSpeedCommand)
+        assert abs((cmd.heading_deg - heading + 180) % 360 - 180) < 1e-3
+        assert cmd.speed_mps == pytest.approx(1.5, abs=1e-6)
+        assert cmd.depth_m == pytest.approx(4.0, abs=1e-6)
+
+
+def test_take_control_is_guided_and_giving_back_restores_the_previous_mode() -> None:
+    w = Wire(MSN007, MavlinkCodec(MSN007))
+    try:
+        hb = w.codec.mav.heartbeat_encode(mavlink.MAV_TYPE_SUBMARINE,
+                                          mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                          mw.CUSTOM | mw.ARMED, mw.POSHOLD, 0).pack(w.codec.mav)
+        w.send(VehicleState(10.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))  # AUTO
+        w.raw(hb)  # the pilot switched to POSHOLD
+        sent = []
+        w.link.send(OverrideRequest())
+        w.link.send(OverrideRelease())
+        raw = [w.sock.recvfrom(65535)[0] for _ in range(2)]
+        parser = mw.DatagramParser(1, 1)
+        for d in raw:
+            sent += [(m.command, m.param2) for m in parser.feed(d)
+                     if m.get_type() == "COMMAND_LONG"]
+        assert sent == [(mavlink.MAV_CMD_DO_SET_MODE, mw.GUIDED),
+                        (mavlink.MAV_CMD_DO_SET_MODE, mw.POSHOLD)]
+    finally:
+        w.close()
+
+
+def test_leaving_guided_unasked_ends_the_override_as_the_watchdog() -> None:
+    w = Wire(MSN007, MavlinkCodec(MSN007))
+    try:
+        w.send(VehicleState(10.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))
+        w.link.send(OverrideRequest())
+        got = w.send(VehicleState(11.0, 6.0, 5.0, 0.0, 1.5, 3.0, "override", 0))
+        assert [m.mode for m in got if isinstance(m, VehicleState)] == ["override"]
+        got = w.send(VehicleState(42.0, 9.0, 5.0, 0.0, 1.5, 3.0, "returning", 0))
+        ended = [m for m in got if isinstance(m, OverrideEnded)]
+        assert len(ended) == 1 and ended[0].reason == "watchdog"
+        assert math.dist(ended[0].break_off, (5.0, 5.0)) < 0.03  # where the AMP took over
+        assert [m.mode for m in got if isinstance(m, VehicleState)] == ["returning"]
+    finally:
+        w.close()
+
+
+def test_a_refused_mode_change_refuses_the_commands_until_guided() -> None:
+    w = Wire(MSN007, MavlinkCodec(MSN007, refuse_guided=True))
+    try:
+        w.send(VehicleState(10.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))
+        w.link.send(OverrideRequest())
+        assert w.amp_sent(1) == []  # the vehicle denied it
+        got = w.send(VehicleState(11.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))  # carries the ack
+        assert not [m for m in got if isinstance(m, CommandRefused)]
+        w.link.send(HeadingSpeedCommand(10.0, 1.5, 3.0))
+        refused = w.link.receive()
+        assert len(refused) == 1 and isinstance(refused[0], CommandRefused)
+        assert "refused GUIDED (MAV_RESULT_DENIED)" in refused[0].reason
+        assert w.link.stats()["acks_refused"] == 1
+    finally:
+        w.close()
+
+
+def test_garbage_is_ignored_and_counted_never_raised(wire: Wire) -> None:
+    junk = [*MavlinkCodec.junk, b"", b"\xfd" * 300, b"\xfe\x09" + bytes(20),
+            b"x" * (mw.MAX_DATAGRAM + 1)]
+    assert wire.raw(*junk) == []
+    stats = wire.link.stats()
+    assert stats["oversized"] == 1 and stats["malformed"] >= len(MavlinkCodec.junk) - 1
+    assert stats["ignored"] >= len(junk) - 2 and stats["messages"] == 0
+    # and the link still works
+    ok = wire.send(VehicleState(1.0, 0.0, 0.0, 0.0, 1.5, 3.0, "mission", 0))
+    assert [m.t_s for m in ok if isinstance(m, VehicleState)] == [1.0]
+
+
+def test_a_mavlink_link_needs_its_mission() -> None:
+    with pytest.raises(LinkURIError, match="needs the mission"):
+        open_link("mavlink:udp:127.0.0.1:14550")
+
+
+@pytest.mark.parametrize("mode, custom, armed, state", [
+    ("pre_launch", mw.MANUAL, False, mavlink.MISSION_STATE_NOT_STARTED),
+    ("mission", mw.AUTO, True, mavlink.MISSION_STATE_ACTIVE),
+    ("mission", mw.POSHOLD, True, None),
+    ("override", mw.GUIDED, True, mavlink.MISSION_STATE_ACTIVE),
+    ("returning", mw.AUTO, True, mavlink.MISSION_STATE_PAUSED),
+    ("post_mission", mw.SURFACE, True, mavlink.MISSION_STATE_COMPLETE),
+])
+def test_the_mode_table(mode: str, custom: int, armed: bool, state: int | None) -> None:
+    assert mw.vehicle_mode(custom, mw.CUSTOM | (mw.ARMED if armed else 0), state) == mode
+    if state is not None and mode in mw.WIRE_MODES and custom != mw.POSHOLD:
+        assert mw.WIRE_MODES[mode] == (custom, armed, state)
+
+
+def test_a_lost_take_or_give_is_asked_again() -> None:
+    w = Wire(MSN007, MavlinkCodec(MSN007))
+    try:
+        w.send(VehicleState(10.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))
+        w.link.send(OverrideRequest())
+        w.sock.recvfrom(65535)  # the take is lost: the vehicle stays in AUTO
+        w.send(VehicleState(11.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))
+        assert w.amp_sent(0) == []  # not yet: within RETAKE_S
+        w.send(VehicleState(12.5, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))
+        assert w.amp_sent(1) == [OverrideRequest()]
+        w.send(VehicleState(13.0, 5.0, 5.0, 0.0, 1.5, 3.0, "override", 0))
+        w.link.send(OverrideRelease())
+        w.sock.recvfrom(65535)  # the give is lost: the vehicle stays in GUIDED
+        w.send(VehicleState(15.5, 5.0, 5.0, 0.0, 1.5, 3.0, "override", 0))
+        assert w.amp_sent(1) == [OverrideRelease()]
+        got = w.send(VehicleState(16.0, 5.0, 5.0, 0.0, 1.5, 3.0, "returning", 0))
+        assert [m.reason for m in got if isinstance(m, OverrideEnded)] == ["released"]
+        w.send(VehicleState(19.0, 5.0, 5.0, 0.0, 1.5, 3.0, "returning", 0))
+        assert w.amp_sent(0) == []  # done: nothing more to ask
+        assert w.link.stats()["mode_requests_repeated"] == 2
+    finally:
+        w.close()
