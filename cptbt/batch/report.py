@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from cptbt.batch.figures import pyplot
+from cptbt.batch.maintain_report import is_maintain_study, maintain_figure, maintain_table
 
 Rows = list[dict[str, Any]]
 
@@ -90,7 +91,9 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None) -
 
     Skipped where they would mislead: maps need starts spread in x and y, the start-x line
     needs starts along one line, the rate chart needs two configurations or more, and the
-    error histogram needs declarations judged by distance (not AB's arrival criterion).
+    error histogram needs declarations judged by distance (not AB's arrival criterion); a
+    maintain-time study (AB Fig. 9) gets T_M tables and T_M against its swept setting instead of
+    TRO's declaration tables and the success chart.
     """
     if not rows:
         return []
@@ -103,7 +106,10 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None) -
     plt = pyplot()
     written.append(_map(groups, out / "time_to_source_map.png", plt, geometry))
     written.append(_line(groups, out / "time_vs_start.png", plt))
-    written.append(_rates(groups, out / "success_and_false_declarations.png", plt))
+    if is_maintain_study(rows):
+        written.append(maintain_figure(groups, out / "maintain_time.png", plt))
+    else:
+        written.append(_rates(groups, out / "success_and_false_declarations.png", plt))
     written.append(_distributions(groups, out / "error_and_td_share.png", plt))
     return [p for p in written if p is not None]
 
@@ -321,6 +327,10 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
             f"| {_fmt(float(ok.std()) if ok.size > 1 else None)} "
             f"| {_fmt(_mean([_search_time(r) for r in rows]))} "
             f"| {_fmt(_mean(err))} | {_fmt(max(err) if err else None)} |")
+    if is_maintain_study([r for rows in groups.values() for r in rows]):
+        lines += ["", *maintain_table(groups)]  # nothing declared: TRO's tables say nothing
+        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        return path
     for label, rows in groups.items():
         declared = [r for r in rows if r.get("t3") is not None]
         lines += ["", f"## {label}: times and paths (TRO Tables III and IV form)", "",

@@ -81,3 +81,27 @@ def test_geometry_round_trips_through_study_json_data() -> None:
     assert StudyGeometry.from_data(g.to_data()) == g
     assert StudyGeometry.from_data(None) is None
     assert StudyGeometry.from_data({"area": "x"}) is None
+
+
+def maintain_rows() -> list[dict[str, Any]]:
+    rows = []
+    for preset in ("ab_large_meander", "ab_small_meander"):
+        for beta in (0.0, 5.0, 10.0):
+            for rep in range(3):
+                t_m = None if (beta, rep) == (10.0, 2) else beta + rep  # one run never detected
+                rows.append({"config": 0, "replicate": rep, "start": 0, "start_x": 60.0,
+                             "start_y": 5.0, "criterion": "maintain", "success": False,
+                             "outcome": "contact_lost", "T_M": t_m, "T_total": 20.0,
+                             "error_m": 30.0, "t3": None, "false_declaration": False,
+                             "configuration": f"preset={preset}, beta1_deg={beta:g}"})
+    return rows
+
+
+def test_a_maintain_study_reports_t_m_against_its_numeric_setting(tmp_path: Path) -> None:
+    names = {p.name for p in write_report(maintain_rows(), tmp_path)}
+    assert "maintain_time.png" in names
+    assert "success_and_false_declarations.png" not in names  # nothing is declared
+    text = (tmp_path / "tables.md").read_text(encoding="utf-8")
+    assert "TRO Tables III and IV" not in text
+    # beta 10: T_M 10 and 11 (the third run made no contact): mean 10.5 ± 0.5, 2 of 3 runs.
+    assert "| preset=ab_large_meander, beta1_deg=10 | 3 | 2 | 10.5 ± 0.5 | 10.5 | 0 |" in text

@@ -1,0 +1,102 @@
+"""Tables and a figure for maintain-time studies (``evaluation: {criterion: maintain}``, AB Fig. 9).
+
+A maintain study measures how long a strategy keeps the plume (``T_M``, AB eq. 3) rather than
+whether it finds the source, so its report is T_M per configuration — and, when a numeric
+setting is swept, T_M against that setting with one curve per value of the others.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+Rows = list[dict[str, Any]]
+
+
+def is_maintain_study(rows: Rows) -> bool:
+    """Whether the rows come from a maintain-criterion study."""
+    return any(r.get("criterion") == "maintain" for r in rows)
+
+
+def _t_m(rows: Rows) -> list[float]:
+    out = []
+    for r in rows:
+        v = r.get("T_M")
+        if v is not None and not (isinstance(v, float) and math.isnan(v)):
+            out.append(float(v))
+    return out
+
+
+def _mean_se(values: list[float]) -> tuple[float, float]:
+    if not values:
+        return math.nan, math.nan
+    se = statistics.stdev(values) / math.sqrt(len(values)) if len(values) > 1 else math.nan
+    return statistics.fmean(values), se
+
+
+def maintain_table(groups: dict[str, Rows]) -> list[str]:
+    """Markdown lines: T_M per configuration (runs without a contact are counted, not averaged)."""
+    lines = ["## Maintain time (AB eq. 3: T_M = T_Last − T_First, until contact is lost for good)",
+             "", "| configuration | runs | with a contact | mean T_M ± SE (s) | median T_M (s) "
+             "| came within the success radius |", "|---|---:|---:|---:|---:|---:|"]
+    for label, rows in groups.items():
+        t_m = _t_m(rows)
+        m, se = _mean_se(t_m)
+        med = statistics.median(t_m) if t_m else math.nan
+        reached = sum(bool(r.get("success")) for r in rows)
+        lines.append(f"| {label} | {len(rows)} | {len(t_m)} | "
+                     + ("—" if not t_m else f"{m:.1f} ± {se:.1f}") + " | "
+                     + ("—" if not t_m else f"{med:.1f}") + f" | {reached} |")
+    return [*lines, ""]
+
+
+def _coords(label: str) -> dict[str, str]:
+    """``k=v, k=v`` (the configuration label of :func:`cptbt.batch.report.config_label`)."""
+    out = {}
+    for part in label.split(", "):
+        key, sep, value = part.partition("=")
+        if not sep:
+            return {}
+        out[key] = value
+    return out
+
+
+def _number(text: str) -> float | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return value if math.isfinite(value) else None
+
+
+def maintain_figure(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
+    """Mean T_M ± SE against the first numeric swept setting; None if nothing numeric is swept."""
+    coords = {label: _coords(label) for label in groups}
+    keys = [k for k in next(iter(coords.values()), {})
+            if all(k in c and _number(c[k]) is not None for c in coords.values())]
+    if not keys or len({coords[label][keys[0]] for label in groups}) < 2:
+        return None
+    x_key = keys[0]
+    series: dict[str, dict[float, tuple[float, float]]] = defaultdict(dict)
+    for label, rows in groups.items():
+        c = coords[label]
+        name = ", ".join(f"{k}={v}" for k, v in c.items() if k != x_key) or "T_M"
+        x = _number(c[x_key])
+        assert x is not None
+        series[name][x] = _mean_se(_t_m(rows))
+    fig, ax = plt.subplots(figsize=(7.5, 4.5), layout="constrained")
+    for name, points in sorted(series.items()):
+        xs = sorted(points)
+        ax.errorbar(xs, [points[x][0] for x in xs], yerr=[points[x][1] for x in xs],
+                    marker="o", ms=3, capsize=2, label=name)
+    ax.set_xlabel(x_key)
+    ax.set_ylabel("mean maintain time T_M, s (± 1 SE)")
+    ax.set_title("Maintain time against the swept setting (AB Fig. 9 form)", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
