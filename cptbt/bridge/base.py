@@ -53,8 +53,8 @@ def parse_uri(uri: str, listen: bool = False) -> LinkURI:
     """
     parts = uri.split(":")
     if len(parts) != 4:
-        raise LinkURIError(f"link {uri!r}: expected PROTOCOL:udp:HOST:PORT, e.g. "
-                           "backseat:udp:127.0.0.1:14600")
+        raise LinkURIError(f"link {uri!r}: expected PROTOCOL:TRANSPORT:HOST:PORT (transport udp "
+                           "or udpin), e.g. backseat:udp:127.0.0.1:14600")
     proto, transport, host, port = parts
     if proto not in PROTOCOLS:
         raise LinkURIError(f"link {uri!r}: protocol {proto!r} is not one of {list(PROTOCOLS)}")

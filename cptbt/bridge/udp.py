@@ -24,7 +24,7 @@ class UdpEndpoint:
         peer: where to send; None to answer whoever sent the latest datagram.
 
     Raises:
-        ValueError: the peer's host name cannot be resolved.
+        ValueError: the peer's host name cannot be resolved, or ``bind`` cannot be bound.
     """
 
     def __init__(self, bind: tuple[str, int], peer: tuple[str, int] | None = None) -> None:
@@ -35,7 +35,12 @@ class UdpEndpoint:
                 raise ValueError(f"cannot resolve the host {peer[0]!r}") from None
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setblocking(False)
-        self.sock.bind(bind)
+        try:
+            self.sock.bind(bind)
+        except OSError as exc:  # an unresolvable or foreign host, a port in use or forbidden
+            self.sock.close()
+            raise ValueError(f"cannot listen on {bind[0]}:{bind[1]}: "
+                             f"{exc.strerror or exc}") from None
         self.peer = peer
         self._fixed_peer = peer is not None
         self.sent = 0

@@ -184,6 +184,10 @@ def cmd_batch(args: argparse.Namespace) -> int:
         print(f"cptbt: re-running part {key}: {reason}", file=sys.stderr)
 
     tasks = study.tasks(code)
+    total = sum(len(t.starts) for t in tasks)
+    if args.log_runs > total:
+        raise UsageError(f"batch: --log-runs {args.log_runs}: the study has {total} "
+                         f"run{'s' if total != 1 else ''}")
     if args.log_runs:
         from cptbt.logs import _mcap
 
@@ -195,15 +199,24 @@ def cmd_batch(args: argparse.Namespace) -> int:
     table = store.consolidate(tasks)
     if not args.quiet:
         rate = stats["runs"] / max(stats["wall_time_s"], 1e-9) if stats["groups_run"] else 0
+        if mission.evaluation.criterion == "maintain":
+            rows = load_results(table)
+            t_m = [r["T_M"] for r in rows if r.get("T_M") is not None]
+            outcome = (f"mean maintain time T_M {sum(t_m) / len(t_m):.1f} s over {len(t_m)} "
+                       "runs with a contact" if t_m else "no run made contact")
+        else:
+            outcome = f"success {stats['successes'] / max(stats['runs'], 1):.1%}"
         print(f"{stats['runs']} missions ({stats['groups_skipped']} groups resumed from disk): "
-              f"success {stats['successes'] / max(stats['runs'], 1):.1%}; "
-              f"{stats['wall_time_s']:.1f} s wall, {rate:.1f} missions/s")
+              f"{outcome}; {stats['wall_time_s']:.1f} s wall, {rate:.1f} missions/s")
         print(f"  wrote {table}")
         if args.log_runs:
             logged = sorted((Path(args.out) / "logs").glob("*.mcap"))
-            print(f"  cycle logs of {sum(len(t.log_ids) for t in tasks)} runs in "
-                  f"{Path(args.out) / 'logs'} ({len(logged)} files; groups resumed from disk "
-                  "are not flown again, so write no new log)")
+            n_logs = sum(len(t.log_ids) for t in tasks)
+            note = ("; groups resumed from disk are not flown again, so they write no new log"
+                    if stats["groups_skipped"] else "")
+            print(f"  cycle logs of {n_logs} run{'s' if n_logs != 1 else ''} in "
+                  f"{Path(args.out) / 'logs'} ({len(logged)} file"
+                  f"{'s' if len(logged) != 1 else ''}{note})")
     if not args.no_plots:
         _plots(table, Path(args.out), args.quiet, geometry)
     return 0

@@ -199,6 +199,10 @@ def cmd_frontseat(args: argparse.Namespace) -> int:
     from cptbt.batch.scenario import to_sim_params
 
     mission = load(args.mission, simulate=True)
+    if mission.mission_a is None:
+        print(f"cptbt: {args.mission}: the simulated vehicle flies the mission's mission_a "
+              "section (its own mission), and there is none", file=sys.stderr)
+        return EXIT_USAGE
     protocol, listen = args.protocol, args.listen
     if args.link is not None:
         try:
@@ -220,9 +224,13 @@ def cmd_frontseat(args: argparse.Namespace) -> int:
     faults = WireFaults(drop_to_amp=args.drop, drop_from_amp=args.drop,
                         silent_from_s=args.silent_from, silent_both=True,
                         refuse_speed_above_mps=args.refuse_above)
-    double = FrontSeatDouble(mission, codec, bind=(host or "127.0.0.1", int(port)),
-                             clock_scale=args.clock_scale, faults=faults,
-                             params=to_sim_params(mission, args.seed))
+    try:
+        double = FrontSeatDouble(mission, codec, bind=(host or "127.0.0.1", int(port)),
+                                 clock_scale=args.clock_scale, faults=faults,
+                                 params=to_sim_params(mission, args.seed))
+    except ValueError as exc:
+        print(f"cptbt: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     h, p = double.address
     print(f"{mission.name}: simulated vehicle speaking {protocol} on {h}:{p} at "
           f"{args.clock_scale:g}x real time; waiting for the AMP", flush=True)

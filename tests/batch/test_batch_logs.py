@@ -85,3 +85,12 @@ def test_a_batch_log_is_its_results_row_and_replays_bit_for_bit(logs) -> None:
         assert rep.identical and rep.cycles == len(data.cycles) > 50
         text = "\n".join(story(data))
         assert "study_run_start" in text and "cptbt batch: config 0" in text
+
+
+def test_more_logs_than_runs_is_a_usage_error(tmp_path: Path) -> None:
+    r = subprocess.run(
+        [sys.executable, "-m", "cptbt", "batch", str(MSN007), "--amp-only", "--grid", "2x1",
+         "--runs-per-start", "1", "--out", str(tmp_path / "o"), "--log-runs", "100000",
+         "--no-plots", "--quiet"], capture_output=True, text=True, timeout=120)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1 and "the study has 2 runs" in lines[0]

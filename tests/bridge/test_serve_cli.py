@@ -51,3 +51,17 @@ def test_a_bad_link_is_one_line_and_exit_2() -> None:
     r = subprocess.run(_cptbt("serve", MSN007, "--link", "serial:/dev/ttyUSB0"),
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and r.stderr.startswith("cptbt: link") and "Traceback" not in r.stderr
+
+
+def test_frontseat_errors_are_one_line_and_exit_2() -> None:
+    # No mission_a section to fly; a host that cannot be resolved; a link URI without a transport.
+    cases = [
+        (str(MISSIONS / "ab2001_strategy3.yaml"), "--link", "backseat:udp:127.0.0.1:0"),
+        (MSN007, "--link", "mavlink:udp:no-such-host.invalid:14550"),
+        (MSN007, "--link", "backseat:14550"),
+    ]
+    for args in cases:
+        r = subprocess.run(_cptbt("frontseat", *args), capture_output=True, text=True, timeout=60)
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith("cptbt: "), r.stderr
+        assert "internal error" not in r.stderr
