@@ -42,7 +42,7 @@ import math
 import os
 from collections import deque
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -138,7 +138,12 @@ class FleetPercept:
 
     def take(self, pos: Index | BoolArray) -> FleetPercept:
         """The percepts of a subset (positions or a mask over this percept's vehicles)."""
-        return FleetPercept(self.t, *(getattr(self, f.name)[pos] for f in fields(self)[1:]))
+        return FleetPercept(
+            self.t, self.ids[pos], self.x[pos], self.y[pos], self.heading[pos],
+            self.concentration[pos], self.detected[pos], self.in_area[pos], self.has_flow[pos],
+            self.vx[pos], self.vy[pos], self.has_last[pos], self.last_t[pos], self.last_x[pos],
+            self.last_y[pos], self.has_first[pos], self.first_t[pos], self.in_plume[pos],
+            self.contact_count[pos])
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -413,36 +418,49 @@ class FleetTick:
 
 
 class FleetPlanner:
-    """The mission's tree for N vehicles at once (module docstring).
+    """A tree of fleet rules under one memory-less priority selector, for N vehicles at once.
+
+    Build one for a mission with :meth:`for_mission`; the constructor takes the leaves
+    directly (the conformance checks of :mod:`cptbt.testing` put scripted leaves in).
 
     Args:
-        mission: a validated mission whose behaviours all have array forms.
+        leaves: ``(name, rule class, params)`` per behaviour, highest priority first.
+        context: the mission context the rules read (OpArea, home, speed).
+        perception: the mission's perception settings.
         n: the number of vehicles.
-        registry: where its behaviours are found (default: installed entry points).
-        starts: each vehicle's move-to-field goal (unused by the rules that exist so far).
-
-    Raises:
-        ValueError: a behaviour of the mission has no array form.
+        field_reached: the planner key's value at start (False only with move-to-field).
     """
 
-    def __init__(self, mission: MissionBase, n: int, registry: Registry | None = None,
-                 starts: Sequence[Point | None] | None = None) -> None:
+    def __init__(self, leaves: Sequence[tuple[str, type[FleetRule], BehaviourParams]],
+                 context: MissionContext, perception: PerceptionSettings, n: int,
+                 *, field_reached: bool = True) -> None:
+        self.n = n
+        self.context = context
+        self.op_area = context.op_area
+        self.perception = FleetPerception(n, self.op_area, perception)
+        self.board = FleetBoard(n)
+        self.board.array("field_reached", bool, field_reached)
+        self.names = [name for name, _, _ in leaves]
+        self.rules = [rule(params, context, self.board) for _, rule, params in leaves]
+        self.selected = np.full(n, -1, dtype=np.int64)  # the leaf RUNNING on the last cycle
+
+    @classmethod
+    def for_mission(cls, mission: MissionBase, n: int, registry: Registry | None = None
+                    ) -> FleetPlanner:
+        """The fleet planner of ``mission`` for ``n`` vehicles.
+
+        Raises:
+            ValueError: a behaviour of the mission has no array form (see :func:`fleet_support`).
+        """
         support = fleet_support(mission, registry)
         if not support.ok:
             raise ValueError(f"the fleet planner cannot run {mission.name}: {support.reason}")
-        self.mission = mission
-        self.n = n
-        self.op_area = mission.op_area_geometry()
-        self.context = MissionContext(op_area=self.op_area, home=mission.to_xy(mission.home),
-                                      start=None, speed_mps=mission.speed_mps)
-        self.perception = FleetPerception(n, self.op_area, mission.perception)
-        self.board = FleetBoard(n)
-        keys = planner_keys(field_reached=True)
-        self.board.array("field_reached", bool, keys["field_reached"])
-        self.names = [name for name, _, _ in support.leaves]
-        self.rules = [rule(params, self.context, self.board)
-                      for _, rule, params in support.leaves]
-        self.selected = np.full(n, -1, dtype=np.int64)  # the leaf RUNNING on the last cycle
+        context = MissionContext(op_area=mission.op_area_geometry(),
+                                 home=mission.to_xy(mission.home), start=None,
+                                 speed_mps=mission.speed_mps)
+        has_field = any(e.family == "move_to_field" for e in mission.entries())
+        field = planner_keys(field_reached=not has_field)["field_reached"]
+        return cls(support.leaves, context, mission.perception, n, field_reached=field)
 
     def add_samples(self, ids: Index, concentration: FloatArray) -> None:
         """One concentration sample per vehicle of ``ids``."""

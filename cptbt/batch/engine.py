@@ -329,7 +329,7 @@ def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: 
     and end each run by the one stop policy or by arrival.
     """
     n = len(runs)
-    fleet = FleetPlanner(mission, n)
+    fleet = FleetPlanner.for_mission(mission, n)
     area = fleet.op_area
     sx, sy = (float(v) for v in world.params.source_xy_m)
     arrival = mission.evaluation.criterion == "arrival"
