@@ -104,6 +104,9 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         Params: its frozen parameter model.
         ends_move_to_field: once this behaviour has had an output, move-to-field stops for good.
         contract: what it needs from the rest of the mission (checked by ``validate``).
+        fleet_rule: its array form for the fleet planner (a :class:`cptbt.fleet.FleetRule`
+            whose ``covers`` lists this class), or None: a mission using it then keeps one
+            py_trees planner per vehicle.
     """
 
     family: ClassVar[str] = ""
