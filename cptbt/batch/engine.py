@@ -36,6 +36,11 @@ TRACE = ("t", "x", "y", "heading", "x_est", "y_est", "heading_est", "concentrati
 """Columns of a run's trace, in order."""
 assert set(TRACE) == {*PATH_COLUMNS, *TRACE_COLUMNS, "detected", "active"}
 
+FLEET_MIN_VEHICLES = 8
+"""The fewest vehicles ``auto`` flies with the fleet planner. Measured on an AB Strategy III
+tree: the fleet tick costs ~130 µs + ~1.9 µs per vehicle, a py_trees planner ~15 µs per vehicle,
+so one vehicle (``cptbt run``) is cheaper per vehicle and the two break even near 9."""
+
 
 def run_loop(world: World, prepare: Callable[[], None],
              observe: Callable[[StepOutput], bool]) -> None:
@@ -184,10 +189,11 @@ def simulate(
     maps a vehicle's index to a cycle log: that vehicle flies the log's (recording) planner, made
     with the same goal, and every cycle it ticks is logged (the caller closes the logs).
 
-    ``planner``: ``auto`` (default; also ``$CPTBT_PLANNER``) flies the group with the fleet
-    planner (:mod:`cptbt.fleet`, the tree evaluated for all vehicles at once) when every
-    behaviour of the mission has an array form, else with one py_trees planner per vehicle;
-    ``fleet`` or ``tree`` forces one (``fleet`` raises ValueError when it cannot).
+    ``planner``: ``auto`` (default; also ``$CPTBT_PLANNER``) flies a group of at least
+    :data:`FLEET_MIN_VEHICLES` with the fleet planner (:mod:`cptbt.fleet`, the tree evaluated
+    for all vehicles at once) when every behaviour of the mission has an array form, else with
+    one py_trees planner per vehicle; ``fleet`` or ``tree`` forces one (``fleet`` raises
+    ValueError when it cannot). Both give the same runs bit for bit.
 
     With ``plume_grid`` (xs, ys), each run keeps a :class:`PlumeSnapshot` taken when it declared
     (or, without a declaration, when it ended).
@@ -210,7 +216,7 @@ def simulate(
     rec = Recorder(n, math.ceil(limit / period) + 4, trace=trace)
     goal = list(goals) if goals is not None else [None] * n
     choice = planner_choice(planner)
-    if choice != "tree" and n:
+    if choice == "fleet" or (choice == "auto" and n >= FLEET_MIN_VEHICLES):
         support = fleet_support(mission)
         if support.ok:
             runs = [VehicleRun(None, (s[0], s[1]), rec, i, period, rec if trace else None)

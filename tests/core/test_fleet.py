@@ -108,6 +108,15 @@ def test_other_trees_keep_the_per_vehicle_planner() -> None:
                  planner="fleet")
 
 
+def test_auto_flies_a_lone_vehicle_with_py_trees(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("CPTBT_PLANNER", raising=False)
+    ab = load(str(AB[2]))
+    (run,), _, _ = simulate(ab, to_sim_params(ab, 1), [(50.0, 0.0, 0.0)], time_limit_s=2.0)
+    assert run.planner is not None
+    runs, _, _ = simulate(ab, to_sim_params(ab, 1), [(50.0, 0.0, 0.0)] * 8, time_limit_s=2.0)
+    assert all(r.planner is None for r in runs)
+
+
 def test_planner_choice(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("CPTBT_PLANNER", "tree")
     assert planner_choice() == "tree"
