@@ -440,7 +440,7 @@ class _BilliardFleet(FleetRule):
         axis = self.axis[ids]
         swap = np.isnan(axis)
         swap[~swap] = np.abs(wrap_deg_array(flow_dir[~swap] - axis[~swap])) > limit
-        if swap.any():
+        if np.count_nonzero(swap):
             axes = np.array([0.0, 180.0, 90.0, -90.0])
             dist = np.abs(wrap_deg_array(flow_dir[swap][:, None] - axes[None, :]))
             axis[swap] = axes[np.argmin(dist, axis=1)]  # the first of equals, as min() picks
@@ -451,7 +451,7 @@ class _BilliardFleet(FleetRule):
         """Reflect off the walls; head ``ref + s*offset``."""
         out = np.full(len(p), np.nan)
         ok = self.field_reached[p.ids] & p.has_flow
-        if not ok.any():
+        if not np.count_nonzero(ok):
             return out
         q = p.take(ok)
         ids = q.ids

@@ -138,17 +138,17 @@ class OpAreaSafetyFleet(FleetRule):
         take = ~running
         take[take] = a.distance_outside_array(p.x[take], p.y[take]) > self.params.trigger_m
         work = running | take
-        if not work.any():
+        if not np.count_nonzero(work):
             return out
         pos = np.flatnonzero(work)
         ids, x, y = p.ids[pos], p.x[pos], p.y[pos]
         new = take[pos]
-        if new.any():
+        if np.count_nonzero(new):
             k = ids[new]
             self.has_taken[k], self.taken_x[k], self.taken_y[k] = True, x[new], y[new]
             self.walls[k] = 0
         release = a.depth_inside_array(x, y) >= self.release
-        if release.any():
+        if np.count_nonzero(release):
             k = ids[release]
             report = k[self.has_taken[k] & (self.walls[k] != 0)]
             self.exit_t[report] = p.t
@@ -156,7 +156,7 @@ class OpAreaSafetyFleet(FleetRule):
             self.exit_walls[report] = self.walls[report]
             self.has_taken[k] = False
         drive = ~release
-        if drive.any():
+        if np.count_nonzero(drive):
             k, xd, yd = ids[drive], x[drive], y[drive]
             self.walls[k] |= a.walls_beyond_bits(xd, yd)
             gx, gy = a.clamp_array(xd, yd, self.params.inset_m)

@@ -351,7 +351,7 @@ class _StrategyMaintainFleet(FleetRule):
         """``psi_u + offset`` while in the plume; records the cast sign."""
         out = np.full(len(p), np.nan)
         ok = p.in_plume & p.has_flow
-        if ok.any():
+        if np.count_nonzero(ok):
             q = p.take(ok)
             psi_u = upflow_array(q.vx, q.vy)
             offset, cast_sign = self.steer(q, psi_u)
@@ -394,7 +394,7 @@ class _CounterturningMaintainFleet(_StrategyMaintainFleet):
         ids = p.ids
         new = p.contact_count != self.sign_contact[ids]
         new |= ~self.has_sign_contact[ids]
-        if new.any():
+        if np.count_nonzero(new):
             flip = new & self.casting[ids] & self.has_sign_contact[ids]
             fresh = new & ~flip
             self.sign[ids[flip]] = -self.sign[ids[flip]]
@@ -452,7 +452,7 @@ class CrosswindCastFleet(FleetRule):
         give_up = self.params.give_up_s
         cond = ~p.in_plume & p.has_last & p.has_flow
         cond[cond] = round9_near(p.t - p.last_t[cond], give_up) <= give_up
-        if cond.any():
+        if np.count_nonzero(cond):
             ids = p.ids[cond]
             cs, bs = self.cast_sign[ids], self.beta_sign[ids]
             signs = np.where(cs != 0, np.where(cs < 0, -1, 1), np.where(bs < 0, -1, 1))

@@ -69,7 +69,7 @@ def hypot_array(dx: NDArray[np.float64], dy: NDArray[np.float64]) -> NDArray[np.
     """``math.hypot`` of every pair; only pairs with both parts non-zero go through ``math``."""
     out = np.maximum(np.abs(dx), np.abs(dy))
     both = (dx != 0.0) & (dy != 0.0)
-    if both.any():
+    if np.count_nonzero(both):
         out[both] = list(map(math.hypot, dx[both].tolist(), dy[both].tolist()))
     return out
 

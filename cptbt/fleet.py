@@ -89,7 +89,7 @@ def round9_near(values: FloatArray, *thresholds: float) -> FloatArray:
     near = np.zeros(len(values), dtype=bool)
     for th in thresholds:
         near |= np.abs(values - th) < 1e-6
-    if not near.any():
+    if not np.count_nonzero(near):
         return values
     out = values.copy()
     out[near] = [round(v, 9) for v in values[near].tolist()]
@@ -195,7 +195,7 @@ class FleetPerception:
         speed = np.hypot(vx, vy)
         valid = np.isfinite(vx) & np.isfinite(vy) & (speed <= limit)
         near = np.abs(speed - limit) <= 1e-9 * limit  # numpy's hypot may differ by an ulp
-        if near.any():
+        if np.count_nonzero(near):
             for j in np.flatnonzero(near):
                 valid[j] = math.hypot(float(vx[j]), float(vy[j])) <= limit
         full_vx, full_vy = np.zeros(self.n), np.zeros(self.n)
@@ -259,11 +259,11 @@ class FleetPerception:
         detected = in_area & (conc > self.settings.threshold)
         was = self._was_in_plume[ids]
         new_contact = detected & ~was
-        if new_contact.any():
+        if np.count_nonzero(new_contact):
             k = ids[new_contact]
             self._contacts[k] += 1
             self._first_t[k] = t
-        if detected.any():
+        if np.count_nonzero(detected):
             k = ids[detected]
             self._has_last[k] = True
             self._last_t[k] = t
@@ -273,7 +273,7 @@ class FleetPerception:
         last_t = self._last_t[ids]
         in_plume = has_last & (t - last_t <= self.settings.lambda_s + TIME_EPS_S)
         lost = was & ~in_plume & has_last
-        if lost.any():
+        if np.count_nonzero(lost):
             for i in ids[lost]:
                 self._lost[i].append(Point(float(self._last_x[i]), float(self._last_y[i])))
         self._was_in_plume[ids] = in_plume
@@ -488,15 +488,15 @@ class FleetPlanner:
             if not len(pos):
                 break
             running = before[pos] == k
-            if not running.all():
+            if np.count_nonzero(running) != len(running):
                 rule.initialise(sub.ids[~running])
             h = rule.decide(sub, running)
             ok = np.isfinite(h)
-            if running.any():
+            if np.count_nonzero(running):
                 stopped = running & ~ok
-                if stopped.any():
+                if np.count_nonzero(stopped):
                     rule.terminate(sub.ids[stopped])
-            if ok.any():
+            if np.count_nonzero(ok):
                 won = pos[ok]
                 heading[won] = wrap_deg_array(h[ok])  # as Command wraps it
                 speed[won] = rule.speed
@@ -505,7 +505,7 @@ class FleetPlanner:
                     self.board.array("field_reached", bool)[sub.ids[ok]] = True
                 # Lower behaviours that were RUNNING are pre-empted (terminate(INVALID)).
                 pre = before[won] > k
-                if pre.any():
+                if np.count_nonzero(pre):
                     for j in np.flatnonzero(pre):
                         self.rules[before[won[j]]].terminate(ids[won[j]:won[j] + 1])
                 pos = pos[~ok]
