@@ -426,7 +426,8 @@ class _BilliardFleet(FleetRule):
         self.exit_x = self.board.array("oparea_exit_x")
         self.exit_y = self.board.array("oparea_exit_y")
         self.exit_walls = self.board.array("oparea_exit_walls", np.int64, 0)
-        # The leaf's rules that only read its parameters, called on a stand-in for the leaf.
+        # The leaf's rules that read only its parameters (and, for a restart, its current
+        # offset), called on a stand-in for the leaf.
         self._leaf = cast(_Billiard, SimpleNamespace(params=self.params))
 
     def _after_end(self, upflow_end: bool) -> float:
@@ -462,6 +463,7 @@ class _BilliardFleet(FleetRule):
             i = ids[j]
             self.started[i], self.has_started[i] = q.contact_count[j], True
             here = Point(float(q.x[j]), float(q.y[j]))
+            self._leaf.offset_deg = float(self.offset[i])  # NaN before the first start
             self.side[i], self.offset[i] = self.behaviour.start_state(
                 self._leaf, here, area, float(ref[j]))
         bits = area.walls_beyond_bits(q.x, q.y, self.params.wall_margin_m)

@@ -430,8 +430,10 @@ class StrategyIIIMaintainFleet(_CounterturningMaintainFleet):
             if self.params.timer == "last_detection" else first
         early, mid = self.params.early_until_s, self.params.mid_until_s
         dt = round9_near(p.t - start, early, mid)
-        return np.where(dt < early, self.params.beta_early_deg,
-                        np.where(dt <= mid, self.params.beta_mid_deg, self.params.beta_late_deg))
+        b1 = self.params.beta1_deg
+        bands = ((self.params.beta_early_deg, self.params.beta_mid_deg, self.params.beta_late_deg)
+                 if b1 is None else (b1, 2 * b1, 3 * b1))
+        return np.where(dt < early, bands[0], np.where(dt <= mid, bands[1], bands[2]))
 
 
 class CrosswindCastFleet(FleetRule):

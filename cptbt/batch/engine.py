@@ -19,9 +19,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cptbt.angles import hypot_array
-from cptbt.batch.outcome import Outcome, outcome_of
+from cptbt.batch.outcome import Outcome, contact_ended, outcome_of
 from cptbt.batch.recorder import PATH_COLUMNS, TRACE_COLUMNS, Recorder
-from cptbt.fleet import FleetPlanner, fleet_support, planner_choice
+from cptbt.fleet import FleetPlanner, FleetSupport, fleet_support, planner_choice
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
 from cptbt.policy import give_back_trigger
@@ -181,6 +181,7 @@ def simulate(
     time_limit_s: float | None = None,
     plume_grid: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
     goals: Sequence[Point | None] | None = None,
+    logs: Mapping[int, CycleLog] | None = None,
     planner: str | None = None,
 ) -> tuple[list[VehicleRun], World, float]:
     """Fly one planner per start pose (x, y, heading; planning frame) in one shared world.
@@ -191,9 +192,9 @@ def simulate(
 
     ``planner``: ``auto`` (default; also ``$CPTBT_PLANNER``) flies a group of at least
     :data:`FLEET_MIN_VEHICLES` with the fleet planner (:mod:`cptbt.fleet`, the tree evaluated
-    for all vehicles at once) when every behaviour of the mission has an array form, else with
-    one py_trees planner per vehicle; ``fleet`` or ``tree`` forces one (``fleet`` raises
-    ValueError when it cannot). Both give the same runs bit for bit.
+    for all vehicles at once) when every behaviour of the mission has an array form and no run
+    is logged, else with one py_trees planner per vehicle; ``fleet`` or ``tree`` forces one
+    (``fleet`` raises ValueError when it cannot). Both give the same runs bit for bit.
 
     With ``plume_grid`` (xs, ys), each run keeps a :class:`PlumeSnapshot` taken when it declared
     (or, without a declaration, when it ended).
@@ -216,8 +217,11 @@ def simulate(
     rec = Recorder(n, math.ceil(limit / period) + 4, trace=trace)
     goal = list(goals) if goals is not None else [None] * n
     choice = planner_choice(planner)
-    if choice == "fleet" or (choice == "auto" and n >= FLEET_MIN_VEHICLES):
+    logs = logs or {}
+    if choice == "fleet" or (choice == "auto" and n >= FLEET_MIN_VEHICLES and not logs):
         support = fleet_support(mission)
+        if logs:  # a cycle log records one py_trees planner
+            support = FleetSupport(False, "its runs are logged (--log-runs)")
         if support.ok:
             runs = [VehicleRun(None, (s[0], s[1]), rec, i, period, rec if trace else None)
                     for i, s in enumerate(starts)]
@@ -225,7 +229,8 @@ def simulate(
             return runs, world, time.perf_counter() - wall0
         if choice == "fleet":
             raise ValueError(f"the fleet planner cannot run {mission.name}: {support.reason}")
-    planners = [Planner(mission, start=goal[i]) for i in range(n)]
+    planners = [logs[i].planner if i in logs else Planner(mission, start=goal[i])
+                for i in range(n)]
     runs = [VehicleRun(planners[i], (s[0], s[1]), rec, i, period, rec if trace else None)
             for i, s in enumerate(starts)]
     area = planners[0].op_area if runs else None
@@ -339,8 +344,13 @@ def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: 
     area = fleet.op_area
     sx, sy = (float(v) for v in world.params.source_xy_m)
     arrival = mission.evaluation.criterion == "arrival"
+    maintain = mission.evaluation.criterion == "maintain"
     radius = mission.evaluation.success_radius_m
     period = 1.0 / mission.cycle_hz
+    closest = np.full(n, np.inf)
+    # contact_ended (the one rule of criterion maintain) for each leaf, and for none
+    let_go = np.array([contact_ended(0.0, name) for name in fleet.names]
+                      + [contact_ended(0.0, None)])
     codes_of = np.array([rec.code(name) for name in fleet.names] + [rec.code(None)],
                         dtype=np.int16)
     cmd_heading = np.full(n, np.nan)
@@ -379,21 +389,25 @@ def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: 
         seen[active[first]] = True
         tx, ty = out.true_xy[active, 0], out.true_xy[active, 1]
         d_true = hypot_array(tx - sx, ty - sy)
+        closest[active] = np.minimum(closest[active], d_true)
         found = d_true <= radius if arrival else np.zeros(len(active), dtype=bool)
+        lost = (seen[active] & let_go[tick.active] & ~found if maintain
+                else np.zeros(len(active), dtype=bool))
         # The stop policy: the time trigger is the same for every vehicle; the outside trigger
         # is asked only for vehicles outside the OpArea (give_back_trigger is the one rule).
         due_all = give_back_trigger(False, t, limit, 0.0)
         outside = area.distance_outside_array(ex, ey)
-        ended = found.copy()
+        ended = found | lost
         why: dict[int, tuple[str, str]] = {}
-        for j in np.flatnonzero(~found & ((outside > 0.0) | (due_all is not None))):
+        for j in np.flatnonzero(~ended & ((outside > 0.0) | (due_all is not None))):
             due = give_back_trigger(False, t, limit, float(outside[j]))
             if due is not None:
                 ended[j] = True
                 why[int(j)] = due
         for j in np.flatnonzero(ended):
             run = runs[active[j]]
-            run.outcome = Outcome.FOUND if found[j] else outcome_of(why[int(j)][0], False)
+            run.outcome = (Outcome.FOUND if found[j] else Outcome.CONTACT_LOST if lost[j]
+                           else outcome_of(why[int(j)][0], False))
             run.t_end, run.distance_at_end_m = t, float(d_true[j])
             run.lost_contacts = fleet.perception.lost_contacts(int(active[j]))
             if plume_grid is not None and run.plume is None:
@@ -414,3 +428,5 @@ def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: 
         return len(active) > 0
 
     run_loop(world, prepare, observe)
+    for i, run in enumerate(runs):
+        run.closest_m = float(closest[i])

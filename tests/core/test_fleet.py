@@ -55,6 +55,8 @@ def test_strategy_3_timers(params: dict[str, object]) -> None:
     ("maintain_plume.strategy_1", {"cast_rule": "lagging_heading"}),
     ("find_plume.billiard_ab", {"reference": "flow", "wall_margin_m": 0.0}),
     ("find_plume.billiard", {"reference": "flow"}),
+    ("find_plume.billiard_ab", {"restart": "largest_area"}),
+    ("maintain_plume.strategy_3", {"beta1_deg": 20.0}),
     ("safety.oparea", {"trigger_m": 0.0, "release_m": 0.0, "inset_m": 30.0}),
 ])
 def test_parameter_variants(key: str, params: dict[str, object]) -> None:
@@ -126,7 +128,9 @@ def test_planner_choice(monkeypatch: pytest.MonkeyPatch) -> None:
         planner_choice()
 
 
-@pytest.mark.parametrize("path,seed", [(AB[2], 2001), (AB[0], 7)], ids=["s3", "s1"])
+@pytest.mark.parametrize("path,seed", [(AB[2], 2001), (AB[0], 7),
+                                       (ROOT / "missions" / "ab2001_fig9.yaml", 3)],
+                         ids=["s3", "s1", "fig9-maintain-criterion"])
 def test_ab_groups_fly_identically(path: Path, seed: int) -> None:
     """A few dozen AB missions: same outcome, end time, end distance and path, bit for bit."""
     mission = load(str(path))
@@ -149,5 +153,6 @@ def test_ab_groups_fly_identically(path: Path, seed: int) -> None:
         for column in ta:
             ca, cb = np.asarray(ta[column]), np.asarray(tb[column])
             assert np.array_equal(ca, cb, equal_nan=ca.dtype.kind == "f"), column
+        assert a.closest_m == b.closest_m
     outcomes = {str(r.outcome) for r in flown["fleet"]}
-    assert "found" in outcomes
+    assert outcomes & {"found", "contact_lost"}
