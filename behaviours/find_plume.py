@@ -64,13 +64,17 @@ direction ``u`` and its normal ``n`` (``ref + 90°``), which holds for any angle
 from __future__ import annotations
 
 import math
-from typing import ClassVar, Literal
+from collections.abc import Callable
+from types import SimpleNamespace
+from typing import ClassVar, Literal, cast
 
+import numpy as np
 from py_trees.common import Access
 from pydantic import Field
 
-from cptbt.angles import sign, unit, wrap_deg
-from cptbt.frames import Normal, OpArea, WallExit
+from cptbt.angles import bearing_deg_array, sign, unit, wrap_deg, wrap_deg_array
+from cptbt.fleet import BoolArray, FleetPercept, FleetRule, FloatArray, Index
+from cptbt.frames import Normal, OpArea, WallExit, normals_of_bits
 from cptbt.node import BehaviourParams, PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept, Point
@@ -220,25 +224,35 @@ class _Billiard(PlanBehaviour):
 
     def leave(self, point: Point, walls: tuple[Normal, ...], area: OpArea, ref: float) -> None:
         """Reflect for an exit at ``point`` through ``walls`` (module docstring)."""
-        if _inward(ref + self.side * self.offset_deg, walls):
-            return
-        role, v_side = boundary_role(area, point, ref)
-        wx, wy = _mean_normal(walls)
-        ux, uy = unit(ref)
-        along, across = wx * ux + wy * uy, -wx * uy + wy * ux
-        by_wall_side = -sign(across)
-        by_wall_offset = self.offset_after_end_deg(upflow_end=along <= 0.0)
-        if role == "side":
-            first = (-v_side, self.offset_deg)
-            second = (self.side, by_wall_offset)
-        else:
-            first = (self.side, self.offset_after_end_deg(upflow_end=role == "up"))
-            second = (by_wall_side, self.offset_deg)
-        for side, offset in (first, second):
-            if _inward(ref + side * offset, walls):
-                self.side, self.offset_deg = side, offset
-                return
-        self.side, self.offset_deg = by_wall_side, by_wall_offset
+        self.side, self.offset_deg = reflect(self.side, self.offset_deg, point, walls, area, ref,
+                                             self.offset_after_end_deg)
+
+
+def reflect(side: int, offset_deg: float, point: Point, walls: tuple[Normal, ...], area: OpArea,
+            ref: float, after_end: Callable[[bool], float]) -> tuple[int, float]:
+    """The billiard's side and offset after an exit at ``point`` through ``walls``.
+
+    ``after_end(upflow_end)`` is the offset after leaving through an end. Shared by the
+    per-vehicle leaf and its fleet form (module docstring, "Never back out").
+    """
+    if _inward(ref + side * offset_deg, walls):
+        return side, offset_deg
+    role, v_side = boundary_role(area, point, ref)
+    wx, wy = _mean_normal(walls)
+    ux, uy = unit(ref)
+    along, across = wx * ux + wy * uy, -wx * uy + wy * ux
+    by_wall_side = -sign(across)
+    by_wall_offset = after_end(along <= 0.0)
+    if role == "side":
+        first = (-v_side, offset_deg)
+        second = (side, by_wall_offset)
+    else:
+        first = (side, after_end(role == "up"))
+        second = (by_wall_side, offset_deg)
+    for new_side, offset in (first, second):
+        if _inward(ref + new_side * offset, walls):
+            return new_side, offset
+    return by_wall_side, by_wall_offset
 
 
 def boundary_role(area: OpArea, point: Point, ref_deg: float) -> tuple[str, int]:
@@ -386,6 +400,109 @@ def _eta_side(here: Point, area: OpArea, ref_deg: float) -> int:
     c = area.centre
     return sign((c.x - here.x) * nx + (c.y - here.y) * ny)
 
+
+class _BilliardFleet(FleetRule):
+    """:class:`_Billiard` for N vehicles (:mod:`cptbt.fleet`).
+
+    The common tick (reference, heading) is array code; a (re)start, a wall exit and a safety
+    report are rare and call the leaf's own rules per vehicle (``start_state``,
+    ``offset_after_end_deg`` and :func:`reflect`), so those are written once.
+    """
+
+    behaviour: ClassVar[type[_Billiard]]
+    params: BilliardBaseParams
+
+    def prepare(self) -> None:
+        """The bounce state per vehicle (kept across pre-emption, as the leaf's)."""
+        n = self.n
+        self.side = np.ones(n, dtype=np.int64)
+        self.offset = np.full(n, np.nan)
+        self.started = np.zeros(n, dtype=np.int64)
+        self.has_started = np.zeros(n, dtype=bool)
+        self.exit_seen = np.full(n, np.nan)
+        self.axis = np.full(n, np.nan)
+        self.field_reached = self.board.array("field_reached", bool, True)
+        self.exit_t = self.board.array("oparea_exit_t")
+        self.exit_x = self.board.array("oparea_exit_x")
+        self.exit_y = self.board.array("oparea_exit_y")
+        self.exit_walls = self.board.array("oparea_exit_walls", np.int64, 0)
+        # The leaf's rules that read only its parameters (and, for a restart, its current
+        # offset), called on a stand-in for the leaf.
+        self._leaf = cast(_Billiard, SimpleNamespace(params=self.params))
+
+    def _after_end(self, upflow_end: bool) -> float:
+        return self.behaviour.offset_after_end_deg(self._leaf, upflow_end)
+
+    def reference(self, ids: Index, flow_dir: FloatArray) -> FloatArray:
+        """:meth:`_Billiard.reference_deg` per vehicle."""
+        if self.params.reference == "flow":
+            return flow_dir
+        limit = 45.0 + self.params.axis_hysteresis_deg
+        axis = self.axis[ids]
+        swap = np.isnan(axis)
+        swap[~swap] = np.abs(wrap_deg_array(flow_dir[~swap] - axis[~swap])) > limit
+        if np.count_nonzero(swap):
+            axes = np.array([0.0, 180.0, 90.0, -90.0])
+            dist = np.abs(wrap_deg_array(flow_dir[swap][:, None] - axes[None, :]))
+            axis[swap] = axes[np.argmin(dist, axis=1)]  # the first of equals, as min() picks
+            self.axis[ids] = axis
+        return axis
+
+    def decide(self, p: FleetPercept, running: BoolArray) -> FloatArray:
+        """Reflect off the walls; head ``ref + s*offset``."""
+        out = np.full(len(p), np.nan)
+        ok = self.field_reached[p.ids] & p.has_flow
+        if not np.count_nonzero(ok):
+            return out
+        q = p.take(ok)
+        ids = q.ids
+        area = self.context.op_area
+        ref = self.reference(ids, bearing_deg_array(q.vx, q.vy))
+        restart = ~self.has_started[ids] | (self.started[ids] != q.contact_count)
+        for j in np.flatnonzero(restart):
+            i = ids[j]
+            self.started[i], self.has_started[i] = q.contact_count[j], True
+            here = Point(float(q.x[j]), float(q.y[j]))
+            self._leaf.offset_deg = float(self.offset[i])  # NaN before the first start
+            self.side[i], self.offset[i] = self.behaviour.start_state(
+                self._leaf, here, area, float(ref[j]))
+        bits = area.walls_beyond_bits(q.x, q.y, self.params.wall_margin_m)
+        for j in np.flatnonzero(bits):
+            self._leave(int(ids[j]), Point(float(q.x[j]), float(q.y[j])), int(bits[j]),
+                        float(ref[j]))
+        report_t = self.exit_t[ids]
+        fresh = ~np.isnan(report_t) & (report_t != self.exit_seen[ids])
+        for j in np.flatnonzero(fresh):
+            i = int(ids[j])
+            self.exit_seen[i] = report_t[j]
+            if self.exit_walls[i]:
+                self._leave(i, Point(float(self.exit_x[i]), float(self.exit_y[i])),
+                            int(self.exit_walls[i]), float(ref[j]))
+        out[ok] = ref + self.side[ids] * self.offset[ids]
+        return out
+
+    def _leave(self, i: int, point: Point, bits: int, ref: float) -> None:
+        self.side[i], self.offset[i] = reflect(
+            int(self.side[i]), float(self.offset[i]), point, normals_of_bits(bits),
+            self.context.op_area, ref, self._after_end)
+
+
+class BilliardFleet(_BilliardFleet):
+    """:class:`BilliardFindPlume` for N vehicles."""
+
+    covers = (BilliardFindPlume,)
+    behaviour = BilliardFindPlume
+
+
+class AppendixBilliardFleet(_BilliardFleet):
+    """:class:`AppendixBilliardFindPlume` for N vehicles."""
+
+    covers = (AppendixBilliardFindPlume,)
+    behaviour = AppendixBilliardFindPlume
+
+
+BilliardFindPlume.fleet_rule = BilliardFleet
+AppendixBilliardFindPlume.fleet_rule = AppendixBilliardFleet
 
 BEHAVIOURS = [
     BehaviourSpec.of(BilliardFindPlume, default=True),

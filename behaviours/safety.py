@@ -4,9 +4,12 @@ from __future__ import annotations
 
 from typing import ClassVar
 
+import numpy as np
 from py_trees.common import Access, Status
 from pydantic import Field
 
+from cptbt.angles import bearing_deg_array
+from cptbt.fleet import BoolArray, FleetPercept, FleetRule, FloatArray, Index
 from cptbt.frames import Normal, WallExit
 from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 from cptbt.registry import BehaviourSpec
@@ -96,5 +99,71 @@ class OpAreaSafety(PlanBehaviour):
             self.bb.oparea_exit = WallExit(t, self.taken_over_at, self.walls)
         self.taken_over_at = None
 
+
+class OpAreaSafetyFleet(FleetRule):
+    """:class:`OpAreaSafety` for N vehicles (:mod:`cptbt.fleet`).
+
+    Blackboard ``oparea_exit`` as arrays: ``oparea_exit_t`` (NaN: none yet), ``oparea_exit_x``,
+    ``oparea_exit_y`` (where safety took over) and ``oparea_exit_walls`` (a wall mask,
+    :meth:`~cptbt.frames.OpArea.walls_beyond_bits`).
+    """
+
+    covers = (OpAreaSafety,)
+    params: OpAreaSafetyParams
+
+    def prepare(self) -> None:
+        """The excursion state per vehicle and the blackboard's ``oparea_exit`` arrays."""
+        n, a = self.n, self.context.op_area
+        self.has_taken = np.zeros(n, dtype=bool)
+        self.taken_x = np.full(n, np.nan)
+        self.taken_y = np.full(n, np.nan)
+        self.walls = np.zeros(n, dtype=np.int64)
+        self.release = min(self.params.release_m, self.params.inset_m,
+                           0.25 * min(a.xmax - a.xmin, a.ymax - a.ymin))
+        b = self.board
+        self.exit_t = b.array("oparea_exit_t")
+        self.exit_x = b.array("oparea_exit_x")
+        self.exit_y = b.array("oparea_exit_y")
+        self.exit_walls = b.array("oparea_exit_walls", np.int64, 0)
+
+    def initialise(self, ids: Index) -> None:
+        """A new take-over: forget the previous excursion."""
+        self.has_taken[ids] = False
+        self.walls[ids] = 0
+
+    def decide(self, p: FleetPercept, running: BoolArray) -> FloatArray:
+        """:meth:`OpAreaSafety.decide`, element by element."""
+        a = self.context.op_area
+        out = np.full(len(p), np.nan)
+        take = ~running
+        take[take] = a.distance_outside_array(p.x[take], p.y[take]) > self.params.trigger_m
+        work = running | take
+        if not np.count_nonzero(work):
+            return out
+        pos = np.flatnonzero(work)
+        ids, x, y = p.ids[pos], p.x[pos], p.y[pos]
+        new = take[pos]
+        if np.count_nonzero(new):
+            k = ids[new]
+            self.has_taken[k], self.taken_x[k], self.taken_y[k] = True, x[new], y[new]
+            self.walls[k] = 0
+        release = a.depth_inside_array(x, y) >= self.release
+        if np.count_nonzero(release):
+            k = ids[release]
+            report = k[self.has_taken[k] & (self.walls[k] != 0)]
+            self.exit_t[report] = p.t
+            self.exit_x[report], self.exit_y[report] = self.taken_x[report], self.taken_y[report]
+            self.exit_walls[report] = self.walls[report]
+            self.has_taken[k] = False
+        drive = ~release
+        if np.count_nonzero(drive):
+            k, xd, yd = ids[drive], x[drive], y[drive]
+            self.walls[k] |= a.walls_beyond_bits(xd, yd)
+            gx, gy = a.clamp_array(xd, yd, self.params.inset_m)
+            out[pos[drive]] = bearing_deg_array(gx - xd, gy - yd)
+        return out
+
+
+OpAreaSafety.fleet_rule = OpAreaSafetyFleet
 
 BEHAVIOURS = [BehaviourSpec.of(OpAreaSafety, default=True)]

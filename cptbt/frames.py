@@ -13,8 +13,13 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from cptbt.angles import bearing_deg, unit, wrap_deg
+import numpy as np
+from numpy.typing import NDArray
+
+from cptbt.angles import bearing_deg, hypot_array, unit, wrap_deg
 from cptbt.types import Point
+
+FloatArray = NDArray[np.float64]
 
 Normal = tuple[float, float]
 """Outward unit normal of an OpArea wall: (-1, 0) xmin, (1, 0) xmax, (0, -1) ymin, (0, 1) ymax."""
@@ -215,6 +220,38 @@ class OpArea:
             return bearing_deg(tx, ty)
         return bearing_deg(hx, hy)
 
+    # -- array forms (the fleet planner): the same numbers as the methods above, per element.
+
+    def distance_outside_array(self, x: FloatArray, y: FloatArray) -> FloatArray:
+        """:meth:`distance_outside` of every point."""
+        dx = np.maximum(np.maximum(self.xmin - x, 0.0), x - self.xmax)
+        dy = np.maximum(np.maximum(self.ymin - y, 0.0), y - self.ymax)
+        return hypot_array(dx, dy)
+
+    def contains_array(self, x: FloatArray, y: FloatArray) -> NDArray[np.bool_]:
+        """:meth:`contains` of every point."""
+        return (self.xmin <= x) & (x <= self.xmax) & (self.ymin <= y) & (y <= self.ymax)
+
+    def depth_inside_array(self, x: FloatArray, y: FloatArray) -> FloatArray:
+        """:meth:`depth_inside` of every point."""
+        inside = np.minimum(np.minimum(x - self.xmin, self.xmax - x),
+                            np.minimum(y - self.ymin, self.ymax - y))
+        return np.where(self.contains_array(x, y), inside, -self.distance_outside_array(x, y))
+
+    def walls_beyond_bits(self, x: FloatArray, y: FloatArray, margin_m: float = 0.0
+                          ) -> NDArray[np.int64]:
+        """:meth:`walls_beyond` of every point as bits over :data:`WALL_NORMALS`."""
+        return ((x < self.xmin + margin_m) * 1 + (x > self.xmax - margin_m) * 2
+                + (y < self.ymin + margin_m) * 4 + (y > self.ymax - margin_m) * 8)
+
+    def clamp_array(self, x: FloatArray, y: FloatArray, inset_m: float = 0.0
+                    ) -> tuple[FloatArray, FloatArray]:
+        """:meth:`clamp` of every point."""
+        ix = min(inset_m, 0.5 * (self.xmax - self.xmin))
+        iy = min(inset_m, 0.5 * (self.ymax - self.ymin))
+        return (np.minimum(np.maximum(x, self.xmin + ix), self.xmax - ix),
+                np.minimum(np.maximum(y, self.ymin + iy), self.ymax - iy))
+
     @classmethod
     def from_ne_corners(
         cls, corners: Sequence[tuple[float, float]], x_bearing_deg: float | None = None
@@ -253,6 +290,15 @@ class OpArea:
             max(p.y for p in pts),
             frame,
         )
+
+
+WALL_NORMALS: tuple[Normal, ...] = ((-1.0, 0.0), (1.0, 0.0), (0.0, -1.0), (0.0, 1.0))
+"""The outward normals in :meth:`OpArea.walls_beyond`'s order; bit k of a wall mask is the k-th."""
+
+
+def normals_of_bits(bits: int) -> tuple[Normal, ...]:
+    """The outward normals of a wall mask (:meth:`OpArea.walls_beyond_bits`)."""
+    return tuple(w for k, w in enumerate(WALL_NORMALS) if bits >> k & 1)
 
 
 @dataclass(frozen=True, slots=True)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, ClassVar, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import py_trees
 from py_trees.common import Access, Status
@@ -19,6 +19,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from cptbt.frames import OpArea
 from cptbt.types import Command, Percept, Point
+
+if TYPE_CHECKING:
+    from cptbt.fleet import FleetRule
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,6 +104,9 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         Params: its frozen parameter model.
         ends_move_to_field: once this behaviour has had an output, move-to-field stops for good.
         contract: what it needs from the rest of the mission (checked by ``validate``).
+        fleet_rule: its array form for the fleet planner (a :class:`cptbt.fleet.FleetRule`
+            whose ``covers`` lists this class), or None: a mission using it then keeps one
+            py_trees planner per vehicle.
     """
 
     family: ClassVar[str] = ""
@@ -108,6 +114,8 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
     Params: ClassVar[type[BehaviourParams]] = BehaviourParams
     ends_move_to_field: ClassVar[bool] = True
     contract: ClassVar[Contract] = Contract()
+    fleet_rule: ClassVar[type[FleetRule] | None] = None
+    """Its array form for the fleet planner (:mod:`cptbt.fleet`), if it has one."""
 
     def __init__(
         self,

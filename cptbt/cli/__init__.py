@@ -47,8 +47,13 @@ def version() -> str:
         return __version__
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of every sub-command."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser of every sub-command.
+
+    With ``command`` (the sub-command about to run) only the simulator-side module that defines
+    it is imported: ``cptbt run`` need not import the batch, plotting and serving stacks
+    (issue 15: a single run at 1000× real time counts the interpreter's imports too).
+    """
     parser = _Parser(
         prog="cptbt",
         description="Plan, simulate and study chemical plume tracing missions for an AUV.",
@@ -63,7 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     inspect_cmds.add_parsers(sub)
     phases_cmd.add_parsers(sub)
     log_cmds.add_parsers(sub)
-    for module in _optional_command_modules():
+    for module in _optional_command_modules(command):
         module.add_parsers(sub)
     return parser
 
@@ -84,19 +89,36 @@ def configure_logging(verbose: int, quiet: bool) -> None:
         logger.addHandler(handler)
 
 
-def _optional_command_modules() -> list[Any]:
-    """Command groups that need the simulator (absent when it cannot be imported)."""
+_COMMAND_MODULES = {"run": "run_cmd", "batch": "batch_cmd", "plot": "batch_cmd",
+                    "serve": "serve_cmd", "frontseat": "serve_cmd"}
+"""The simulator-side sub-commands and the module that defines each."""
+
+
+def _optional_command_modules(command: str | None = None) -> list[Any]:
+    """Command groups that need the simulator (absent when it cannot be imported).
+
+    All of them, or only the one that defines ``command`` when it is one of theirs.
+    """
+    import importlib
+
+    names = ([_COMMAND_MODULES[command]] if command in _COMMAND_MODULES
+             else ["run_cmd", "batch_cmd", "serve_cmd"])
     try:
-        from cptbt.cli import batch_cmd, run_cmd, serve_cmd
+        return [importlib.import_module(f"cptbt.cli.{name}") for name in names]
     except ImportError:  # the planner alone: validate, tree, behaviours, schema still work
         return []
-    return [run_cmd, batch_cmd, serve_cmd]
+
+
+def _command_of(argv: Sequence[str] | None) -> str | None:
+    """The sub-command named on the command line (the first argument not an option)."""
+    words = sys.argv[1:] if argv is None else argv
+    return next((w for w in words if not w.startswith("-")), None)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``cptbt`` script; returns the exit status."""
     try:
-        parser = build_parser()
+        parser = build_parser(_command_of(argv))
         args = parser.parse_args(argv)  # usage errors exit here, with status 2
         configure_logging(args.verbose, args.quiet_log)
         return int(args.func(args) or 0)

@@ -6,27 +6,28 @@ import argparse
 import hashlib
 import json
 import math
-import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cptbt.batch.engine import PlumeSnapshot, VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.figures import plume_grid, trajectory_figure
 from cptbt.batch.phased import phase_summary, simulate_phased
 from cptbt.batch.scenario import Environment, launch_pose, to_sim_params, true_sources
-from cptbt.batch.store import load_results
-from cptbt.batch.study import GroupTask
 from cptbt.batch.summary import summarise
-from cptbt.batch.worker import fly_group, row_of
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
 from cptbt.loader import dump_mission, loads_mission
-from cptbt.logs import CycleLog, LogError
 from cptbt.mission import MissionBase
 from cptbt.registry import default_registry
 from cptbt.types import Point
+
+if TYPE_CHECKING:
+    from cptbt.logs import CycleLog
+
+# The study table (pyarrow), the group worker and the cycle log (mcap) are imported where they
+# are used: a plain `cptbt run` needs none of them (issue 15: imports are part of a run's cost).
 
 
 def add_parsers(sub: Any) -> None:
@@ -93,9 +94,14 @@ def _open_log(args: argparse.Namespace, mission: MissionBase, seed: int) -> Cycl
     """The cycle log ``--log`` asks for (None without it)."""
     if not getattr(args, "log", None):
         return None
-    if mission.mission_a is None:
-        raise LogError("--log records the AMP session: the mission needs a mission_a section")
-    return CycleLog.open(Path(args.log), mission, source=f"cptbt run, seed {seed}")
+    from cptbt.logs import CycleLog, LogError
+
+    try:
+        if mission.mission_a is None:
+            raise LogError("--log records the AMP session: the mission needs a mission_a section")
+        return CycleLog.open(Path(args.log), mission, source=f"cptbt run, seed {seed}")
+    except LogError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -120,11 +126,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     sources = [source, *(Point(*xy) for xy in params.extra_sources_xy_m)]
     waypoints = None
     grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
-    try:
-        cycle_log = _open_log(args, mission, seed)
-    except LogError as exc:
-        print(f"cptbt: {exc}", file=sys.stderr)
-        return 2
+    cycle_log = _open_log(args, mission, seed)  # a bad --log: UsageError, exit 2
     if mission.mission_a is not None:  # the AMP as a guest inside the vehicle's Mission A
         try:
             phased, world, wall = simulate_phased(
@@ -197,6 +199,10 @@ COMPARED_AWAY = ("wall_time_s",)
 
 def refly(args: argparse.Namespace) -> int:
     """``cptbt run --from RESULTS --row N``: one study row flown again, alone, and compared."""
+    from cptbt.batch.store import load_results
+    from cptbt.batch.study import GroupTask
+    from cptbt.batch.worker import fly_group, row_of
+
     results = Path(args.results)
     rows = load_results(results)
     if args.row >= len(rows):

@@ -1,0 +1,527 @@
+"""The fleet planner: one mission's tree evaluated for N vehicles at once (issue 15).
+
+The per-vehicle :class:`~cptbt.planner.Planner` walks a py_trees tree per vehicle per cycle; at
+AB's scale (100 searchers sharing a plume, 10,000 missions) that Python walk, the behaviours'
+scalar arithmetic, the blackboard and the perception cost about twice the vectorised simulator.
+:class:`FleetPlanner` evaluates the same tree for every vehicle of a group with numpy arrays:
+
+- **perception**: :class:`FleetPerception` condenses each cycle's samples into one
+  :class:`FleetPercept` of arrays, by the rules of :class:`~cptbt.perception.Perception`;
+- **behaviours**: each behaviour class that supports it names its array form, a
+  :class:`FleetRule` (``PlanBehaviour.fleet_rule``), evaluated over the vehicles the selector
+  reaches it for;
+- **the memory-less priority selector** as masks: a behaviour is ticked for the vehicles every
+  higher behaviour left without output; the first with an output wins;
+- **initialise / terminate** as index sets on activation changes: a behaviour's ``initialise``
+  runs for the vehicles it is ticked for and was not RUNNING for on the previous cycle (py_trees
+  calls ``initialise`` whenever a node ticks while not RUNNING); ``terminate`` for the vehicles
+  it was RUNNING for and now is not (it failed, or a higher behaviour won);
+- **the blackboard** as :class:`FleetBoard`: one array per key, one element per vehicle.
+
+It is chosen only when every behaviour of the mission supports it (:func:`fleet_support`); any
+other tree (a plug-in without an array form, nested composites, watchers) keeps the per-vehicle
+planner, unchanged.
+
+Reading chosen (one source of truth): the scalar ``decide`` stays the rule the per-vehicle path
+runs, bit for bit as before; the array form is a second writing of it, so
+:func:`cptbt.testing.check_fleet_rule` and :func:`cptbt.testing.check_fleet_mission` compare
+the two tick by tick on random percept streams and whole missions (tests/core/test_fleet.py).
+The rarely taken branches (a wall reflection, a (re)start) call the scalar helpers per vehicle
+instead of being written again. Every float is computed as the scalar code computes it
+(``math.atan2``/``math.hypot`` element by element, Python's ``round`` near the thresholds it
+decides, ``math.fsum`` for flow windows of more than two samples), so the two paths agree bit
+for bit, not just closely.
+
+Limits: the planner clock is the simulator's, so cycle times must increase (a clock that steps
+back, which :class:`~cptbt.perception.Perception` repairs, is refused).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cptbt.angles import bearing_deg_array, wrap_deg_array
+from cptbt.mission import MissionBase
+from cptbt.node import BehaviourParams, MissionContext, PlanBehaviour, Watch, planner_keys
+from cptbt.perception import TIME_EPS_S, PerceptionSettings
+from cptbt.registry import Registry, default_registry
+from cptbt.tree import build_tree, plan_leaves
+from cptbt.types import Point
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+IntArray = NDArray[np.int64]
+Index = NDArray[np.intp]
+
+PlannerChoice = Literal["auto", "fleet", "tree"]
+PLANNER_ENV = "CPTBT_PLANNER"
+"""Environment variable forcing the batch engine's planner: ``auto`` (default), ``fleet`` or
+``tree`` (per-vehicle py_trees)."""
+
+
+def planner_choice(value: str | None = None) -> PlannerChoice:
+    """The planner choice: ``value`` if given, else ``$CPTBT_PLANNER``, else ``auto``.
+
+    Raises:
+        ValueError: not one of auto, fleet, tree.
+    """
+    choice = value if value is not None else os.environ.get(PLANNER_ENV, "auto") or "auto"
+    if choice not in ("auto", "fleet", "tree"):
+        raise ValueError(f"{PLANNER_ENV}={choice!r}: use auto, fleet or tree")
+    return choice  # type: ignore[return-value]
+
+
+def round9_near(values: FloatArray, *thresholds: float) -> FloatArray:
+    """``round(v, 9)`` for the values within 1e-6 of a threshold, the values as they are otherwise.
+
+    The scalar rules compare ``round(t - T, 9)`` with thresholds; rounding moves a value by at
+    most 5e-10, so only values near a threshold can compare differently, and those few go
+    through Python's ``round`` (numpy's rounds by another method).
+    """
+    near = np.zeros(len(values), dtype=bool)
+    for th in thresholds:
+        near |= np.abs(values - th) < 1e-6
+    if not np.count_nonzero(near):
+        return values
+    out = values.copy()
+    out[near] = [round(v, 9) for v in values[near].tolist()]
+    return out
+
+
+def upflow_array(vx: FloatArray, vy: FloatArray) -> FloatArray:
+    """:attr:`~cptbt.types.FlowEstimate.upflow_deg` of every flow."""
+    return wrap_deg_array(bearing_deg_array(vx, vy) + 180.0)
+
+
+# -- perception ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class FleetPercept:
+    """One cycle's percepts for a set of vehicles, field by field as arrays (see ``Percept``).
+
+    Absent values are NaN (``vx``/``vy`` without a flow, ``last_*`` without a detection,
+    ``first_t`` without a contact) with the ``has_*`` masks saying which.
+
+    Attributes:
+        t: planner time (the same for every vehicle).
+        ids: the vehicles, as indices into the fleet.
+    """
+
+    t: float
+    ids: Index
+    x: FloatArray
+    y: FloatArray
+    heading: FloatArray
+    concentration: FloatArray
+    detected: BoolArray
+    in_area: BoolArray
+    has_flow: BoolArray
+    vx: FloatArray
+    vy: FloatArray
+    has_last: BoolArray
+    last_t: FloatArray
+    last_x: FloatArray
+    last_y: FloatArray
+    has_first: BoolArray
+    first_t: FloatArray
+    in_plume: BoolArray
+    contact_count: IntArray
+
+    def take(self, pos: Index | BoolArray) -> FleetPercept:
+        """The percepts of a subset (positions or a mask over this percept's vehicles)."""
+        return FleetPercept(
+            self.t, self.ids[pos], self.x[pos], self.y[pos], self.heading[pos],
+            self.concentration[pos], self.detected[pos], self.in_area[pos], self.has_flow[pos],
+            self.vx[pos], self.vy[pos], self.has_last[pos], self.last_t[pos], self.last_x[pos],
+            self.last_y[pos], self.has_first[pos], self.first_t[pos], self.in_plume[pos],
+            self.contact_count[pos])
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+class FleetPerception:
+    """:class:`~cptbt.perception.Perception` for N vehicles at once, with the same numbers.
+
+    Samples arrive for all vehicles at the same instants (one simulated world); each call takes
+    the vehicles it is for as an index array. Lost-contact points are kept per vehicle in
+    Python lists (a handful per run).
+    """
+
+    def __init__(self, n: int, op_area: Any, settings: PerceptionSettings | None = None) -> None:
+        self.n = n
+        self.op_area = op_area
+        self.settings = settings or PerceptionSettings()
+        self._box = (op_area.xmin, op_area.xmax, op_area.ymin, op_area.ymax)
+        self._cycle_max = np.full(n, -np.inf)
+        self._x = np.full(n, np.nan)
+        self._y = np.full(n, np.nan)
+        self._heading = np.zeros(n)
+        self._flows: deque[tuple[float, FloatArray, FloatArray, BoolArray]] = deque()
+        self._flow_vx = np.full(n, np.nan)
+        self._flow_vy = np.full(n, np.nan)
+        self._has_flow = np.zeros(n, dtype=bool)
+        self._has_last = np.zeros(n, dtype=bool)
+        self._last_t = np.full(n, np.nan)
+        self._last_x = np.full(n, np.nan)
+        self._last_y = np.full(n, np.nan)
+        self._first_t = np.full(n, np.nan)
+        self._was_in_plume = np.zeros(n, dtype=bool)
+        self._contacts = np.zeros(n, dtype=np.int64)
+        self._lost: list[list[Point]] = [[] for _ in range(n)]
+        self._t_prev = -math.inf
+        self.rejected_flow_samples = np.zeros(n, dtype=np.int64)
+
+    def add_samples(self, ids: Index, concentration: FloatArray) -> None:
+        """One fluorometer sample per vehicle of ``ids``; non-finite values are ignored."""
+        c = concentration
+        cm = self._cycle_max[ids]
+        self._cycle_max[ids] = np.where(np.isfinite(c) & (c > cm), c, cm)
+
+    def add_flows(self, t: float, ids: Index, vx: FloatArray, vy: FloatArray) -> None:
+        """One flow-over-ground sample per vehicle of ``ids`` (planning frame, m/s)."""
+        if self.settings.flow_source == "none":
+            return
+        limit = self.settings.max_flow_speed_mps
+        speed = np.hypot(vx, vy)
+        valid = np.isfinite(vx) & np.isfinite(vy) & (speed <= limit)
+        near = np.abs(speed - limit) <= 1e-9 * limit  # numpy's hypot may differ by an ulp
+        if np.count_nonzero(near):
+            for j in np.flatnonzero(near):
+                valid[j] = math.hypot(float(vx[j]), float(vy[j])) <= limit
+        full_vx, full_vy = np.zeros(self.n), np.zeros(self.n)
+        full_ok = np.zeros(self.n, dtype=bool)
+        full_vx[ids], full_vy[ids], full_ok[ids] = vx, vy, valid
+        self.rejected_flow_samples[ids] += ~valid
+        self._flows.append((t, full_vx, full_vy, full_ok))
+
+    def set_poses(self, ids: Index, x: FloatArray, y: FloatArray, heading: FloatArray) -> None:
+        """The latest navigation estimates; a non-finite fix keeps the previous estimate."""
+        ok = np.isfinite(x) & np.isfinite(y)
+        self._x[ids] = np.where(ok, x, self._x[ids])
+        self._y[ids] = np.where(ok, y, self._y[ids])
+        h = np.where(np.isfinite(heading), heading, 0.0)
+        self._heading[ids] = np.where(ok, h, self._heading[ids])
+
+    def _flow(self, t: float, ids: Index) -> None:
+        flows = self._flows
+        while flows and flows[0][0] <= t - self.settings.flow_window_s:
+            flows.popleft()
+        if not flows:
+            return  # keep the last estimates
+        ok = np.stack([f[3][ids] for f in flows])
+        count = ok.sum(axis=0)
+        some = count > 0
+        if len(flows) == 1:
+            sx, sy = flows[0][1][ids], flows[0][2][ids]
+        elif len(flows) == 2 and ok.all():
+            # Two values: a + b is correctly rounded, as fsum is.
+            sx = flows[0][1][ids] + flows[1][1][ids]
+            sy = flows[0][2][ids] + flows[1][2][ids]
+        else:
+            vx = np.stack([f[1][ids] for f in flows])
+            vy = np.stack([f[2][ids] for f in flows])
+            sx, sy = np.zeros(len(ids)), np.zeros(len(ids))
+            for j in np.flatnonzero(some):
+                col = ok[:, j]
+                sx[j] = math.fsum(vx[col, j].tolist())
+                sy[j] = math.fsum(vy[col, j].tolist())
+        k = ids[some]
+        n = count[some]
+        self._flow_vx[k] = sx[some] / n
+        self._flow_vy[k] = sy[some] / n
+        self._has_flow[k] = True
+
+    def cycle(self, t: float, ids: Index) -> FleetPercept:
+        """Close the current cycle at time ``t`` for the vehicles ``ids``; their percepts.
+
+        Raises:
+            ValueError: ``t`` is not finite or not after the previous cycle.
+        """
+        if not (math.isfinite(t) and t > self._t_prev):
+            raise ValueError(f"fleet perception: cycle time {t!r} is not after {self._t_prev!r}")
+        self._t_prev = t
+        x, y = self._x[ids], self._y[ids]
+        cm = self._cycle_max[ids]
+        conc = np.where(cm > -np.inf, cm, np.nan)
+        self._cycle_max[ids] = -np.inf
+        xmin, xmax, ymin, ymax = self._box
+        in_area = (xmin <= x) & (x <= xmax) & (ymin <= y) & (y <= ymax)  # NaN: False
+        detected = in_area & (conc > self.settings.threshold)
+        was = self._was_in_plume[ids]
+        new_contact = detected & ~was
+        if np.count_nonzero(new_contact):
+            k = ids[new_contact]
+            self._contacts[k] += 1
+            self._first_t[k] = t
+        if np.count_nonzero(detected):
+            k = ids[detected]
+            self._has_last[k] = True
+            self._last_t[k] = t
+            self._last_x[k] = x[detected]
+            self._last_y[k] = y[detected]
+        has_last = self._has_last[ids]
+        last_t = self._last_t[ids]
+        in_plume = has_last & (t - last_t <= self.settings.lambda_s + TIME_EPS_S)
+        lost = was & ~in_plume & has_last
+        if np.count_nonzero(lost):
+            for i in ids[lost]:
+                self._lost[i].append(Point(float(self._last_x[i]), float(self._last_y[i])))
+        self._was_in_plume[ids] = in_plume
+        self._flow(t, ids)
+        first_t = self._first_t[ids]
+        return FleetPercept(
+            t=t, ids=ids, x=x, y=y, heading=self._heading[ids], concentration=conc,
+            detected=detected, in_area=in_area, has_flow=self._has_flow[ids],
+            vx=self._flow_vx[ids], vy=self._flow_vy[ids], has_last=has_last, last_t=last_t,
+            last_x=self._last_x[ids], last_y=self._last_y[ids], has_first=~np.isnan(first_t),
+            first_t=first_t, in_plume=in_plume, contact_count=self._contacts[ids],
+        )
+
+    def lost_contacts(self, i: int) -> tuple[Point, ...]:
+        """Vehicle ``i``'s lost-contact points, oldest first."""
+        return tuple(self._lost[i])
+
+
+# -- the blackboard and the rules ---------------------------------------------------------------
+
+
+class FleetBoard:
+    """The fleet's blackboard: one array per key, one element per vehicle.
+
+    Each rule documents the encoding of the keys it shares (e.g. 0 for an unset sign).
+    """
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self._arrays: dict[str, NDArray[Any]] = {}
+
+    def array(self, key: str, dtype: Any = float, fill: Any = np.nan) -> NDArray[Any]:
+        """The array of ``key``, created filled with ``fill`` on first use."""
+        a = self._arrays.get(key)
+        if a is None:
+            a = self._arrays[key] = np.full(self.n, fill, dtype=dtype)
+        return a
+
+    def has(self, key: str) -> bool:
+        """Whether any rule created ``key``."""
+        return key in self._arrays
+
+
+class FleetRule:
+    """The array form of a :class:`~cptbt.node.PlanBehaviour`'s rule.
+
+    A behaviour class supports the fleet planner by naming its rule in ``fleet_rule``; the rule
+    lists the exact classes it reproduces in ``covers`` (a subclass that changes the rule is not
+    covered and falls back to the per-vehicle planner). State is kept in arrays over the fleet.
+
+    Args:
+        params: the behaviour's parameters (the mission entry's).
+        context: the mission context (OpArea, home, speed); ``percept`` is unused.
+        board: the fleet's blackboard.
+    """
+
+    covers: ClassVar[tuple[type[PlanBehaviour], ...]] = ()
+
+    def __init__(self, params: BehaviourParams, context: MissionContext, board: FleetBoard
+                 ) -> None:
+        self.params = params
+        self.context = context
+        self.board = board
+        self.n = board.n
+        self.speed = params.speed_mps or context.speed_mps
+        self.ends_move_to_field = True
+        self.prepare()
+
+    def prepare(self) -> None:
+        """Create the state arrays (called at the end of ``__init__``)."""
+
+    def initialise(self, ids: Index) -> None:
+        """A new activation for the vehicles ``ids`` (the leaf's ``initialise``)."""
+
+    def terminate(self, ids: Index) -> None:
+        """The vehicles ``ids`` stopped RUNNING this behaviour (the leaf's ``terminate``)."""
+
+    def decide(self, p: FleetPercept, running: BoolArray) -> FloatArray:
+        """The commanded heading for each vehicle of ``p``; NaN where there is no output.
+
+        ``running``: the behaviour was RUNNING for that vehicle on the previous cycle (the
+        leaf's ``status`` when its ``update`` runs).
+        """
+        raise NotImplementedError
+
+
+# -- which missions, and the planner -----------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class FleetSupport:
+    """Whether a mission's tree can be evaluated by the fleet planner, and why not."""
+
+    ok: bool
+    reason: str = ""
+    leaves: tuple[tuple[str, type[FleetRule], BehaviourParams], ...] = ()
+
+
+def fleet_support(mission: MissionBase, registry: Registry | None = None) -> FleetSupport:
+    """Whether every behaviour of ``mission`` has an array form (and the tree is flat)."""
+    registry = registry or default_registry()
+    namespace = f"/cptbt/fleetcheck{next(_check_ids)}"
+    root = build_tree(mission.entries(), registry, namespace)
+    try:
+        children = root.children
+        if len(children) != 1 or any(isinstance(c, Watch) for c in children):
+            return FleetSupport(False, "the tree has watchers (declare-source's perception)")
+        leaves: list[tuple[str, type[FleetRule], BehaviourParams]] = []
+        for node in children[0].children:
+            if not isinstance(node, PlanBehaviour):
+                return FleetSupport(False, f"{node.name} is a sub-tree, not one behaviour")
+            rule = type(node).fleet_rule
+            if rule is None or type(node) not in rule.covers:
+                return FleetSupport(False, f"{node.name} has no array form")
+            leaves.append((node.name, rule, node.params))
+        return FleetSupport(True, "", tuple(leaves))
+    finally:
+        for leaf in plan_leaves(root):
+            for client in leaf.blackboards:
+                client.unregister(clear=True)
+
+
+_check_ids = iter(range(10**12))
+
+
+@dataclass(frozen=True, slots=True)
+class FleetTick:
+    """What one fleet cycle produced, for the vehicles it ticked (in ``percept.ids`` order).
+
+    Attributes:
+        heading, speed: the command (NaN where there is none).
+        has_command: the tree had an output.
+        active: index of the leaf that drove (into ``FleetPlanner.names``), -1 for none.
+        percept: the cycle's percepts.
+    """
+
+    heading: FloatArray
+    speed: FloatArray
+    has_command: BoolArray
+    active: IntArray
+    percept: FleetPercept
+
+
+class FleetPlanner:
+    """A tree of fleet rules under one memory-less priority selector, for N vehicles at once.
+
+    Build one for a mission with :meth:`for_mission`; the constructor takes the leaves
+    directly (the conformance checks of :mod:`cptbt.testing` put scripted leaves in).
+
+    Args:
+        leaves: ``(name, rule class, params)`` per behaviour, highest priority first.
+        context: the mission context the rules read (OpArea, home, speed).
+        perception: the mission's perception settings.
+        n: the number of vehicles.
+        field_reached: the planner key's value at start (False only with move-to-field).
+    """
+
+    def __init__(self, leaves: Sequence[tuple[str, type[FleetRule], BehaviourParams]],
+                 context: MissionContext, perception: PerceptionSettings, n: int,
+                 *, field_reached: bool = True) -> None:
+        self.n = n
+        self.context = context
+        self.op_area = context.op_area
+        self.perception = FleetPerception(n, self.op_area, perception)
+        self.board = FleetBoard(n)
+        self.board.array("field_reached", bool, field_reached)
+        self.names = [name for name, _, _ in leaves]
+        self.rules = [rule(params, context, self.board) for _, rule, params in leaves]
+        self.selected = np.full(n, -1, dtype=np.int64)  # the leaf RUNNING on the last cycle
+
+    @classmethod
+    def for_mission(cls, mission: MissionBase, n: int, registry: Registry | None = None
+                    ) -> FleetPlanner:
+        """The fleet planner of ``mission`` for ``n`` vehicles.
+
+        Raises:
+            ValueError: a behaviour of the mission has no array form (see :func:`fleet_support`).
+        """
+        support = fleet_support(mission, registry)
+        if not support.ok:
+            raise ValueError(f"the fleet planner cannot run {mission.name}: {support.reason}")
+        context = MissionContext(op_area=mission.op_area_geometry(),
+                                 home=mission.to_xy(mission.home), start=None,
+                                 speed_mps=mission.speed_mps)
+        has_field = any(e.family == "move_to_field" for e in mission.entries())
+        field = planner_keys(field_reached=not has_field)["field_reached"]
+        return cls(support.leaves, context, mission.perception, n, field_reached=field)
+
+    def add_samples(self, ids: Index, concentration: FloatArray) -> None:
+        """One concentration sample per vehicle of ``ids``."""
+        self.perception.add_samples(ids, concentration)
+
+    def add_flows(self, t: float, ids: Index, vx: FloatArray, vy: FloatArray) -> None:
+        """One flow-over-ground sample per vehicle of ``ids``."""
+        self.perception.add_flows(t, ids, vx, vy)
+
+    def set_poses(self, ids: Index, x: FloatArray, y: FloatArray, heading: FloatArray) -> None:
+        """The latest navigation estimates of the vehicles ``ids``."""
+        self.perception.set_poses(ids, x, y, heading)
+
+    def tick(self, t: float, ids: Index) -> FleetTick:
+        """One planning cycle at time ``t`` for the vehicles ``ids``."""
+        p = self.perception.cycle(t, ids)
+        m = len(ids)
+        heading = np.full(m, np.nan)
+        speed = np.full(m, np.nan)
+        active = np.full(m, -1, dtype=np.int64)
+        before = self.selected[ids]
+        pos = np.arange(m)
+        sub = p
+        for k, rule in enumerate(self.rules):
+            if not len(pos):
+                break
+            running = before[pos] == k
+            if np.count_nonzero(running) != len(running):
+                rule.initialise(sub.ids[~running])
+            h = rule.decide(sub, running)
+            ok = np.isfinite(h)
+            if np.count_nonzero(running):
+                stopped = running & ~ok
+                if np.count_nonzero(stopped):
+                    rule.terminate(sub.ids[stopped])
+            if np.count_nonzero(ok):
+                won = pos[ok]
+                heading[won] = wrap_deg_array(h[ok])  # as Command wraps it
+                speed[won] = rule.speed
+                active[won] = k
+                if rule.ends_move_to_field:
+                    self.board.array("field_reached", bool)[sub.ids[ok]] = True
+                # Lower behaviours that were RUNNING are pre-empted (terminate(INVALID)).
+                pre = before[won] > k
+                if np.count_nonzero(pre):
+                    for j in np.flatnonzero(pre):
+                        self.rules[before[won[j]]].terminate(ids[won[j]:won[j] + 1])
+                pos = pos[~ok]
+                sub = sub.take(~ok)
+        self.selected[ids] = active
+        return FleetTick(heading, speed, active >= 0, active, p)
+
+
+__all__ = [
+    "FleetBoard",
+    "FleetPercept",
+    "FleetPerception",
+    "FleetPlanner",
+    "FleetRule",
+    "FleetSupport",
+    "FleetTick",
+    "fleet_support",
+    "planner_choice",
+]
