@@ -349,7 +349,7 @@ def _line_figure(stats: dict[str, dict[float, tuple[float, float]]], path: Path)
     ax.set_ylabel("mean time to source, s (failure = 300 s)")
     ax.set_ylim(0, 310)
     ax.set_title("AB Fig. 10 protocol: mean ± SE (shaded: x ≥ 70, 'far')")
-    ax.legend()
+    ax.legend(loc="lower left", fontsize=8)  # the far region (shaded) is on the right
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
