@@ -17,7 +17,7 @@ configuration, so the find-plume legs coincide and the curves are paired, as in 
 
 Usage::
 
-    python benchmarks/ab2001_fig9.py --quick    # R = 5 iterations: checks the pipeline (~2 min)
+    python benchmarks/ab2001_fig9.py --quick    # R = 5 iterations: checks the pipeline (2-5 min)
     python benchmarks/ab2001_fig9.py            # R = 30 (the committed report)
     python benchmarks/ab2001_fig9.py --runs 100 # AB's 100 iterations
 
