@@ -209,8 +209,21 @@ class SourceMap:
             self._log -= self._log[~self._excluded].max()
 
     # -- the model -----------------------------------------------------------------------
-    def kernel(self, k: int, x: float, y: float, sx: Array, sy: Array) -> Array:
+    def kernel(self, k: int, x: float | Array, y: float | Array, sx: Array, sy: Array) -> Array:
         """``K(s; x)``: the chance of a detection at ``(x, y)`` on cycle ``k`` from sources ``s``.
+
+        ``p0`` times :meth:`kernel_shape`; ``x``, ``y`` may be arrays broadcasting against ``sx``,
+        ``sy`` (e.g. ``(m, 1)`` candidate positions against ``(n,)`` cells give ``(m, n)``).
+        """
+        return self.model.detection_prob * self.kernel_shape(k, x, y, sx, sy)
+
+    def false_alarm(self, k: int) -> float:
+        """``ε``: the chance of a detection with no plume on cycle ``k``."""
+        return self.model.false_alarm_prob
+
+    def kernel_shape(self, k: int, x: float | Array, y: float | Array, sx: Array,
+                     sy: Array) -> Array:
+        """The kernel's spatial shape (1 on the plume's axis at the source, 0 beyond range).
 
         The back-trajectory is the flow history up to cycle ``k``, traced back until it has
         covered ``max_range_m`` (or the history runs out, when it is extended straight along its
@@ -240,7 +253,7 @@ class SourceMap:
         var = m.near_spread_m**2 + (self._tan * ap) ** 2
         expo = -c * c / (2.0 * var) - ap / m.detection_decay_m
         expo -= np.where(a < 0, a * a / (2.0 * m.near_spread_m**2), 0.0)
-        return np.where(a <= m.max_range_m, m.detection_prob * np.exp(expo), 0.0)
+        return np.where(a <= m.max_range_m, np.exp(expo), 0.0)
 
     def _log_likelihood(self, k: int, x: float, y: float, detected: bool) -> Array:
         m = self.model
@@ -256,7 +269,7 @@ class SourceMap:
                 miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
                 if miss_known <= 1.0 - m.explained_prob:
                     return np.where(self._excluded, -np.inf, 0.0)
-            like = 1.0 - (1.0 - m.false_alarm_prob) * (1.0 - k_cells) * miss_known
+            like = 1.0 - (1.0 - self.false_alarm(k)) * (1.0 - k_cells) * miss_known
             out = m.detection_weight * np.log(like)
         return np.where(self._excluded, -np.inf, out)
 

@@ -1,0 +1,323 @@
+"""Information-seeking search: infotaxis and space-aware infotaxis on the source map.
+
+Infotaxis (Vergassola, Villermaux & Shraiman, "'Infotaxis' as a strategy for searching without
+gradients", Nature 445, 2007) keeps a Bayesian belief over where the source is and, every
+decision, takes the move among a few candidates after which it expects the belief's entropy to
+be lowest. Space-aware infotaxis (SAI; Loisy & Eloy, "Searching for a source without gradients:
+how good is infotaxis and how to beat it", Proc. R. Soc. A 478, 2022) minimises instead the
+expectation of ``J = log2(D + 2^(H-1) - 1/2)``, ``D`` the belief's mean distance to the vehicle
+and ``H`` its entropy: near the source it values getting there over learning more.
+
+The belief
+----------
+The belief is the likelihood map of :mod:`cptbt.behaviours.source_map` (its grid, its
+back-trajectory kernel along the estimated flow, its tempering), with one change of reading —
+the detection model is a Poisson one, as Vergassola's:
+
+- hits arrive as a Poisson process whose rate follows the plume's *mean* concentration
+  downstream of a source at ``s``: ``R(s; x) = R0 · exp(-a / L) · exp(-c² / (2 σ(a)²))``, the
+  map's kernel shape (``a`` the range up-flow along the back-trajectory of the estimated flow,
+  ``c`` the cross-flow offset from it, ``σ(a)² = σ0² + (a tan φ)²`` the meander's spread, ``L``
+  ``detection_decay_m``, ``σ0`` ``near_spread_m``, ``φ`` ``spread_deg``);
+- ``R0 = -ln(1 - detection_prob)``: ``detection_prob`` is read *per second* here (the chance of
+  at least one hit in a second on the plume's axis next to the source), so the model does not
+  depend on the planning rate; likewise ``false_alarm_prob`` per second;
+- the perception condenses a cycle's samples into one detection flag (SPEC §2), so an
+  observation is "at least one hit in the cycle": ``K(s; x) = 1 - exp(-R(s; x) Δt)`` with
+  ``Δt`` the cycle's length; a detection multiplies cell ``s`` by
+  ``(1 - (1 - ε)(1 - K))^w_d``, a non-detection by ``(1 - K)^w_nd``, as in the map.
+
+Defaults are the map's (TRO's ocean at 1 Hz); the AB missions set ``detection_prob``,
+``spread_deg`` and ``cell_m`` for AB's 1 m/s, 3 filaments/s plume.
+
+The decision
+------------
+Every ``replan_s`` (and at once after a detection) the candidates are ``candidates`` points at
+``step_m`` from the vehicle, at equal angles; those outside the OpArea are dropped. For each
+candidate ``x'`` (all candidates at once, as ``(candidates, cells)`` arrays):
+
+- ``p_end`` = the belief within ``found_radius_m`` of ``x'`` (the chance of arriving at the
+  source there); the rest, renormalised, is the belief if not;
+- ``P_d`` = the predicted chance of a detection at ``x'``; ``b_d``, ``b_nd`` the beliefs after a
+  detection and after none (tempered as the map tempers them);
+- infotaxis scores ``(1 - p_end)(P_d H(b_d) + (1 - P_d) H(b_nd))``, SAI
+  ``(1 - p_end)(P_d J(b_d) + (1 - P_d) J(b_nd))`` (``J`` of a found source is 0), and the
+  vehicle heads for the candidate with the lowest score.
+
+Readings chosen: one step of look-ahead, as both papers' heuristics; ``D`` is the Euclidean mean
+distance in cells (Loisy & Eloy's grid agent moves along the axes and so uses Manhattan; a
+vehicle moves in any direction); ``H`` in bits over the map's cells; ``p_end`` is what the
+policy *expects*, not an observation: arrival is judged by the simulator (AB) or declaration by
+``declare_source`` (TRO), never by this node, so the map is not told "not found here".
+
+In the priority tree
+--------------------
+Infotaxis needs no separate plume-following: a detection concentrates the belief up-flow and
+the next move goes there. A mission that wants the literature's searcher lists no
+``maintain_plume`` and no ``reacquire_plume`` and lets ``find_plume: {variant: infotaxis}``
+drive whenever nothing above it has an output, i.e. from the end of move-to-field to the
+declaration (safety still overrides at the OpArea boundary). With TRO's ``declaration``
+criterion pair it with ``declare_source: {variant: likelihood_map}``, which declares from the
+same kind of map once its posterior is concentrated (the ``upflow_cluster`` rule needs
+lost-contact points that a searcher which never loses contact on purpose rarely makes).
+Listed under a moth ``maintain_plume``, it becomes a find-plume only: the moth tracks while in
+the plume and infotaxis searches whenever contact is lost for good. The ``reacquire_plume``
+variants steer the same way from the loss of contact (a detection, none within λ) for
+``give_up_s``, then yield to the mission's find-plume. Each node keeps its own map, folded in
+every cycle (:meth:`watch`), so the belief also learns while other behaviours drive.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import Field
+
+from cptbt.behaviours.source_map import MapModelParams, SourceMap
+from cptbt.frames import OpArea
+from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.registry import BehaviourSpec
+from cptbt.types import Command, Percept
+
+Array = NDArray[np.float64]
+
+NOMINAL_CYCLE_S = 1.0
+"""Cycle length assumed before two cycles have been seen (TRO's 1 Hz), s."""
+
+
+class InfotaxisParams(MapModelParams):
+    """The belief's model (the map's, read per second: module docstring) and the decision."""
+
+    cell_m: float = Field(default=4.0, gt=0.1, le=100, description="Belief grid resolution, m")
+    candidates: int = Field(
+        default=8, ge=3, le=64, description="Candidate moves per decision, at equal angles"
+    )
+    step_m: float = Field(default=6.0, gt=0, description="Distance of the candidate points, m")
+    replan_s: float = Field(
+        default=2.0, gt=0, description="A new move is chosen at least this often (and at once "
+        "after a detection), s"
+    )
+    found_radius_m: float = Field(
+        default=4.0, gt=0, description="The policy expects to find the source when it comes "
+        "this close to it, m"
+    )
+
+
+class PoissonSourceMap(SourceMap):
+    """The source map with Poisson hits: ``K = 1 - exp(-R0 · shape · Δt)`` (module docstring)."""
+
+    def __init__(self, area: OpArea, model: MapModelParams) -> None:
+        super().__init__(area, model)
+        self._rate = -math.log1p(-model.detection_prob)
+        self._fa_rate = -math.log1p(-model.false_alarm_prob)
+
+    def cycle_s(self, k: int) -> float:
+        """The length of cycle ``k`` (the time since the previous one), s."""
+        if k <= 0:
+            return NOMINAL_CYCLE_S
+        dt = float(self._t[k] - self._t[k - 1])
+        return min(max(dt, 1e-3), 10.0) if math.isfinite(dt) else NOMINAL_CYCLE_S
+
+    def kernel(self, k: int, x: float | Array, y: float | Array, sx: Array, sy: Array) -> Array:
+        """Chance of at least one hit in cycle ``k`` at ``(x, y)`` from sources ``s``."""
+        return -np.expm1(-self._rate * self.cycle_s(k) * self.kernel_shape(k, x, y, sx, sy))
+
+    def false_alarm(self, k: int) -> float:
+        """Chance of a false hit in cycle ``k``."""
+        return -math.expm1(-self._fa_rate * self.cycle_s(k))
+
+    @property
+    def cycles(self) -> int:
+        """Cycles recorded so far."""
+        return self._n
+
+
+def _entropy_bits(p: Array) -> Array:
+    """Shannon entropy (bits) of each row of ``p`` (rows sum to 1)."""
+    logs = np.log2(np.where(p > 0, p, 1.0))
+    return np.asarray(-(p * logs).sum(axis=-1))
+
+
+def _normalised(w: Array) -> tuple[Array, Array]:
+    total = w.sum(axis=-1, keepdims=True)
+    return w / np.where(total > 0, total, 1.0), total[..., 0]
+
+
+def score_moves(
+    belief: SourceMap,
+    post: Array,
+    here: tuple[float, float],
+    targets: Array,
+    params: InfotaxisParams,
+    *,
+    space_aware: bool,
+) -> Array:
+    """The expected cost of moving to each of ``targets`` (``(m, 2)``): lower is better.
+
+    Infotaxis: the expected entropy after the move; SAI: the expected ``J`` (module docstring).
+    ``post`` is the belief's flat posterior; ``here`` is unused by the score but kept so a
+    caller can see the move is relative to it.
+    """
+    del here
+    cx, cy = belief.cells()
+    px, py = targets[:, :1], targets[:, 1:2]
+    dist = np.hypot(cx - px, cy - py)  # (m, n)
+    found = dist <= params.found_radius_m
+    p_end = np.where(found, post, 0.0).sum(axis=1)
+    rest, _ = _normalised(np.where(found, 0.0, post))
+    k = belief.cycles - 1
+    miss = (1.0 - belief.false_alarm(k)) * (1.0 - belief.kernel(k, px, py, cx, cy))
+    p_det = 1.0 - (rest * miss).sum(axis=1)
+    b_det, _ = _normalised(rest * (1.0 - miss) ** params.detection_weight)
+    b_none, _ = _normalised(rest * np.clip(miss, 1e-300, 1.0) ** params.nondetection_weight)
+    h_det, h_none = _entropy_bits(b_det), _entropy_bits(b_none)
+    if space_aware:
+        cell = math.sqrt(float((belief.xs[1] - belief.xs[0]) if len(belief.xs) > 1 else 1.0)
+                         * float((belief.ys[1] - belief.ys[0]) if len(belief.ys) > 1 else 1.0))
+        d_det = (b_det * dist).sum(axis=1) / cell
+        d_none = (b_none * dist).sum(axis=1) / cell
+        h_det = _space_aware_cost(d_det, h_det)
+        h_none = _space_aware_cost(d_none, h_none)
+    return np.asarray((1.0 - p_end) * (p_det * h_det + (1.0 - p_det) * h_none))
+
+
+def _space_aware_cost(d: Array, h: Array) -> Array:
+    """Loisy & Eloy's ``J = log2(D + 2^(H-1) - 1/2)`` (its argument when that is not > 0)."""
+    v = d + np.exp2(h - 1.0) - 0.5
+    return np.where(v > 0, np.log2(np.where(v > 0, v, 1.0)), v)
+
+
+class _InfotaxisBase(PlanBehaviour):
+    """Keeps the Poisson source map every cycle and steers by the move score."""
+
+    Params: ClassVar[type[BehaviourParams]] = InfotaxisParams
+    params: InfotaxisParams
+    space_aware: ClassVar[bool] = False
+    persistent_state: ClassVar[tuple[str, ...]] = ("map",)
+
+    def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
+        super().__init__(params, **kwargs)
+        self.map: PoissonSourceMap | None = None
+        self.heading: float | None = None
+        self.planned_t = -math.inf
+
+    def setup(self, **kwargs: Any) -> None:
+        """Bind the context and lay the belief grid over its OpArea (uniform prior)."""
+        super().setup(**kwargs)
+        assert self.context is not None
+        self.map = PoissonSourceMap(self.context.op_area, self.params)
+
+    def initialise(self) -> None:
+        """A new activation chooses a new move at once (the belief is kept)."""
+        self.heading = None
+        self.planned_t = -math.inf
+
+    def watch(self, p: Percept) -> None:
+        """Fold this cycle's percept into the belief, whoever drives."""
+        assert self.map is not None, "call setup()"
+        self.map.observe(p)
+
+    def steer(self, p: Percept) -> Command | None:
+        """The infotactic command: re-plan when due or after a detection, else hold."""
+        assert self.map is not None and self.context is not None
+        here = p.pose.point
+        if not (math.isfinite(here.x) and math.isfinite(here.y)) or self.map.cycles == 0:
+            return None
+        if self.heading is None or p.detected or p.t - self.planned_t >= self.params.replan_s:
+            self.heading = self.choose(here.x, here.y)
+            self.planned_t = p.t
+        return None if self.heading is None else self.command(self.heading)
+
+    def choose(self, x: float, y: float) -> float | None:
+        """The heading of the best candidate move from ``(x, y)``; None when none is inside."""
+        assert self.map is not None and self.context is not None
+        m = self.params.candidates
+        angles = np.arange(m) * (2.0 * math.pi / m)
+        targets = np.column_stack([x + self.params.step_m * np.cos(angles),
+                                   y + self.params.step_m * np.sin(angles)])
+        area = self.context.op_area
+        inside = ((targets[:, 0] >= area.xmin) & (targets[:, 0] <= area.xmax)
+                  & (targets[:, 1] >= area.ymin) & (targets[:, 1] <= area.ymax))
+        if not inside.any():
+            return None  # outside the OpArea: safety brings the vehicle back
+        post = self.map.posterior()
+        score = np.full(m, np.inf)
+        score[inside] = score_moves(self.map, post, (x, y), targets[inside], self.params,
+                                    space_aware=self.space_aware)
+        best = int(np.argmin(np.where(np.isfinite(score), score, np.inf)))
+        if not inside[best]:
+            return None
+        return math.degrees(float(angles[best]))
+
+
+class InfotaxisFindPlume(_InfotaxisBase):
+    """Find-plume by infotaxis (Vergassola et al. 2007): see the module docstring.
+
+    Has an output whenever the field is reached and a flow estimate exists; with no
+    ``maintain_plume`` in the mission it is the whole search (module docstring, "In the priority
+    tree").
+    """
+
+    family: ClassVar[str] = "find_plume"
+    variant: ClassVar[str] = "infotaxis"
+
+    def decide(self, p: Percept) -> Command | None:
+        """Steer infotactically once the field is reached."""
+        if not self.bb.field_reached or p.flow is None:
+            return None
+        return self.steer(p)
+
+
+class SpaceAwareInfotaxisFindPlume(InfotaxisFindPlume):
+    """Find-plume by space-aware infotaxis (Loisy & Eloy 2022): see the module docstring."""
+
+    variant: ClassVar[str] = "space_aware_infotaxis"
+    space_aware: ClassVar[bool] = True
+
+
+class InfotaxisReacquireParams(InfotaxisParams):
+    """The infotaxis parameters and how long reacquiring lasts."""
+
+    give_up_s: float = Field(
+        default=180.0, gt=0, description="Find-plume takes over after this long without a "
+        "detection (the cloverleaf's 3 repeats take about as long), s"
+    )
+
+
+class InfotaxisReacquire(_InfotaxisBase):
+    """Reacquire by infotaxis: from a loss of contact for ``give_up_s``, then find-plume.
+
+    Active while contact is lost (a detection was made, none within λ) and the last detection is
+    less than ``give_up_s`` old; the belief it steers by has folded in every cycle of the mission.
+    """
+
+    family: ClassVar[str] = "reacquire_plume"
+    variant: ClassVar[str] = "infotaxis"
+    Params: ClassVar[type[BehaviourParams]] = InfotaxisReacquireParams
+    params: InfotaxisReacquireParams
+
+    def decide(self, p: Percept) -> Command | None:
+        """Steer infotactically while contact is lost and the give-up time has not passed."""
+        if p.in_plume or p.last_detection is None or p.flow is None:
+            return None
+        if p.since_detection() > self.params.give_up_s:
+            return None
+        return self.steer(p)
+
+
+class SpaceAwareInfotaxisReacquire(InfotaxisReacquire):
+    """Reacquire by space-aware infotaxis (Loisy & Eloy 2022)."""
+
+    variant: ClassVar[str] = "space_aware_infotaxis"
+    space_aware: ClassVar[bool] = True
+
+
+BEHAVIOURS = [
+    BehaviourSpec.of(InfotaxisFindPlume),
+    BehaviourSpec.of(SpaceAwareInfotaxisFindPlume),
+    BehaviourSpec.of(InfotaxisReacquire),
+    BehaviourSpec.of(SpaceAwareInfotaxisReacquire),
+]
