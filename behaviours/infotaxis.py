@@ -84,6 +84,12 @@ from cptbt.types import Command, Percept
 
 Array = NDArray[np.float64]
 
+TABLE_STEP_M = 0.5
+"""Resolution of the back-trajectory table the Poisson map reads its kernel from, m."""
+
+SHAPE_FLOOR_LOG = -60.0
+"""The kernel shape is floored at ``exp(-60)`` ≈ 1e-26 (nothing a belief can tell apart from 0)."""
+
 NOMINAL_CYCLE_S = 1.0
 """Cycle length assumed before two cycles have been seen (TRO's 1 Hz), s."""
 
@@ -125,6 +131,57 @@ class PoissonSourceMap(SourceMap):
         """Chance of at least one hit in cycle ``k`` at ``(x, y)`` from sources ``s``."""
         return -np.expm1(-self._rate * self.cycle_s(k) * self.kernel_shape(k, x, y, sx, sy))
 
+    def kernel_shape(self, k: int, x: float | Array, y: float | Array, sx: Array,
+                     sy: Array) -> Array:
+        """The map's kernel shape, read from a table of the back-trajectory's sideways drift.
+
+        The same function as :meth:`SourceMap.kernel_shape` to within the table's resolution
+        (``TABLE_STEP_M``; see :meth:`shape_at`).
+        """
+        traj = self.back_trajectory(k)
+        ux, uy = traj[0], traj[1]
+        a = (x - sx) * ux + (y - sy) * uy
+        c0 = (sx - x) * -uy + (sy - y) * ux
+        return self.shape_at(a, c0, traj)
+
+    def shape_at(self, a: Array, c0: Array, traj: tuple[float, float, Array, Array]) -> Array:
+        """The kernel shape from the source's range ``a`` up-flow of the observer and its
+        offset ``c0`` across the flow (both along the back-trajectory's mean direction).
+
+        The cross-flow offset from the back-trajectory is ``c0`` plus the trajectory's sideways
+        drift at range ``a``, looked up by index in a table at ``TABLE_STEP_M`` steps rather
+        than by :func:`numpy.interp`'s binary search per cell, which dominated the cost of
+        scoring several moves over every cell. The log of the shape is floored at
+        ``SHAPE_FLOOR_LOG``: subnormal numbers downstream are slow.
+        """
+        m = self.model
+        ux, uy, along, disp = traj
+        n = math.ceil(float(along[-1]) / TABLE_STEP_M) + 2
+        grid = np.arange(n) * TABLE_STEP_M
+        drift = np.interp(grid, along, disp[:, 0]) * -uy + np.interp(grid, along, disp[:, 1]) * ux
+        slope = np.append(np.diff(drift), 0.0)
+        u = np.clip(a * (1.0 / TABLE_STEP_M), 0.0, n - 1.0)
+        i = u.astype(np.intp)
+        c = c0 + drift.take(i) + (u - i) * slope.take(i)
+        ap = np.maximum(a, 0.0)
+        an = np.minimum(a, 0.0)
+        var2 = 2.0 * m.near_spread_m**2 + (2.0 * self._tan**2) * (ap * ap)
+        expo = c * c / var2 + ap * (1.0 / m.detection_decay_m) + an * an * (
+            0.5 / m.near_spread_m**2)
+        np.minimum(expo, -SHAPE_FLOOR_LOG, out=expo)
+        return np.exp(-expo) * (a <= m.max_range_m)
+
+    def exposure(self, k: int) -> float:
+        """``R0 Δt``: the mean number of hits in cycle ``k`` on the axis next to the source."""
+        return self._rate * self.cycle_s(k)
+
+    @property
+    def cell_area_m2(self) -> float:
+        """The area of one cell, m²."""
+        dx = float(self.xs[1] - self.xs[0]) if len(self.xs) > 1 else self.model.cell_m
+        dy = float(self.ys[1] - self.ys[0]) if len(self.ys) > 1 else self.model.cell_m
+        return dx * dy
+
     def false_alarm(self, k: int) -> float:
         """Chance of a false hit in cycle ``k``."""
         return -math.expm1(-self._fa_rate * self.cycle_s(k))
@@ -135,21 +192,14 @@ class PoissonSourceMap(SourceMap):
         return self._n
 
 
-def _entropy_bits(p: Array) -> Array:
-    """Shannon entropy (bits) of each row of ``p`` (rows sum to 1)."""
-    logs = np.log2(np.where(p > 0, p, 1.0))
-    return np.asarray(-(p * logs).sum(axis=-1))
-
-
-def _normalised(w: Array) -> tuple[Array, Array]:
-    total = w.sum(axis=-1, keepdims=True)
-    return w / np.where(total > 0, total, 1.0), total[..., 0]
+SUPPORT = 1e-12
+"""Cells with less than this times the largest posterior are left out of the move scores (their
+share of the entropy and of the mean distance is below rounding)."""
 
 
 def score_moves(
-    belief: SourceMap,
+    belief: PoissonSourceMap,
     post: Array,
-    here: tuple[float, float],
     targets: Array,
     params: InfotaxisParams,
     *,
@@ -158,30 +208,49 @@ def score_moves(
     """The expected cost of moving to each of ``targets`` (``(m, 2)``): lower is better.
 
     Infotaxis: the expected entropy after the move; SAI: the expected ``J`` (module docstring).
-    ``post`` is the belief's flat posterior; ``here`` is unused by the score but kept so a
-    caller can see the move is relative to it.
+    ``post`` is the belief's flat posterior. One pass over ``(m, cells)`` arrays: the
+    likelihoods are written as exponentials of the kernel's shape, so the entropies come from
+    ``log post`` (taken once) plus the log-likelihood, with no logarithm of a posterior array.
     """
-    del here
     cx, cy = belief.cells()
+    keep = post > SUPPORT * float(post.max())
+    if not keep.all():
+        cx, cy, post = cx[keep], cy[keep], post[keep]
+    log_post = np.log(post)
     px, py = targets[:, :1], targets[:, 1:2]
-    dist = np.hypot(cx - px, cy - py)  # (m, n)
-    found = dist <= params.found_radius_m
-    p_end = np.where(found, post, 0.0).sum(axis=1)
-    rest, _ = _normalised(np.where(found, 0.0, post))
     k = belief.cycles - 1
-    miss = (1.0 - belief.false_alarm(k)) * (1.0 - belief.kernel(k, px, py, cx, cy))
-    p_det = 1.0 - (rest * miss).sum(axis=1)
-    b_det, _ = _normalised(rest * (1.0 - miss) ** params.detection_weight)
-    b_none, _ = _normalised(rest * np.clip(miss, 1e-300, 1.0) ** params.nondetection_weight)
-    h_det, h_none = _entropy_bits(b_det), _entropy_bits(b_none)
+    traj = belief.back_trajectory(k)
+    ux, uy = traj[0], traj[1]
+    a = (px * ux + py * uy) - (cx * ux + cy * uy)  # (m, n): range of s up-flow of x'
+    c0 = (cy * ux - cx * uy) - (py * ux - px * uy)  # and its offset across the flow
+    dist = np.sqrt(a * a + c0 * c0)
+    found = dist <= params.found_radius_m
+    rest = np.where(found, 0.0, post)
+    p_end = post.sum() - rest.sum(axis=1)
+    exposure = belief.exposure(k) * belief.shape_at(a, c0, traj)  # R(s; x') Δt
+    miss = (1.0 - belief.false_alarm(k)) * np.exp(-exposure)  # P(no hit | s)
+    z_rest = rest.sum(axis=1)
+    p_det = 1.0 - (rest * miss).sum(axis=1) / np.where(z_rest > 0, z_rest, 1.0)
+    log_det = params.detection_weight * np.log1p(-miss)  # tempered log-likelihoods
+    log_none = -params.nondetection_weight * exposure  # (the constant (1 - ε)^w cancels)
+    w_det = rest * np.exp(log_det)
+    w_none = rest * np.exp(log_none)
+    h_det, z_det = _entropy(w_det, log_post + log_det)
+    h_none, z_none = _entropy(w_none, log_post + log_none)
     if space_aware:
-        cell = math.sqrt(float((belief.xs[1] - belief.xs[0]) if len(belief.xs) > 1 else 1.0)
-                         * float((belief.ys[1] - belief.ys[0]) if len(belief.ys) > 1 else 1.0))
-        d_det = (b_det * dist).sum(axis=1) / cell
-        d_none = (b_none * dist).sum(axis=1) / cell
+        cell = math.sqrt(belief.cell_area_m2)
+        d_det = (w_det * dist).sum(axis=1) / (z_det * cell)
+        d_none = (w_none * dist).sum(axis=1) / (z_none * cell)
         h_det = _space_aware_cost(d_det, h_det)
         h_none = _space_aware_cost(d_none, h_none)
     return np.asarray((1.0 - p_end) * (p_det * h_det + (1.0 - p_det) * h_none))
+
+
+def _entropy(w: Array, log_w: Array) -> tuple[Array, Array]:
+    """Entropy (bits) of each row of ``w / Z`` given ``log w``, and ``Z`` (1 where 0)."""
+    z = w.sum(axis=1)
+    z = np.where(z > 0, z, 1.0)
+    return (np.log(z) - (w * log_w).sum(axis=1) / z) / math.log(2.0), z
 
 
 def _space_aware_cost(d: Array, h: Array) -> Array:
@@ -226,7 +295,7 @@ class _InfotaxisBase(PlanBehaviour):
         here = p.pose.point
         if not (math.isfinite(here.x) and math.isfinite(here.y)) or self.map.cycles == 0:
             return None
-        if self.heading is None or p.detected or p.t - self.planned_t >= self.params.replan_s:
+        if self.heading is None or p.t - self.planned_t >= self.params.replan_s:
             self.heading = self.choose(here.x, here.y)
             self.planned_t = p.t
         return None if self.heading is None else self.command(self.heading)
@@ -245,7 +314,7 @@ class _InfotaxisBase(PlanBehaviour):
             return None  # outside the OpArea: safety brings the vehicle back
         post = self.map.posterior()
         score = np.full(m, np.inf)
-        score[inside] = score_moves(self.map, post, (x, y), targets[inside], self.params,
+        score[inside] = score_moves(self.map, post, targets[inside], self.params,
                                     space_aware=self.space_aware)
         best = int(np.argmin(np.where(np.isfinite(score), score, np.inf)))
         if not inside[best]:
