@@ -25,16 +25,24 @@ the detection model is a Poisson one, as Vergassola's:
 - the perception condenses a cycle's samples into one detection flag (SPEC §2), so an
   observation is "at least one hit in the cycle": ``K(s; x) = 1 - exp(-R(s; x) Δt)`` with
   ``Δt`` the cycle's length; a detection multiplies cell ``s`` by
-  ``(1 - (1 - ε)(1 - K))^w_d``, a non-detection by ``(1 - K)^w_nd``, as in the map.
+  ``(1 - (1 - ε)(1 - K))^w_d``, a non-detection by ``(1 - K)^w_nd``, as in the map;
+- **(reading) evidence fades**: every cycle the log-belief is scaled by
+  ``exp(-Δt / memory_s)`` before the new percept is folded in (``memory_s`` 60 s by default;
+  None keeps the papers' belief, which never forgets). Vergassola's model is a stationary
+  plume; a meandering one is not, and a minute of misses where the plume was not *then* rules
+  the true source out for good: the belief then collapses onto the vehicle's latest hits and
+  SAI circles there (seen on AB's grid; measured there, 200 paired runs each: 94.5% success
+  without fading, 99.5% with ``memory_s: 60``, 96% with 180).
 
-Defaults are the map's (TRO's ocean at 1 Hz); the AB missions set ``detection_prob``,
-``spread_deg`` and ``cell_m`` for AB's 1 m/s, 3 filaments/s plume.
+The defaults (the map's, with 4 m cells) serve both the TRO ocean at 1 Hz and AB's 1 m/s,
+3 filaments/s plume at 10 Hz; the TRO mission lengthens the moves for the REMUS's turning
+circle.
 
 The decision
 ------------
-Every ``replan_s`` (and at once after a detection) the candidates are ``candidates`` points at
-``step_m`` from the vehicle, at equal angles; those outside the OpArea are dropped. For each
-candidate ``x'`` (all candidates at once, as ``(candidates, cells)`` arrays):
+Every ``replan_s`` the candidates are ``candidates`` points at ``step_m`` from the vehicle, at
+equal angles; those outside the OpArea are dropped. For each candidate ``x'`` (all candidates
+at once, as ``(candidates, cells)`` arrays):
 
 - ``p_end`` = the belief within ``found_radius_m`` of ``x'`` (the chance of arriving at the
   source there); the rest, renormalised, is the belief if not;
@@ -44,11 +52,18 @@ candidate ``x'`` (all candidates at once, as ``(candidates, cells)`` arrays):
   ``(1 - p_end)(P_d J(b_d) + (1 - P_d) J(b_nd))`` (``J`` of a found source is 0), and the
   vehicle heads for the candidate with the lowest score.
 
+With no hits at all the best moves are those whose misses rule out the most: the searcher
+goes to the down-flow end of the unexplored water and casts across the flow there (a miss
+rules out every source up-flow of it), as Vergassola's searcher casts crosswind.
+
 Readings chosen: one step of look-ahead, as both papers' heuristics; ``D`` is the Euclidean mean
 distance in cells (Loisy & Eloy's grid agent moves along the axes and so uses Manhattan; a
 vehicle moves in any direction); ``H`` in bits over the map's cells; ``p_end`` is what the
 policy *expects*, not an observation: arrival is judged by the simulator (AB) or declaration by
-``declare_source`` (TRO), never by this node, so the map is not told "not found here".
+``declare_source`` (TRO), never by this node, so the map is not told "not found here". That is
+why ``found_radius_m`` is small (2 m, half a cell): a larger one keeps promising information the
+map never receives, and the searcher returns to the same cells (measured on AB's grid, 200
+paired runs each without fading: 2 m 94.5%, 4 m 71%, 8 m 85%, 0 m 85.5%).
 
 In the priority tree
 --------------------
@@ -107,18 +122,31 @@ class InfotaxisParams(MapModelParams):
         "after a detection), s"
     )
     found_radius_m: float = Field(
-        default=4.0, gt=0, description="The policy expects to find the source when it comes "
-        "this close to it, m"
+        default=2.0, ge=0, description="The policy expects to find the source when it comes "
+        "this close to it (0: it never expects to), m"
+    )
+    memory_s: float | None = Field(
+        default=60.0, gt=0, description="Evidence older than this fades: every cycle of Δt the "
+        "log-belief is scaled by exp(-Δt / memory_s) (None: the belief never forgets), s"
     )
 
 
 class PoissonSourceMap(SourceMap):
     """The source map with Poisson hits: ``K = 1 - exp(-R0 · shape · Δt)`` (module docstring)."""
 
-    def __init__(self, area: OpArea, model: MapModelParams) -> None:
+    def __init__(self, area: OpArea, model: MapModelParams,
+                 memory_s: float | None = None) -> None:
         super().__init__(area, model)
         self._rate = -math.log1p(-model.detection_prob)
         self._fa_rate = -math.log1p(-model.false_alarm_prob)
+        self.memory_s = memory_s
+
+    def observe(self, p: Percept) -> bool:
+        """Fade the old evidence (with ``memory_s``), then fold the percept in."""
+        dt = p.t - self.t
+        if self.memory_s is not None and math.isfinite(dt) and dt > 0:
+            self._log *= math.exp(-dt / self.memory_s)
+        return super().observe(p)
 
     def cycle_s(self, k: int) -> float:
         """The length of cycle ``k`` (the time since the previous one), s."""
@@ -277,7 +305,7 @@ class _InfotaxisBase(PlanBehaviour):
         """Bind the context and lay the belief grid over its OpArea (uniform prior)."""
         super().setup(**kwargs)
         assert self.context is not None
-        self.map = PoissonSourceMap(self.context.op_area, self.params)
+        self.map = PoissonSourceMap(self.context.op_area, self.params, self.params.memory_s)
 
     def initialise(self) -> None:
         """A new activation chooses a new move at once (the belief is kept)."""
