@@ -120,7 +120,7 @@ def test_space_aware_heads_for_a_concentrated_belief() -> None:
     angles = np.radians(np.arange(8) * 45.0)
     here = (60.0, 20.0)
     targets = np.column_stack([here[0] + 6 * np.cos(angles), here[1] + 6 * np.sin(angles)])
-    sai = score_moves(m, post, here, targets, InfotaxisParams(), space_aware=True)
+    sai = score_moves(m, post, targets, InfotaxisParams(), space_aware=True)
     assert int(np.argmin(sai)) == 4  # heading 180: straight at the belief
 
 
