@@ -74,7 +74,7 @@ def test_next_replicates(n: int, rel: float, want: int | None) -> None:
 
 def test_until_sem_adds_realisations_and_resumes(tmp_path: Path,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
-    args = ["batch", AB3, "--starts", "60,10", "--runs-per-start", "2", "--until-sem", "0.05",
+    args = ["batch", AB3, "--starts", "60,10", "--runs-per-start", "2", "--until-sem", "0.001",
             "--max-runs-per-start", "6", "--time-limit", "120", "--workers", "1", "--no-plots",
             "--out", str(tmp_path)]
     assert main(args) == 0
