@@ -118,8 +118,8 @@ class InfotaxisParams(MapModelParams):
     )
     step_m: float = Field(default=6.0, gt=0, description="Distance of the candidate points, m")
     replan_s: float = Field(
-        default=2.0, gt=0, description="A new move is chosen at least this often (and at once "
-        "after a detection), s"
+        default=2.0, gt=0, description="A new move is chosen this often (not at every "
+        "detection: at 10 Hz a burst of filaments would re-plan every cycle), s"
     )
     found_radius_m: float = Field(
         default=2.0, ge=0, description="The policy expects to find the source when it comes "
