@@ -29,8 +29,10 @@ Writes ``benchmarks/results/infotaxis_study.md``; the studies go to ``--work``.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import platform
+import statistics
 import time
 from collections import defaultdict
 from pathlib import Path
@@ -104,9 +106,31 @@ def paired(a: Rows, b: Rows, name_a: str, name_b: str) -> list[str]:
     for r in a:
         if key(r) in ok_b:
             counts[(bool(r["success"]), ok_b[key(r)])] += 1
+    only_a, only_b = counts[(True, False)], counts[(False, True)]
     return [f"Paired on the same plume and start ({sum(counts.values())} pairs): both found "
-            f"the source in {counts[(True, True)]}, only {name_a} in {counts[(True, False)]}, "
-            f"only {name_b} in {counts[(False, True)]}, neither in {counts[(False, False)]}."]
+            f"the source in {counts[(True, True)]}, only {name_a} in {only_a}, only {name_b} "
+            f"in {only_b}, neither in {counts[(False, False)]} (exact McNemar test on the "
+            f"discordant pairs: p = {mcnemar(only_a, only_b):.2f})."]
+
+
+def mcnemar(b: int, c: int) -> float:
+    """Two-sided exact McNemar p-value: the discordant pairs against a fair coin."""
+    n, k = b + c, min(b, c)
+    if n == 0:
+        return 1.0
+    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2**n
+    return min(1.0, 2 * tail)
+
+
+def failures(rows: Rows, name: str) -> list[str]:
+    """How the failed runs ended: distance to the source and detections."""
+    bad = [r for r in rows if not r["success"]]
+    if not bad:
+        return []
+    dist = statistics.median(float(r["error_m"]) for r in bad if r.get("error_m") is not None)
+    hits = statistics.median(int(r["detections"]) for r in bad)
+    return [f"{name}'s {len(bad)} failures ended a median {dist:.0f} m from the source after a "
+            f"median {hits:.0f} detections."]
 
 
 def by_column(groups: dict[str, Rows]) -> list[str]:
@@ -167,7 +191,8 @@ def main() -> None:
                   f"({lo:.1%}–{hi:.1%}) against {s3 / n:.1%} ({lo3:.1%}–{hi3:.1%}): "
                   f"{'met' if sai >= s3 else 'NOT met'}.", "",
                   "Success by start column (x; the source is at x = 20, the flow toward +x):",
-                  "", *by_column(ab)]
+                  "", *by_column(ab), "", *failures(ab["space-aware infotaxis"], "SAI"),
+                  *failures(ab["Strategy III"], "Strategy III")]
     lines += ["", f"## TRO ocean (MSN007 setting): 4 × 2 starts × {args.tro_runs} plumes, "
               "1800 s, declaration within the mission's radius", "", *protocol_rows(tro)]
     text = "\n".join(lines) + "\n"
