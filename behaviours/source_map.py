@@ -209,12 +209,40 @@ class SourceMap:
             self._log -= self._log[~self._excluded].max()
 
     # -- the model -----------------------------------------------------------------------
-    def kernel(self, k: int, x: float, y: float, sx: Array, sy: Array) -> Array:
+    def kernel(self, k: int, x: float | Array, y: float | Array, sx: Array, sy: Array) -> Array:
         """``K(s; x)``: the chance of a detection at ``(x, y)`` on cycle ``k`` from sources ``s``.
 
-        The back-trajectory is the flow history up to cycle ``k``, traced back until it has
-        covered ``max_range_m`` (or the history runs out, when it is extended straight along its
-        mean direction).
+        ``p0`` times :meth:`kernel_shape`; ``x``, ``y`` may be arrays broadcasting against ``sx``,
+        ``sy`` (e.g. ``(m, 1)`` candidate positions against ``(n,)`` cells give ``(m, n)``).
+        """
+        return self.model.detection_prob * self.kernel_shape(k, x, y, sx, sy)
+
+    def false_alarm(self, k: int) -> float:
+        """``ε``: the chance of a detection with no plume on cycle ``k``."""
+        return self.model.false_alarm_prob
+
+    def kernel_shape(self, k: int, x: float | Array, y: float | Array, sx: Array,
+                     sy: Array) -> Array:
+        """The kernel's spatial shape (1 on the plume's axis at the source, 0 beyond range)."""
+        m = self.model
+        ux, uy, along, disp = self.back_trajectory(k)
+        a = (x - sx) * ux + (y - sy) * uy  # how far up-flow of the detection each source is
+        dx = np.interp(a, along, disp[:, 0])
+        dy = np.interp(a, along, disp[:, 1])
+        c = (sx - (x - dx)) * -uy + (sy - (y - dy)) * ux  # cross-flow offset from B(τ)
+        ap = np.maximum(a, 0.0)
+        var = m.near_spread_m**2 + (self._tan * ap) ** 2
+        expo = -c * c / (2.0 * var) - ap / m.detection_decay_m
+        expo -= np.where(a < 0, a * a / (2.0 * m.near_spread_m**2), 0.0)
+        return np.where(a <= m.max_range_m, np.exp(expo), 0.0)
+
+    def back_trajectory(self, k: int) -> tuple[float, float, Array, Array]:
+        """The water's back-trajectory from cycle ``k``: ``(ux, uy, along, disp)``.
+
+        The flow history up to cycle ``k``, traced back until it has covered ``max_range_m``
+        (or the history runs out, when it is extended straight along its mean direction):
+        ``disp`` the displacements (newest first, ``(len, 2)``), ``(ux, uy)`` the unit vector of
+        the last, and ``along`` (non-decreasing) how far up-flow along it each one lies.
         """
         m = self.model
         cum = self._cum[: k + 1]
@@ -232,15 +260,7 @@ class SourceMap:
             fx, fy = self._flow
             ux, uy = unit(math.degrees(math.atan2(fy, fx))) if (fx or fy) else (1.0, 0.0)
         along = np.maximum.accumulate(disp[:, 0] * ux + disp[:, 1] * uy)
-        a = (x - sx) * ux + (y - sy) * uy  # how far up-flow of the detection each source is
-        dx = np.interp(a, along, disp[:, 0])
-        dy = np.interp(a, along, disp[:, 1])
-        c = (sx - (x - dx)) * -uy + (sy - (y - dy)) * ux  # cross-flow offset from B(τ)
-        ap = np.maximum(a, 0.0)
-        var = m.near_spread_m**2 + (self._tan * ap) ** 2
-        expo = -c * c / (2.0 * var) - ap / m.detection_decay_m
-        expo -= np.where(a < 0, a * a / (2.0 * m.near_spread_m**2), 0.0)
-        return np.where(a <= m.max_range_m, m.detection_prob * np.exp(expo), 0.0)
+        return float(ux), float(uy), along, disp
 
     def _log_likelihood(self, k: int, x: float, y: float, detected: bool) -> Array:
         m = self.model
@@ -256,7 +276,7 @@ class SourceMap:
                 miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
                 if miss_known <= 1.0 - m.explained_prob:
                     return np.where(self._excluded, -np.inf, 0.0)
-            like = 1.0 - (1.0 - m.false_alarm_prob) * (1.0 - k_cells) * miss_known
+            like = 1.0 - (1.0 - self.false_alarm(k)) * (1.0 - k_cells) * miss_known
             out = m.detection_weight * np.log(like)
         return np.where(self._excluded, -np.inf, out)
 

@@ -86,6 +86,81 @@ def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
+@dataclass(frozen=True)
+class Protocol:
+    """The field's evaluation protocol for one configuration (OTTO; Loisy & Eloy 2022).
+
+    Times are times to source of the successful runs (the renormalised distribution of arrival
+    times: a failure enters ``p_fail``, not the times); ``rel_sem`` is the standard error of
+    their mean over the mean; ``efficiency`` is the mean of the successful runs' shortest path /
+    path flown (``path_efficiency``), ``d0_over_d3`` the mean of TRO's D0/D3 over declarations.
+    """
+
+    runs: int
+    failures: int
+    p_fail: float
+    p_fail_ci: tuple[float, float]
+    mean_s: float
+    sem_s: float
+    rel_sem: float
+    median_s: float
+    p90_s: float
+    p99_s: float
+    efficiency: float
+    efficiency_median: float
+    d0_over_d3: float
+
+
+def protocol(rows: Rows) -> Protocol:
+    """The evaluation protocol's numbers over ``rows`` (one configuration); NaN where empty."""
+    n = len(rows)
+    t = np.array([_time_to_source(r) for r in rows], dtype=float)
+    ok = t[np.isfinite(t)]
+    fails = n - int(np.count_nonzero([bool(r.get("success")) for r in rows]))
+    lo, hi = wilson(fails, n)
+    mean = float(ok.mean()) if ok.size else math.nan
+    sem = float(ok.std(ddof=1) / math.sqrt(ok.size)) if ok.size > 1 else math.nan
+    q = np.percentile(ok, [50, 90, 99]) if ok.size else np.full(3, math.nan)
+    eff = [float(r["path_efficiency"]) for r in rows if r.get("success")
+           and r.get("path_efficiency") is not None and math.isfinite(r["path_efficiency"])]
+    d03 = [float(r["D0"]) / float(r["D3"]) for r in rows
+           if r.get("D0") is not None and r.get("D3")]
+    return Protocol(
+        runs=n, failures=fails, p_fail=fails / n if n else math.nan, p_fail_ci=(lo, hi),
+        mean_s=mean, sem_s=sem, rel_sem=sem / mean if mean > 0 else math.nan,
+        median_s=float(q[0]), p90_s=float(q[1]), p99_s=float(q[2]),
+        efficiency=float(np.mean(eff)) if eff else math.nan,
+        efficiency_median=float(np.median(eff)) if eff else math.nan,
+        d0_over_d3=float(np.mean(d03)) if d03 else math.nan,
+    )
+
+
+def by_configuration(rows: Rows) -> dict[str, Rows]:
+    """Rows grouped by configuration label, in the order they first appear."""
+    groups: dict[str, Rows] = defaultdict(list)
+    for r in rows:
+        groups[_config_label(r)].append(r)
+    return dict(groups)
+
+
+def protocol_table(groups: dict[str, Rows]) -> list[str]:
+    """The evaluation protocol as Markdown table lines, one row per configuration."""
+    lines = ["| configuration | runs | P(fail) (95% CI) | mean time (s) ± SEM | rel. SEM "
+             "| median (s) | 90th pct (s) | 99th pct (s) | path efficiency mean / median "
+             "| D0/D3 |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for label, rows in groups.items():
+        pr = protocol(rows)
+        lo, hi = pr.p_fail_ci
+        lines.append(
+            f"| {label} | {pr.runs} | {pr.p_fail:.1%} ({lo:.1%}–{hi:.1%}) "
+            f"| {_fmt(pr.mean_s)} ± {_fmt(pr.sem_s)} | {_fmt(pr.rel_sem, 3)} "
+            f"| {_fmt(pr.median_s)} | {_fmt(pr.p90_s)} | {_fmt(pr.p99_s)} "
+            f"| {_fmt(pr.efficiency, 2)} / {_fmt(pr.efficiency_median, 2)} "
+            f"| {_fmt(pr.d0_over_d3, 2)} |")
+    return lines
+
+
 def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None) -> list[Path]:
     """Write every figure and table that means something for the study; the paths written.
 
@@ -331,6 +406,11 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
         lines += ["", *maintain_table(groups)]  # nothing declared: TRO's tables say nothing
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         return path
+    lines += ["", "## Evaluation protocol", "",
+              "Times to source over the successful runs (a failure counts in P(fail) only); "
+              "path efficiency = straight line from the start to the true source / true path "
+              "flown to success; D0/D3 (TRO) over declarations.", "",
+              *protocol_table(groups)]
     for label, rows in groups.items():
         declared = [r for r in rows if r.get("t3") is not None]
         lines += ["", f"## {label}: times and paths (TRO Tables III and IV form)", "",

@@ -84,6 +84,9 @@ class RunSummary:
     withdrawn: int | None = None
     closest_approach_m: float | None = None
     T_M: float | None = None
+    path_m: float | None = None
+    start_to_source_m: float | None = None
+    path_efficiency: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data for ``summary.json`` and the results table."""
@@ -119,6 +122,13 @@ def summarise(
     AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
     maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before
     contact was lost for good (or the time limit) minus the first detection.
+
+    Path efficiency (issue 14; OTTO's and olfactory-navigation's measure, for any criterion):
+    ``path_m`` is the true path flown from ``t0`` to success (the declaration, or the arrival)
+    or to the end of an unsuccessful run, ``start_to_source_m`` the straight line from the true
+    position at ``t0`` to the true source, and ``path_efficiency`` their ratio for a successful
+    run (None otherwise, and under ``maintain``). TRO's D0/D3 measures the same from the first
+    detection to the declared point, and exists only for declarations.
     """
     t1, t3 = run.t1, run.t3
     declared = run.declared
@@ -147,6 +157,11 @@ def summarise(
     assert run.outcome is not None, "summarise a finished run"
     verdict = judge(run.outcome, declared, source, run.distance_at_end_m, mission.evaluation,
                     run.closest_m)
+    i0 = int(np.searchsorted(path_t, t0)) if len(path_t) else 0
+    i_end = int(np.searchsorted(path_t, t3)) + 1 if t3 is not None else len(path_t)
+    path_m = _path_length(true[i0:i_end]) if len(true) else None
+    straight = (math.hypot(source.x - true[i0, 0], source.y - true[i0, 1])
+                if i0 < len(true) else None)
     time_in = run.time_in
     total_time = sum(time_in.values()) or 1.0
     truth = list(sources) if sources else [source]
@@ -187,6 +202,10 @@ def summarise(
         withdrawn=report.get("withdrawn"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
         T_M=_maintain_time(run) if mission.evaluation.criterion == "maintain" else None,
+        path_m=path_m,
+        start_to_source_m=straight,
+        path_efficiency=(straight / path_m if verdict.success and path_m and straight is not None
+                         and mission.evaluation.criterion != "maintain" else None),
     )
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -12,7 +13,7 @@ from typing import Any
 
 from cptbt import __version__
 from cptbt.batch.errors import BatchError, CodeChanged
-from cptbt.batch.integrity import code_identity
+from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
@@ -29,6 +30,13 @@ def _sweep(text: str) -> Sweep:
         return Sweep.parse(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _fraction(text: str) -> float:
+    value = argtypes.positive_float(text)
+    if value >= 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: a relative standard error below 1, e.g. 0.02")
+    return value
 
 
 def add_parsers(sub: Any) -> None:
@@ -57,6 +65,13 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--sweep", type=_sweep, action="append", default=[], metavar="PATH=V1,V2",
                    help="compare settings, e.g. maintain_plume.variant+reacquire_plume.variant="
                    "strategy_1,strategy_3 (repeatable: the product is run)")
+    p.add_argument("--until-sem", type=_fraction, default=None, metavar="REL",
+                   help="keep adding plume realisations (--runs-per-start at a time) until the "
+                   "standard error of every configuration's mean time to source is below REL "
+                   "times that mean, e.g. 0.02 (resumable; the folder holds an adaptive study)")
+    p.add_argument("--max-runs-per-start", type=argtypes.positive_int, default=None, metavar="N",
+                   help="with --until-sem: stop at N realisations per start even if the target "
+                   "is not met (default: 50 times --runs-per-start, at most 10000)")
     p.add_argument("--seed", type=argtypes.non_negative_int, default=None,
                    help="root seed (default: the mission's)")
     p.add_argument("--time-limit", type=argtypes.positive_float, default=None, metavar="S",
@@ -154,8 +169,21 @@ def cmd_batch(args: argparse.Namespace) -> int:
     start_mode = args.start_mode or (spec.start_mode if spec else "place")
     env = environment_of(mission)
     seed = env.seed if args.seed is None else args.seed
-    study = Study(configs, starts, runs_per_start, seed, env.launch_heading_deg, time_limit,
-                  start_mode)
+
+    def study_of(n: int) -> Study:
+        return Study(configs, starts, n, seed, env.launch_heading_deg, time_limit, start_mode)
+
+    study = study_of(runs_per_start)
+    adaptive = args.until_sem is not None
+    if args.log_runs and adaptive:
+        raise UsageError("batch: --log-runs and --until-sem do not go together (the runs to log "
+                         "are drawn from a study of known size)")
+    max_runs = (args.max_runs_per_start or min(10_000, 50 * runs_per_start)) if adaptive \
+        else runs_per_start
+    # An adaptive study's rows do not depend on how many replicates it ends with: its identity
+    # leaves the count out, so the same command resumes it whatever the target.
+    identity = digest({"study": study_of(1).identity(), "replicates": "until_sem"}) \
+        if adaptive else study.identity()
     code = code_identity()
     store = ResultStore(Path(args.out))
     geometry = geometry_of(mission)
@@ -171,8 +199,11 @@ def cmd_batch(args: argparse.Namespace) -> int:
         "seeding": "SeedSequence(root_seed, spawn_key=(replicate, 0)) for the plume; "
                    "(replicate, 1, start) for each vehicle",
     }
+    if adaptive:
+        metadata |= {"until_sem": args.until_sem, "runs_per_round": runs_per_start,
+                     "max_runs_per_start": max_runs}
     try:
-        store.open(metadata, study=study.identity(), code=code, restart=args.restart)
+        store.open(metadata, study=identity, code=code, restart=args.restart)
     except CodeChanged as exc:
         raise BatchError(f"{exc}: rerun with --restart to discard its results, or choose a "
                          "new --out") from None
@@ -183,19 +214,38 @@ def cmd_batch(args: argparse.Namespace) -> int:
     def rerun(key: str, reason: str) -> None:
         print(f"cptbt: re-running part {key}: {reason}", file=sys.stderr)
 
-    tasks = study.tasks(code)
-    total = sum(len(t.starts) for t in tasks)
-    if args.log_runs > total:
-        raise UsageError(f"batch: --log-runs {args.log_runs}: the study has {total} "
-                         f"run{'s' if total != 1 else ''}")
-    if args.log_runs:
-        from cptbt.logs import _mcap
+    n = runs_per_start
+    while True:
+        tasks = study_of(n).tasks(code)
+        total = sum(len(t.starts) for t in tasks)
+        if args.log_runs > total:
+            raise UsageError(f"batch: --log-runs {args.log_runs}: the study has {total} "
+                             f"run{'s' if total != 1 else ''}")
+        if args.log_runs:
+            from cptbt.logs import _mcap
 
-        _mcap()  # one clear error before any run if mcap is missing
-        tasks = log_sample(tasks, args.log_runs, seed, str(Path(args.out) / "logs"))
-    stats = run_study(tasks, store, workers=args.workers, scheduler=args.scheduler,
-                      scheduler_timeout_s=args.scheduler_timeout, quiet=args.quiet,
-                      on_rerun=rerun)
+            _mcap()  # one clear error before any run if mcap is missing
+            tasks = log_sample(tasks, args.log_runs, seed, str(Path(args.out) / "logs"))
+        stats = run_study(tasks, store, workers=args.workers, scheduler=args.scheduler,
+                          scheduler_timeout_s=args.scheduler_timeout, quiet=args.quiet,
+                          on_rerun=rerun)
+        if not adaptive:
+            break
+        worst = _worst_rel_sem(store.rows(tasks))
+        nxt = _next_replicates(n, worst, args.until_sem, runs_per_start, max_runs)
+        if not args.quiet:
+            print(f"  {n} realisations per start: largest relative SEM of the mean time "
+                  f"{worst:.3f} (target {args.until_sem:g})"
+                  + ("" if nxt is None else f"; going on to {nxt}"))
+        if nxt is None:
+            if worst > args.until_sem and not args.quiet:
+                print(f"  stopped at --max-runs-per-start {max_runs} above the target")
+            break
+        n = nxt
+    if adaptive:
+        metadata |= {"runs_per_start": n, "total_runs": study_of(n).total_runs,
+                     "relative_sem": worst}
+        store.open(metadata, study=identity, code=code)
     table = store.consolidate(tasks)
     if not args.quiet:
         rate = stats["runs"] / max(stats["wall_time_s"], 1e-9) if stats["groups_run"] else 0
@@ -220,6 +270,34 @@ def cmd_batch(args: argparse.Namespace) -> int:
     if not args.no_plots:
         _plots(table, Path(args.out), args.quiet, geometry)
     return 0
+
+
+def _worst_rel_sem(rows: list[dict[str, Any]]) -> float:
+    """The largest relative SEM of the mean time to source over the configurations (inf where a
+    configuration has fewer than two successes)."""
+    from cptbt.batch.report import by_configuration, protocol
+
+    worst = 0.0
+    for group in by_configuration(rows).values():
+        rel = protocol(group).rel_sem
+        worst = max(worst, rel if math.isfinite(rel) else math.inf)
+    return worst
+
+
+def _next_replicates(n: int, rel_sem: float, target: float, step: int,
+                     max_n: int) -> int | None:
+    """How many realisations per start to go on to, or None to stop.
+
+    The SEM falls as 1/sqrt(n), so ``n (rel_sem / target)²`` is the estimate, rounded up to a
+    whole number of rounds of ``step`` and at least one more round. The choice depends only on
+    the rows of the first ``n`` realisations, which do not depend on how the study was
+    interrupted, so a resumed study takes the same steps.
+    """
+    if rel_sem <= target or n >= max_n:
+        return None
+    want = n * (rel_sem / target) ** 2 if math.isfinite(rel_sem) else 2 * n
+    rounds = max(1, math.ceil((min(want, max_n) - n) / step))
+    return min(max_n, n + rounds * step)
 
 
 def _plots(results: Path, out: Path, quiet: bool, geometry: StudyGeometry | None) -> None:
