@@ -413,6 +413,8 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
               *protocol_table(groups)]
     for label, rows in groups.items():
         declared = [r for r in rows if r.get("t3") is not None]
+        if not declared:
+            continue  # TRO's tables are about declarations (AB's arrival runs declare nothing)
         lines += ["", f"## {label}: times and paths (TRO Tables III and IV form)", "",
                   "| run | start (x, y) | declared (N, E) | error (m) | T_F (s) | T_T (s) "
                   "| T_D (s) | T_D share | D0 (m) | D1 (m) | D2 (m) | D3 (m) | D1/D0 |",
