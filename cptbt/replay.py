@@ -130,8 +130,9 @@ def replay(log: LogData | Path | str, mission: MissionBase | Path | str | None =
 
 
 def story(log: LogData) -> list[str]:
-    """A log's mission story, one line per event: phases, behaviour changes, first detection,
-    declaration."""
+    """A log's mission story, one line per event: phases, behaviour changes (by family, so
+    track-in/out flips do not flood it), first detection, declaration; then the share of cycles
+    in each behaviour leaf."""
     lines = [f"{log.mission.get('name')}: {len(log.cycles)} AMP cycles"
              + (f" ({log.mission['source']})" if log.mission.get("source") else "")]
     if log.cycles:
@@ -146,9 +147,11 @@ def story(log: LogData) -> list[str]:
     detected = False
     declared = False
     refs = 0
+    cycles_in: dict[str, int] = {}
     for c in log.cycles:
         t = float(c["t"])
         active = c["active"]
+        cycles_in[active or "none"] = cycles_in.get(active or "none", 0) + 1
         fam = active.split(".")[0] if active else None
         if fam != family:
             family = fam
@@ -169,4 +172,8 @@ def story(log: LogData) -> list[str]:
     lines += [f"t {t:7.1f} s  {text}" for t, _, text in events]
     lines.append(f"{refs} detecting cycles; "
                  + ("source declared" if declared else "no source declared"))
+    if cycles_in:  # the leaves behind the family-level story (track-in and track-out, ...)
+        total = sum(cycles_in.values())
+        lines.append("cycles in each behaviour: " + ", ".join(
+            f"{name} {n / total:.0%}" for name, n in sorted(cycles_in.items())))
     return lines

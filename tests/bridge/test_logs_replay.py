@@ -93,6 +93,10 @@ def test_a_tampered_input_breaks_the_replay_at_that_cycle(logged: Path) -> None:
 def test_the_story_tells_the_phases_and_the_declaration(logged: Path) -> None:
     text = "\n".join(story(read_log(logged)))
     assert "amp_enable" in text and "first detection" in text and "source declared" in text
+    # The story is told by family; the leaves behind it (track-in and track-out) get shares.
+    shares = story(read_log(logged))[-1]
+    assert shares.startswith("cycles in each behaviour:")
+    assert "maintain_plume.track_in" in shares and "maintain_plume.track_out" in shares
 
 
 def test_a_file_that_is_not_a_log_is_one_error(tmp_path: Path) -> None:
