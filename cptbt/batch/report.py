@@ -348,9 +348,11 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
     radius = next((float(r["success_radius_m"]) for rows in judged.values() for r in rows
                    if r.get("success_radius_m") is not None), None)
+    top = max([v for vals in err.values() for v in vals] + [radius or 0.0, 1.0])
+    edges = np.linspace(0.0, top * 1.02, 31)  # one set of bins for every configuration
     for k in judged:
         if err[k]:
-            a1.hist(err[k], bins=30, alpha=0.6, label=f"{k} (n = {len(err[k])})")
+            a1.hist(err[k], bins=edges, alpha=0.6, label=f"{k} (n = {len(err[k])})")
         if share[k]:
             a2.hist(share[k], bins=20, range=(0, 1), alpha=0.6, label=f"{k} (n = {len(share[k])})")
     if radius is not None:
@@ -359,6 +361,7 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
     a2.set_xlabel("T_D / mission time to declaration (TRO Table III)")
     for ax in (a1, a2):
         ax.set_ylabel("runs")
+        ax.yaxis.get_major_locator().set_params(integer=True)  # counts: no 0.25-run ticks
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
     fig.savefig(path, dpi=130)
