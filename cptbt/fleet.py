@@ -379,8 +379,12 @@ def fleet_support(mission: MissionBase, registry: Registry | None = None) -> Fle
     root = build_tree(mission.entries(), registry, namespace)
     try:
         children = root.children
-        if len(children) != 1 or any(isinstance(c, Watch) for c in children):
-            return FleetSupport(False, "the tree has watchers (declare-source's perception)")
+        watchers = [c.behaviour.name for c in children if isinstance(c, Watch)]
+        if watchers:
+            return FleetSupport(False, f"{', '.join(watchers)} watch every cycle (a map, a "
+                                "declaration rule), which has no array form")
+        if len(children) != 1:
+            return FleetSupport(False, "the tree is not one priority selector")
         leaves: list[tuple[str, type[FleetRule], BehaviourParams]] = []
         for node in children[0].children:
             if not isinstance(node, PlanBehaviour):

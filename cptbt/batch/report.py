@@ -322,8 +322,9 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
             hits = sum(bool(r.get(key)) for r in rows)
             a, b = wilson(hits, len(rows))
             rate.append(hits / len(rows))
-            lo.append(hits / len(rows) - a)
-            hi.append(b - hits / len(rows))
+            # Wilson's bounds can land a rounding error past the rate (0 of n, n of n).
+            lo.append(max(0.0, hits / len(rows) - a))
+            hi.append(max(0.0, b - hits / len(rows)))
         ax.bar(pos + (k - 0.5) * 0.38, rate, 0.38, yerr=[lo, hi], capsize=3, color=colour,
                label=f"{name} (95% Wilson CI)")
     ax.set_xticks(pos, [f"{lab}\nn = {len(groups[lab])}" for lab in labels], fontsize=8)

@@ -141,6 +141,22 @@ def geometry_of(mission: MissionBase) -> StudyGeometry:
                          params.flow.mean_dir_deg)
 
 
+def _check_planner(mission: MissionBase) -> None:
+    """``$CPTBT_PLANNER``: a known value, and ``fleet`` only for a mission it can fly (before any
+    folder is made)."""
+    from cptbt.fleet import PLANNER_ENV, fleet_support, planner_choice
+
+    try:
+        choice = planner_choice()
+    except ValueError as exc:
+        raise UsageError(f"batch: {exc}") from None
+    if choice == "fleet":
+        support = fleet_support(mission)
+        if not support.ok:
+            raise UsageError(f"batch: {PLANNER_ENV}=fleet, but the fleet planner cannot fly "
+                             f"{mission.name}: {support.reason} (use auto or tree)")
+
+
 def cmd_batch(args: argparse.Namespace) -> int:
     """Fly a mission from many starts and plume realisations; resumable, reproducible.
 
@@ -154,6 +170,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
                 f"batch: {args.mission} has a mission_a section, and a study flies the AMP "
                 "alone from each start: pass --amp-only to study it so (or use cptbt run)")
         mission = mission.model_copy(update={"mission_a": None})
+    _check_planner(mission)
     spec = mission.study
     sweeps: list[Sweep] = args.sweep or [
         Sweep(tuple(p.strip() for p in path.split("+")), tuple(values))

@@ -105,3 +105,16 @@ def test_a_maintain_study_reports_t_m_against_its_numeric_setting(tmp_path: Path
     assert "TRO Tables III and IV" not in text
     # beta 10: T_M 10 and 11 (the third run made no contact): mean 10.5 ± 0.5, 2 of 3 runs.
     assert "| preset=ab_large_meander, beta1_deg=10 | 3 | 2 | 10.5 ± 0.5 | 10.5 | 0 |" in text
+
+
+@pytest.mark.parametrize("n", [11, 27])
+def test_rates_chart_survives_wilson_bounds_a_rounding_error_past_the_rate(
+        tmp_path: Path, n: int) -> None:
+    # wilson(0, n) gives a lower bound of ~1e-17 for these n (and wilson(n, n) an upper bound
+    # just under 1): the error bars must not go negative (matplotlib refuses them).
+    rows = [{**BASE, "config": c, "replicate": r, "start": 0, "start_x": 50.0, "start_y": 0.0,
+             "criterion": "arrival", "success": True, "false_declaration": False, "t3": None,
+             "T_total": 100.0, "error_m": 0.5, "configuration": f"variant=v{c}"}
+            for c in range(2) for r in range(n)]
+    names = {p.name for p in write_report(rows, tmp_path)}
+    assert "success_and_false_declarations.png" in names

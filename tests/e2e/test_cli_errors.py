@@ -213,3 +213,16 @@ def test_os_error_is_file_and_reason(
     monkeypatch.delenv(cli.DEBUG_ENV, raising=False)
     assert cli.main(["schema"]) == 1
     assert capsys.readouterr().err == "cptbt: /data/out.parquet: No space left on device\n"
+
+
+@pytest.mark.parametrize(("value", "fragment"), [
+    ("bogus", "use auto, fleet or tree"),
+    ("fleet", "watch every cycle"),  # TRO's declaration watches: no array form
+])
+def test_a_planner_choice_it_cannot_honour_is_a_usage_error(tmp_path: Path, value: str,
+                                                             fragment: str) -> None:
+    out = tmp_path / "o"
+    res = cptbt("batch", MISSION, "--amp-only", "--grid", "2x1", "--out", str(out),
+                env={**os.environ, "CPTBT_PLANNER": value})
+    assert fragment in one_line(res, 2)
+    assert not out.exists()  # refused before any folder is made
