@@ -126,7 +126,9 @@ def trajectory_figure(
     _track(ax, run, waypoints)
     det = run.detections
     if len(det):
-        ax.plot(det[:, 0], det[:, 1], "x", color="black", ms=4, mew=1, label="detection (est.)")
+        # Thin and translucent: a long run of detections must not hide the track beneath it.
+        ax.plot(det[:, 0], det[:, 1], "x", color="black", ms=3.5, mew=0.7, alpha=0.45,
+                label="detection (est.)", zorder=1.5)
     if run.lost_contacts:
         lc = np.asarray([(p.x, p.y) for p in run.lost_contacts])
         ax.plot(lc[:, 0], lc[:, 1], "s", mfc="none", mec="#ff7f0e", ms=6, label="lost contact")
