@@ -66,7 +66,8 @@ def add_parsers(sub: Any) -> None:
                    help="compare settings, e.g. maintain_plume.variant+reacquire_plume.variant="
                    "strategy_1,strategy_3 (repeatable: the product is run)")
     p.add_argument("--until-sem", type=_fraction, default=None, metavar="REL",
-                   help="keep adding plume realisations (--runs-per-start at a time) until the "
+                   help="keep adding plume realisations (rounds of --runs-per-start, as many "
+                   "as the SEM's 1/sqrt(n) fall says are needed) until the "
                    "standard error of every configuration's mean time to source is below REL "
                    "times that mean, e.g. 0.02 (resumable; the folder holds an adaptive study)")
     p.add_argument("--max-runs-per-start", type=argtypes.positive_int, default=None, metavar="N",
@@ -195,6 +196,12 @@ def cmd_batch(args: argparse.Namespace) -> int:
     if args.log_runs and adaptive:
         raise UsageError("batch: --log-runs and --until-sem do not go together (the runs to log "
                          "are drawn from a study of known size)")
+    if args.max_runs_per_start is not None and not adaptive:
+        raise UsageError("batch: --max-runs-per-start caps --until-sem's rounds; without "
+                         "--until-sem give --runs-per-start")
+    if args.max_runs_per_start is not None and args.max_runs_per_start < runs_per_start:
+        raise UsageError(f"batch: --max-runs-per-start {args.max_runs_per_start} is below the "
+                         f"first round's --runs-per-start {runs_per_start}")
     max_runs = (args.max_runs_per_start or min(10_000, 50 * runs_per_start)) if adaptive \
         else runs_per_start
     # An adaptive study's rows do not depend on how many replicates it ends with: its identity

@@ -89,3 +89,18 @@ def test_until_sem_adds_realisations_and_resumes(tmp_path: Path,
     strip = [{k: v for k, v in r.items() if k != "wall_time_s"} for r in sorted(first, key=key)]
     assert strip == [{k: v for k, v in r.items() if k != "wall_time_s"}
                      for r in sorted(again, key=key)]
+
+
+@pytest.mark.parametrize(("extra", "fragment"), [
+    (["--max-runs-per-start", "3"], "without --until-sem"),  # would be ignored silently
+    (["--runs-per-start", "5", "--until-sem", "0.1", "--max-runs-per-start", "2"],
+     "below the first round"),  # would run past the stated maximum
+])
+def test_a_cap_that_cannot_hold_is_a_usage_error(tmp_path: Path, extra: list[str],
+                                                 fragment: str,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "o"
+    assert main(["batch", AB3, "--starts", "60,10", *extra, "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and fragment in err[0]
+    assert not out.exists()
