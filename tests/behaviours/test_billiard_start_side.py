@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from cptbt.behaviours.find_plume import _eta_side
+from cptbt.behaviours.walls import eta_side as _eta_side
 from cptbt.frames import OpArea
 from cptbt.types import Point
 
