@@ -98,7 +98,12 @@ class Planner:
         Any ``t`` is accepted: a time stamp that is not finite, repeats or steps back is handled
         by the perception's monotonic clock (see :class:`~cptbt.perception.Perception`).
         """
-        self.percept = self.context.percept = self.perception.cycle(t)
+        return self.step(self.perception.cycle(t))
+
+    def step(self, percept: Percept) -> Command | None:
+        """Run the tree once on ``percept`` (made by this planner's perception, or by a check
+        that feeds several planners the same percepts); returns the command, or None."""
+        self.percept = self.context.percept = percept
         storage = self._storage
         storage[self._key["command"]] = None
         if self._direct:

@@ -20,7 +20,6 @@ import py_trees
 from numpy.typing import NDArray
 from py_trees.common import Access, Status
 
-from cptbt import ticking
 from cptbt.angles import unit
 from cptbt.fleet import FleetPercept, FleetPlanner, FleetRule
 from cptbt.frames import OpArea
@@ -560,18 +559,8 @@ def check_fleet_mission(
         pl = Planner(mission, registry)
 
         def tick(p: Percept, pl: Planner = pl) -> tuple[Command | None, str | None]:
-            # The planner's own tick, with the percept the check's perception made.
-            pl.percept = pl.context.percept = p
-            storage = pl._storage
-            storage[pl._key["command"]] = None
-            if pl._direct:
-                ticking.tick(pl.root)
-            else:
-                pl.root.tick_once()
-            running = pl.root.status == Status.RUNNING
-            cmd = storage[pl._key["command"]] if running else None
-            tip = pl.root.tip() if cmd is not None else None
-            return cmd, tip.name if tip is not None else None
+            cmd = pl.step(p)  # the planner's own tick, on the percept the check's perception made
+            return cmd, pl.active
 
         scalars.append(_Scalar(pl.perception, tick, pl.close))
     return _differential(scalars, fleet, fleet.op_area, ticks=ticks, seed=seed,
