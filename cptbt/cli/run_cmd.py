@@ -54,7 +54,6 @@ def write_trace(run: VehicleRun, out: Path) -> Path:
     """The per-tick trace as Parquet (with pyarrow) or CSV."""
     assert run.trace is not None
     try:
-        import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:
         path = out / "trace.csv"
@@ -65,8 +64,40 @@ def write_trace(run: VehicleRun, out: Path) -> Path:
                 f.write(",".join("" if v is None else str(v) for v in row) + "\n")
         return path
     path = out / "trace.parquet"
-    pq.write_table(pa.table(run.trace), path)
+    pq.write_table(arrow_table(run.trace), path)
     return path
+
+
+def arrow_table(columns: dict[str, Any]) -> Any:
+    """A pyarrow table of float, bool and string columns, built from their buffers.
+
+    ``pa.table(dict)`` asks pyarrow's pandas shim whether each column is a pandas object, which
+    imports pandas (~0.2 s of a 1.5 s run, issue 15) when it is installed. The buffers give the
+    same table: float64 with NaN as a value (not null, as ``pa.table`` does for numpy arrays),
+    bool bit-packed, strings as UTF-8 with int32 offsets.
+    """
+    import numpy as np
+    import pyarrow as pa
+
+    names, arrays = [], []
+    for name, values in columns.items():
+        if isinstance(values, np.ndarray) and values.dtype == np.bool_:
+            bits = np.packbits(values, bitorder="little")
+            arr = pa.Array.from_buffers(pa.bool_(), len(values), [None, pa.py_buffer(bits)])
+        elif isinstance(values, np.ndarray):
+            data = np.ascontiguousarray(values, dtype=np.float64)
+            arr = pa.Array.from_buffers(pa.float64(), len(data), [None, pa.py_buffer(data)])
+        else:
+            encoded = [str(v).encode("utf-8") for v in values]
+            offsets = np.zeros(len(encoded) + 1, dtype=np.int32)
+            np.cumsum([len(b) for b in encoded], out=offsets[1:])
+            arr = pa.Array.from_buffers(
+                pa.string(), len(encoded),
+                [None, pa.py_buffer(offsets), pa.py_buffer(b"".join(encoded))],
+            )
+        names.append(name)
+        arrays.append(arr)
+    return pa.Table.from_arrays(arrays, names=names)
 
 
 def run_folder(mission: MissionBase, seed: int, root: Path = Path("runs")) -> Path:
