@@ -403,7 +403,7 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
         lines.append(
             f"| {label} | {len(rows)} | {wins / len(rows):.1%} ({lo:.1%}–{hi:.1%}) | {false} "
             f"| {_fmt(float(ok.mean()) if ok.size else None)} "
-            f"| {_fmt(float(ok.std()) if ok.size > 1 else None)} "
+            f"| {_fmt(float(ok.std(ddof=1)) if ok.size > 1 else None)} "
             f"| {_fmt(_mean([_search_time(r) for r in rows]))} "
             f"| {_fmt(_mean(err))} | {_fmt(max(err) if err else None)} |")
     if is_maintain_study([r for rows in groups.values() for r in rows]):
