@@ -33,6 +33,10 @@ except ImportError:  # pragma: no cover - depends on the install
 
 Rows = list[dict[str, Any]]
 META_KEY = "cptbt"
+LOCK_NAME = ".lock"
+"""The file a writing study holds locked (see :meth:`ResultStore.open`)."""
+_HELD: dict[Path, Any] = {}
+"""The folders this process holds locked, with their open lock files (kept until it ends)."""
 FORMAT = 1
 # Columns every results table has (the figures and tables are built from them).
 REQUIRED_COLUMNS = ("config", "replicate", "start", "start_x", "start_y", "success")
@@ -145,11 +149,13 @@ class ResultStore:
             StudyMismatch: the folder holds a different study (``restart`` does not help).
             CodeChanged: the folder's results were made by other code, or its ``study.json``
                 is unreadable, and ``restart`` is false.
-            BatchError: ``folder`` exists and is not a folder.
+            BatchError: ``folder`` exists and is not a folder, or another process is
+                writing it (``.lock``).
         """
         if self.folder.exists() and not self.folder.is_dir():
             raise BatchError(f"{self.folder} exists and is not a folder")
         self.parts.mkdir(parents=True, exist_ok=True)
+        self._lock()
         meta = self.folder / "study.json"
         if meta.exists():
             try:
@@ -175,6 +181,41 @@ class ResultStore:
         record = {**metadata, "study": study, "code": code, "fingerprint": self.fingerprint}
         text = json.dumps(record, indent=2, default=str) + "\n"
         _atomic_write(meta, lambda f: f.write(text.encode("utf-8")))
+
+    def _lock(self) -> None:
+        """Hold ``.lock`` in the folder until this process ends: one writing process per folder.
+
+        Two studies writing one folder at once would each take the other's finished parts for
+        their own and race on ``study.json`` and the consolidated table (a ``--restart`` would
+        even delete the other's parts under it). An advisory ``flock`` is released by the
+        kernel when the process ends, however it ends, so a crashed or killed batch never
+        leaves a stale lock. Where ``fcntl`` does not exist (Windows) folders are not locked.
+
+        Raises:
+            BatchError: another process holds the folder.
+        """
+        key = self.folder.resolve()
+        if key in _HELD:  # this process holds it already (another store on the same folder)
+            return
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not POSIX
+            return
+        f = (self.folder / LOCK_NAME).open("a+", encoding="utf-8")
+        try:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            f.seek(0)
+            holder = f.read().strip() or "unknown"
+            f.close()
+            raise BatchError(
+                f"{self.folder} is being written by another cptbt batch (pid {holder}): wait "
+                "for it to end, or choose another --out") from None
+        f.seek(0)
+        f.truncate()
+        f.write(f"{os.getpid()}\n")
+        f.flush()
+        _HELD[key] = f
 
     def path(self, key: str) -> Path:
         """The part file of group ``key``."""
