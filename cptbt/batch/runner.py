@@ -135,7 +135,8 @@ def run_study(
     of each such group, with the reason, before anything runs.
 
     Returns:
-        Counts: groups skipped (resumed), run and re-run, runs, successes, and the wall time.
+        Counts: groups skipped (resumed), run and re-run, runs (all, and those resumed from
+        disk), successes, and the wall time.
     """
     resume = store.check(tasks)
     for key, reason in resume.rerun.items():
@@ -161,6 +162,7 @@ def run_study(
         "groups_run": len(todo),
         "groups_rerun": len(resume.rerun),
         "runs": progress.done,
+        "runs_resumed": resume.runs,
         "successes": progress.successes,
         "wall_time_s": time.perf_counter() - t0,
     }

@@ -239,6 +239,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         print(f"cptbt: re-running part {key}: {reason}", file=sys.stderr)
 
     n = runs_per_start
+    wall, flown_groups, flown_runs = 0.0, 0, 0  # this command's work, over its rounds
     while True:
         tasks = study_of(n).tasks(code)
         total = sum(len(t.starts) for t in tasks)
@@ -253,6 +254,9 @@ def cmd_batch(args: argparse.Namespace) -> int:
         stats = run_study(tasks, store, workers=args.workers, scheduler=args.scheduler,
                           scheduler_timeout_s=args.scheduler_timeout, quiet=args.quiet,
                           on_rerun=rerun)
+        wall += stats["wall_time_s"]
+        flown_groups += stats["groups_run"]
+        flown_runs += stats["runs"] - stats["runs_resumed"]
         if not adaptive:
             break
         worst = _worst_rel_sem(store.rows(tasks))
@@ -272,7 +276,10 @@ def cmd_batch(args: argparse.Namespace) -> int:
         store.open(metadata, study=identity, code=code)
     table = store.consolidate(tasks)
     if not args.quiet:
-        rate = stats["runs"] / max(stats["wall_time_s"], 1e-9) if stats["groups_run"] else 0
+        # Resumed groups are those on disk before this command, not its own earlier rounds
+        # (each round's groups include the last's); the rate counts the runs it flew.
+        resumed = stats["groups_skipped"] - (flown_groups - stats["groups_run"])
+        rate = flown_runs / max(wall, 1e-9) if flown_runs else 0
         if mission.evaluation.criterion == "maintain":
             rows = load_results(table)
             t_m = [r["T_M"] for r in rows if r.get("T_M") is not None]
@@ -280,14 +287,14 @@ def cmd_batch(args: argparse.Namespace) -> int:
                        "runs with a contact" if t_m else "no run made contact")
         else:
             outcome = f"success {stats['successes'] / max(stats['runs'], 1):.1%}"
-        print(f"{stats['runs']} missions ({stats['groups_skipped']} groups resumed from disk): "
-              f"{outcome}; {stats['wall_time_s']:.1f} s wall, {rate:.1f} missions/s")
+        print(f"{stats['runs']} missions ({resumed} groups resumed from disk): "
+              f"{outcome}; {wall:.1f} s wall, {rate:.1f} missions/s")
         print(f"  wrote {table}")
         if args.log_runs:
             logged = sorted((Path(args.out) / "logs").glob("*.mcap"))
             n_logs = sum(len(t.log_ids) for t in tasks)
             note = ("; groups resumed from disk are not flown again, so they write no new log"
-                    if stats["groups_skipped"] else "")
+                    if resumed else "")
             print(f"  cycle logs of {n_logs} run{'s' if n_logs != 1 else ''} in "
                   f"{Path(args.out) / 'logs'} ({len(logged)} file"
                   f"{'s' if len(logged) != 1 else ''}{note})")

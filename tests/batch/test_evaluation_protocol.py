@@ -80,10 +80,14 @@ def test_until_sem_adds_realisations_and_resumes(tmp_path: Path,
     assert main(args) == 0
     first = load_results(tmp_path)
     assert len(first) == 6  # 2, then more up to the cap: the target is out of reach
-    assert "realisations per start" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "realisations per start" in out
+    # Its own earlier rounds are not "resumed from disk": nothing was there before it began.
+    assert "6 missions (0 groups resumed from disk)" in out
     parts = sorted(p.name for p in (tmp_path / "parts").glob("*.parquet"))
     (tmp_path / "parts" / parts[-1]).unlink()  # as if interrupted in the last round
     assert main(args) == 0
+    assert f"({len(parts) - 1} groups resumed from disk)" in capsys.readouterr().out
     again = load_results(tmp_path)
     key = lambda r: (r["replicate"], r["start"])  # noqa: E731
     strip = [{k: v for k, v in r.items() if k != "wall_time_s"} for r in sorted(first, key=key)]
