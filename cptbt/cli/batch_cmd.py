@@ -15,7 +15,7 @@ from cptbt import __version__
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
-from cptbt.batch.scenario import environment_of, to_sim_params
+from cptbt.batch.scenario import Environment, environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
 from cptbt.batch.study import Study, Sweep, configurations, grid_starts, log_sample
 from cptbt.cli import argtypes
@@ -158,6 +158,34 @@ def _check_planner(mission: MissionBase) -> None:
                              f"{mission.name}: {support.reason} (use auto or tree)")
 
 
+def _planner_record(configs: list[Any], n_starts: int, source: str) -> dict[str, Any]:
+    """What ``study.json`` says of the planner each configuration's groups are flown with.
+
+    Both planners give the same runs bit for bit (``benchmarks/fleet_equivalence.py``); this is
+    provenance, so a reader knows which one produced the table.
+    """
+    from cptbt.batch.engine import FLEET_MIN_VEHICLES
+    from cptbt.fleet import fleet_support, planner_choice
+    from cptbt.loader import loads_mission
+    from cptbt.registry import default_registry
+
+    choice = planner_choice()
+    flown = []
+    for c in configs:
+        m = loads_mission(c.mission_yaml, f"{source} [{c.coords}]", default_registry(),
+                          Environment)
+        support = fleet_support(m)
+        big = choice == "auto" and n_starts >= FLEET_MIN_VEHICLES
+        if support.ok and (choice == "fleet" or big):
+            flown.append("fleet")
+        else:
+            flown.append(f"tree ({support.reason})" if big else "tree")
+    return {"choice": choice, "vehicles_per_group": n_starts, "per_config": flown,
+            "rule": f"auto: the fleet planner for groups of {FLEET_MIN_VEHICLES} or more "
+                    "vehicles when every behaviour has an array form and no run is logged, "
+                    "else one py_trees planner per vehicle (groups with a logged run: py_trees)"}
+
+
 def cmd_batch(args: argparse.Namespace) -> int:
     """Fly a mission from many starts and plume realisations; resumable, reproducible.
 
@@ -220,6 +248,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         "time_limit_s": time_limit, "start_mode": start_mode, "total_runs": study.total_runs,
         "heading_deg": env.launch_heading_deg, "geometry": geometry.to_data(),
         "code_version": _git_version(),
+        "planner": _planner_record(configs, len(starts), str(args.mission)),
         "seeding": "SeedSequence(root_seed, spawn_key=(replicate, 0)) for the plume; "
                    "(replicate, 1, start) for each vehicle",
     }
