@@ -222,7 +222,8 @@ def _grid_figure(grids: dict[str, list[Row]], path: Path) -> None:
         ab = " (AB: 97 %)" if key.startswith("III") else ""
         ax.set_title(f"{CONFIGS[key].label}:\n{ok:.1f} % success{ab}", fontsize=10)
         ax.set_xlabel("start x, m (flow toward +x)")
-        ax.set_ylabel("start y, m")
+        ax.set_ylabel("start y, m, drawn down")
+        ax.invert_yaxis()  # as the study's own maps (cptbt.batch.report) and AB draw it
         ax.set_aspect("equal")
         fig.colorbar(cs, ax=ax, label="mean time to source, s (failure = 300 s)")
     fig.tight_layout()
