@@ -254,11 +254,16 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
                 size = 0.12 * min(x1 - x0, y1 - y0)
                 th = math.radians(geometry.flow_deg)
                 cx, cy = x0 + 1.5 * size, y0 + 1.2 * size
-                ax.annotate("", xy=(cx + size * math.cos(th), cy + size * math.sin(th)),
-                            xytext=(cx, cy),
-                            arrowprops={"arrowstyle": "-|>", "color": "#d62728", "lw": 2})
-                ax.text(cx, cy - 0.3 * size, "mean flow", color="#d62728", fontsize=7,
-                        ha="center")
+                # White with a dark outline: readable on every colour of the map.
+                from matplotlib import patheffects
+
+                halo = [patheffects.withStroke(linewidth=2.5, foreground="black")]
+                arrow = ax.annotate("", xy=(cx + size * math.cos(th), cy + size * math.sin(th)),
+                                    xytext=(cx, cy),
+                                    arrowprops={"arrowstyle": "-|>", "color": "white", "lw": 2})
+                arrow.arrow_patch.set_path_effects(halo)
+                ax.text(cx, cy - 0.3 * size, "mean flow", color="white", fontsize=8,
+                        ha="center", path_effects=halo)
         runs_n = sorted(set(counts[counts > 0].ravel().tolist()))
         per_cell = f"n = {runs_n[0]}" if len(runs_n) == 1 else f"n = {runs_n[0]}–{runs_n[-1]}"
         ok = sum(bool(r["success"]) for r in rows)
