@@ -35,8 +35,9 @@ class Sweep:
 
     A path is a top-level mission field (``speed_mps``), a field of a section
     (``perception.lambda_s``, ``environment.flow_speed_mps``, ``evaluation.success_radius_m``), or
-    ``<family>.<param>`` of a behaviour. Setting ``<family>.variant`` replaces that behaviour's
-    parameters with the new variant's defaults.
+    ``<family>.<param>`` of a behaviour. Setting ``<family>.variant`` to another variant replaces
+    that behaviour's parameters with the new variant's defaults (``variant_sweep_notes`` says
+    which of the mission's settings that drops); the mission's own variant keeps its settings.
     """
 
     paths: tuple[str, ...]
@@ -83,9 +84,50 @@ def apply_setting(data: dict[str, Any], path: str, value: Any) -> None:
     for entry in data["behaviours"]:
         if head in entry:
             body = entry[head]
-            entry[head] = {"variant": value} if rest == "variant" else {**body, rest: value}
+            if rest != "variant":
+                entry[head] = {**body, rest: value}
+            elif value != body.get("variant"):  # the mission's own variant keeps its settings
+                entry[head] = {"variant": value}
             return
     raise ValueError(f"sweep path {path!r}: the mission has no {head!r} behaviour")
+
+
+def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
+    """What a ``<family>.variant`` sweep drops: the behaviour's settings in the mission that a
+    swept variant also has, with another default.
+
+    Each swept variant flies with its own defaults (its parameters need not be the mission's
+    variant's), so the settings the mission gave that behaviour are not carried over — said
+    once per sweep, so it is never silent. Parameters another sweep sets are kept (variants are
+    applied first).
+    """
+    data = mission_to_data(mission)
+    registry = default_registry()
+    notes = []
+    for sweep in sweeps:
+        for path in sweep.paths:
+            family, _, rest = path.partition(".")
+            if rest != "variant":
+                continue
+            body = next((e[family] for e in data["behaviours"] if family in e), None) or {}
+            also = {q.partition(".")[2] for other in sweeps for q in other.paths
+                    if q.startswith(family + ".")}
+            lost: dict[str, Any] = {}
+            for value in sweep.values:
+                if value == body.get("variant"):
+                    continue
+                try:
+                    defaults = registry.get(family, str(value)).params().model_dump(mode="json")
+                except Exception:  # an unknown variant fails validation in configurations()
+                    continue
+                lost |= {k: v for k, v in body.items() if k != "variant" and k not in also
+                         and k in defaults and defaults[k] != v}
+            if lost:
+                listed = ", ".join(f"{k}={v}" for k, v in lost.items())
+                notes.append(f"sweep {path}: each variant flies with its own defaults; the "
+                             f"mission's {family} settings {listed} are not carried over "
+                             f"(give them with another --sweep {family}.<param>=...)")
+    return notes
 
 
 @dataclass(frozen=True)
@@ -104,9 +146,13 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str) -> li
     for i, combo in enumerate(combos):
         data = mission_to_data(mission)
         coords = {}
+        settings = [(path, value) for sweep, value in zip(sweeps, combo, strict=True)
+                    for path in sweep.paths]
+        # Variants first: a variant starts its behaviour afresh, and must not drop a parameter
+        # another sweep sets for it, whatever order the sweeps were given in.
+        for path, value in sorted(settings, key=lambda pv: not pv[0].endswith(".variant")):
+            apply_setting(data, path, value)
         for sweep, value in zip(sweeps, combo, strict=True):
-            for path in sweep.paths:
-                apply_setting(data, path, value)
             coords[sweep.name] = value
         text = yaml.safe_dump(data, sort_keys=False)
         env = type(mission.environment) if mission.environment is not None else None

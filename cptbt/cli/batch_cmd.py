@@ -17,7 +17,14 @@ from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import Environment, environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
-from cptbt.batch.study import Study, Sweep, configurations, grid_starts, log_sample
+from cptbt.batch.study import (
+    Study,
+    Sweep,
+    configurations,
+    grid_starts,
+    log_sample,
+    variant_sweep_notes,
+)
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
@@ -209,6 +216,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         configs = configurations(mission, sweeps, args.mission)
     except ValueError as exc:
         raise UsageError(f"batch: {exc}") from None
+    for note in variant_sweep_notes(mission, sweeps):
+        print(f"cptbt: note: {note}", file=sys.stderr)
     starts = _starts(args, mission, spec)
     runs_per_start = args.runs_per_start or (spec.runs_per_start if spec else 1)
     time_limit = args.time_limit or (spec.time_limit_s if spec else None)

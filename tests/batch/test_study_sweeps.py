@@ -52,3 +52,41 @@ def test_sweep_parses_joined_paths_and_yaml_values() -> None:
     assert s.paths == ("maintain_plume.variant", "reacquire_plume.variant")
     assert s.values == ("strategy_1", "strategy_2") and s.name.count("+") == 1
     assert Sweep.parse("perception.lambda_s=1,2.5").values == (1, 2.5)
+
+
+
+AB1 = "missions/ab2001_strategy1.yaml"
+
+
+def _give_up(config) -> object:  # type: ignore[no-untyped-def]
+    import yaml
+
+    body = yaml.safe_load(config.mission_yaml)["behaviours"]
+    return next(e["reacquire_plume"] for e in body if "reacquire_plume" in e).get("give_up_s")
+
+
+def test_a_variant_sweep_says_which_mission_settings_it_drops() -> None:
+    from pathlib import Path
+
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.study import configurations, variant_sweep_notes
+    from cptbt.loader import loads_mission
+    from cptbt.registry import default_registry
+
+    path = Path(__file__).resolve().parents[2] / AB1
+    text = path.read_text(encoding="utf-8").replace("give_up_s: 4}", "give_up_s: 7}")
+    assert "give_up_s: 7}" in text
+    mission = loads_mission(text, str(path), default_registry(), Environment)
+    strategies = Sweep.parse("maintain_plume.variant+reacquire_plume.variant=strategy_1,strategy_3")
+    (note,) = variant_sweep_notes(mission, [strategies])
+    assert "reacquire_plume.variant" in note and "give_up_s=7" in note
+    assert [_give_up(c) for c in configurations(mission, [strategies], str(path))] == [7, 4]
+    # The same setting swept beside it is kept, in either order: no note, and every
+    # configuration flies with it.
+    give_up = Sweep.parse("reacquire_plume.give_up_s=7")
+    for sweeps in ([strategies, give_up], [give_up, strategies]):
+        assert variant_sweep_notes(mission, sweeps) == []
+        assert [_give_up(c) for c in configurations(mission, sweeps, str(path))] == [7, 7]
+    # A sweep of the mission's own variant alone drops nothing.
+    same = Sweep.parse("maintain_plume.variant+reacquire_plume.variant=strategy_1")
+    assert variant_sweep_notes(mission, [same]) == []
