@@ -2,8 +2,10 @@
 
 A study's *fingerprint* hashes what its results depend on: the normalised mission of every
 configuration, the study's options (starts, replicates, seed, time limit) and the code that flies
-it. Every part file carries the fingerprint and a checksum of its rows, so a resumed study can
-tell its own finished groups from damaged, foreign or stale ones.
+it: cptbt's source, the source of any plug-in behaviours, and the versions of the libraries that
+can change a row (numpy's random streams, py_trees). Every part file carries the fingerprint and
+a checksum of its rows, so a resumed study can tell its own finished groups from damaged,
+foreign or stale ones.
 """
 
 from __future__ import annotations
@@ -61,8 +63,60 @@ def source_hash() -> str:
     return h.hexdigest()
 
 
+RESULT_DEPENDENCIES = ("numpy", "py_trees")
+"""Libraries whose version can change a row: numpy's ``Generator`` streams are not promised
+stable across its releases (NEP 19), and py_trees ticks every behaviour."""
+
+
+def plugin_sources() -> list[Path]:
+    """The source files of every behaviour registered from outside cptbt (plug-ins).
+
+    A plug-in's whole top-level package is taken (its behaviours may use its other modules).
+    """
+    import inspect
+    import sys
+
+    from cptbt.registry import default_registry
+
+    tops = set()
+    for spec in default_registry().specs():
+        for obj in (*spec.behaviour_classes, spec.build):
+            top = (getattr(obj, "__module__", None) or "").split(".")[0]
+            if top and top != "cptbt":
+                tops.add(top)
+    files: list[Path] = []
+    for top in sorted(tops):
+        module = sys.modules.get(top)
+        try:
+            origin = inspect.getsourcefile(module) if module is not None else None
+        except TypeError:  # a built-in module
+            origin = None
+        if origin is None:
+            continue
+        path = Path(origin)
+        files += sorted(path.parent.rglob("*.py")) if path.name == "__init__.py" else [path]
+    return files
+
+
+@functools.cache
+def environment_hash() -> str:
+    """SHA-256 of what besides cptbt's source shapes a row: plug-in sources, library versions."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    h = hashlib.sha256()
+    for name in RESULT_DEPENDENCIES:
+        try:
+            h.update(f"{name}=={version(name.replace('_', '-'))}\0".encode())
+        except PackageNotFoundError:
+            h.update(f"{name}==?\0".encode())
+    for path in plugin_sources():
+        h.update(path.name.encode("utf-8") + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
 def code_identity() -> str:
-    """``<version>+src.<hash>``: the package version and a hash of its source (see above).
+    """``<version>+src.<hash>``: the package version and a hash of its source (see above),
+    of the plug-ins' sources and of the versions of :data:`RESULT_DEPENDENCIES`.
 
     Under the ``fast`` simulator-kernel tier (``CPTBT_KERNELS=fast``), whose concentrations
     differ from numpy's in the last bits, ``+kernels.fast`` is appended: its rows are another
@@ -77,7 +131,7 @@ def code_identity() -> str:
 
 @functools.cache
 def _source_hash_cached() -> str:
-    return source_hash()
+    return hashlib.sha256(f"{source_hash()}+{environment_hash()}".encode()).hexdigest()
 
 
 def fingerprint(study_identity: str, code: str) -> str:

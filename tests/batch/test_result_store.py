@@ -196,11 +196,47 @@ def test_checksum_is_of_values_not_column_order() -> None:
     assert rows_checksum(a) != rows_checksum([{"x": 1.0000000000000002, "y": math.nan, "z": None}])
 
 
-def test_code_identity_is_the_version_and_a_source_hash() -> None:
-    from cptbt import __version__
+def test_code_identity_is_the_version_and_a_hash_of_source_plugins_and_libraries() -> None:
+    import hashlib
 
-    assert code_identity() == f"{__version__}+src.{source_hash()[:16]}"
+    from cptbt import __version__
+    from cptbt.batch.integrity import environment_hash
+
+    both = hashlib.sha256(f"{source_hash()}+{environment_hash()}".encode()).hexdigest()
+    assert code_identity() == f"{__version__}+src.{both[:16]}"
     assert len(source_hash()) == 64
+
+
+def test_a_plugins_source_and_numpys_version_are_part_of_the_code(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import importlib
+    import sys
+
+    import cptbt.registry as registry_module
+    from cptbt.batch import integrity
+    from cptbt.node import BehaviourParams
+    from cptbt.registry import BehaviourSpec, Registry
+
+    package = tmp_path / "cptbt_test_plugin_pkg"
+    package.mkdir()
+    (package / "__init__.py").write_text("from .rules import build\n")
+    (package / "rules.py").write_text("def build(params, namespace):\n    return None\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    plugin = importlib.import_module("cptbt_test_plugin_pkg")
+    registry = Registry()
+    registry.register(BehaviourSpec("find_plume", "test_plugin", BehaviourParams, plugin.build))
+    monkeypatch.setattr(registry_module, "_DEFAULT", registry)
+    assert sorted(p.name for p in integrity.plugin_sources()) == ["__init__.py", "rules.py"]
+    before = integrity.environment_hash.__wrapped__()
+    (package / "rules.py").write_text("def build(params, namespace):\n    return 1\n")
+    assert integrity.environment_hash.__wrapped__() != before  # the plug-in changed
+    (package / "rules.py").write_text("def build(params, namespace):\n    return None\n")
+    assert integrity.environment_hash.__wrapped__() == before
+    monkeypatch.setattr(integrity, "RESULT_DEPENDENCIES", ("numpy", "py_trees", "pytest"))
+    assert integrity.environment_hash.__wrapped__() != before  # another library's version
+    sys.modules.pop("cptbt_test_plugin_pkg", None)
+    sys.modules.pop("cptbt_test_plugin_pkg.rules", None)
 
 
 def test_worker_running_other_code_refuses_the_group() -> None:
