@@ -337,7 +337,7 @@ def _line_figure(stats: dict[str, dict[float, tuple[float, float]]], path: Path)
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 4.8))
+    fig, ax = plt.subplots(figsize=(9.6, 4.8))
     style = {"I": "C0o-", "II": "C1s-", "III_last": "C2^-", "III_contact": "C3v--",
              "I_lagging": "C7o:"}
     for k, per_x in stats.items():
@@ -350,7 +350,7 @@ def _line_figure(stats: dict[str, dict[float, tuple[float, float]]], path: Path)
     ax.set_ylabel("mean time to source, s (failure = 300 s)")
     ax.set_ylim(0, 310)
     ax.set_title("AB Fig. 10 protocol: mean ± SE (shaded: x ≥ 70, 'far')")
-    ax.legend(loc="lower left", fontsize=8)  # the far region (shaded) is on the right
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)  # off the curves
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
