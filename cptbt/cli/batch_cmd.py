@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -49,6 +50,9 @@ def _fraction(text: str) -> float:
 def add_parsers(sub: Any) -> None:
     """Register ``batch`` and ``plot``."""
     p = sub.add_parser("batch", help="run a Monte Carlo study", description=cmd_batch.__doc__)
+    # "-60,71" (a start south-west of the centre) is a value, not an option: argparse's test
+    # for negative numbers, widened to lists of them (X,Y;X,Y and X0:X1:STEP).
+    p._negative_number_matcher = re.compile(r"^-\d*\.?\d+([,;:]\s*-?\d*\.?\d+)*$")
     p.add_argument("mission", metavar="MISSION")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--grid", type=argtypes.grid, metavar="NXxNY",
@@ -57,7 +61,8 @@ def add_parsers(sub: Any) -> None:
     where.add_argument("--starts-x", type=argtypes.start_range, metavar="X0:X1:STEP",
                        help="starts along y = --y, e.g. 0:100:5 (AB Fig. 10)")
     where.add_argument("--starts", type=argtypes.starts, metavar="X,Y;X,Y",
-                       help="explicit starts (planning frame)")
+                       help="explicit starts, in the mission's frame (N,E m for frame: ne; "
+                       "lat,lon for geodetic); a leading minus is fine: --starts -60,71")
     p.add_argument("--y", type=argtypes.finite_float, default=0.0,
                    help="y of --starts-x (default 0)")
     p.add_argument("--runs-per-start", type=argtypes.positive_int, default=None, metavar="R",
@@ -134,6 +139,25 @@ def _starts(args: argparse.Namespace, mission: MissionBase,
     if spec is not None and spec.starts:
         return [_planning(mission, c) for c in spec.starts]
     return [_planning(mission, mission.start or mission.home)]
+
+
+def _check_starts(mission: MissionBase, starts: list[tuple[float, float]]) -> None:
+    """Every start inside the OpArea, as ``validate`` asks of the mission's own start.
+
+    A start typed in the wrong frame (N-E metres for a geodetic mission's lat, lon) lands
+    thousands of km away and would fly a silent 0 % study.
+    """
+    if "start" in mission.allow_outside:
+        return
+    area = mission.op_area_geometry()
+    for x, y in starts:
+        if not area.contains(x, y):
+            frame = {"geodetic": "lat, lon in degrees", "ne": "north, east in m"}.get(
+                str(mission.frame), "x, y in m (planning frame)")
+            raise UsageError(
+                f"batch: the start at planning ({x:.1f}, {y:.1f}) m is "
+                f"{area.distance_outside(x, y):.1f} m outside the OpArea (starts are given as "
+                f"{frame}; list 'start' in the mission's allow_outside if that is intended)")
 
 
 def _planning(mission: MissionBase, coord: tuple[float, float]) -> tuple[float, float]:
@@ -219,6 +243,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     for note in variant_sweep_notes(mission, sweeps):
         print(f"cptbt: note: {note}", file=sys.stderr)
     starts = _starts(args, mission, spec)
+    _check_starts(mission, starts)
     runs_per_start = args.runs_per_start or (spec.runs_per_start if spec else 1)
     time_limit = args.time_limit or (spec.time_limit_s if spec else None)
     start_mode = args.start_mode or (spec.start_mode if spec else "place")
