@@ -109,7 +109,11 @@ def run_folder(mission: MissionBase, seed: int, root: Path = Path("runs")) -> Pa
     is always inside ``root``.
     """
     digest = hashlib.sha256(dump_mission(mission).encode("utf-8")).hexdigest()[:8]
-    base = root / f"{mission.name}-{digest}-seed{seed}"
+    return fresh_folder(root / f"{mission.name}-{digest}-seed{seed}")
+
+
+def fresh_folder(base: Path) -> Path:
+    """``base``, or ``base-2``, ``base-3``... : the first that does not exist."""
     out, k = base, 1
     while out.exists():
         k += 1
@@ -142,8 +146,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     seeds and start, and say whether it came out the same, bit for bit.
     """
     if args.results is not None or args.row is not None:
-        if args.results is None or args.row is None or args.mission is not None:
+        if args.results is not None and args.mission is not None:
             raise UsageError("run: give MISSION, or --from RESULTS with --row N (not both)")
+        if args.results is None:
+            raise UsageError("run: --row N picks a row of a study: give --from RESULTS too")
+        if args.row is None:
+            raise UsageError("run: --from RESULTS needs --row N (0-based) to say which row")
         return refly(args)
     if args.mission is None:
         raise UsageError("run: give a MISSION file (or --from RESULTS --row N)")
@@ -264,23 +272,26 @@ def refly(args: argparse.Namespace) -> int:
     again = row_of(task, 0, run, mission, source, wall)
     diff = sorted(k for k, v in again.items() if k in row and k not in COMPARED_AWAY
                   and not _same(v, row[k]))
-    out = Path(args.out) if args.out else run_folder(mission, task.root_seed).with_name(
-        f"{mission.name}-row{args.row}-{task.key}")
+    out = Path(args.out) if args.out else fresh_folder(
+        Path("runs") / f"{mission.name}-row{args.row}-{task.key}")
     out.mkdir(parents=True, exist_ok=True)
+    label = ", ".join(f"{k}={v}" for k, v in coords.items())
     summary["refly"] = {"results": str(results), "row": args.row, "same_as_study": not diff,
-                        "differs_in": diff}
+                        "differs_in": diff, "configuration": coords}
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     write_trace(run, out)
     if grid is not None:
         trajectory_figure(out / "trajectory.png", run, mission, source,
-                          f"{mission.name}, study row {args.row} ({task.key}, start "
-                          f"{row['start']}): {summary['outcome']}",
+                          f"{mission.name}{f' [{label}]' if label else ''}, study row "
+                          f"{args.row} ({task.key}, start {row['start']}): "
+                          f"{summary['outcome']}",
                           threshold=mission.perception.threshold,
                           sources=true_sources(mission), goal=Point(*task.starts[0]))
     if not args.quiet:
         same = "the same as the study's row, bit for bit" if not diff else (
             f"DIFFERENT from the study's row in {', '.join(diff)}")
-        print(f"row {args.row} of {results} flown again: {summary['outcome']}, {same}")
+        print(f"row {args.row} of {results}{f' ({label})' if label else ''} flown again: "
+              f"{summary['outcome']}, {same}")
         print(f"  wrote {out}")
     return 0 if not diff else 1
 

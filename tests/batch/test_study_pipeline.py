@@ -106,6 +106,18 @@ def test_a_row_of_a_swept_study_flies_again_bit_for_bit(tmp_path: Path) -> None:
                 "--no-figure")
     assert res.returncode == 0, res.stderr + res.stdout
     assert "bit for bit" in res.stdout
+    assert "(speed_mps=1.2)" in res.stdout  # which configuration, not only the mission's name
+    again = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert again["refly"]["configuration"] == {"speed_mps": 1.2}
+    # Without --out, a second re-flight of the row writes beside the first, never over it.
+    folders = []
+    for _ in range(2):
+        res = subprocess.run([str(SCRIPT), "run", "--from", str(tmp_path / "o"), "--row", "1",
+                              "--no-figure"], capture_output=True, text=True, timeout=600,
+                             cwd=tmp_path)
+        assert res.returncode == 0, res.stderr
+        folders.append(res.stdout.split("wrote ")[-1].strip())
+    assert folders[0] != folders[1] and folders[1] == folders[0] + "-2"
 
 
 def test_a_row_flown_with_another_seed_is_reported_different(study: Path, tmp_path: Path
@@ -147,3 +159,14 @@ def test_flat_rows_keep_each_behaviour_leaf_and_family_totals() -> None:
                                            "maintain_plume.track_out": 33.0, "none": 1.0}})
     assert row["time_maintain_plume.track_in_s"] == 40.0
     assert row["time_maintain_plume_s"] == 73.0 and row["time_none_s"] == 1.0
+
+
+@pytest.mark.parametrize(("args", "says"), [
+    (["missions/tro2006_msn007.yaml", "--row", "3"], "give --from RESULTS too"),
+    (["--from", "results"], "needs --row N"),
+    (["missions/tro2006_msn007.yaml", "--from", "results", "--row", "1"], "not both"),
+])
+def test_row_and_from_mistakes_say_what_is_missing(args: list[str], says: str) -> None:
+    res = cptbt("run", *args)
+    lines = res.stderr.strip().splitlines()
+    assert res.returncode == 2 and len(lines) == 1 and says in lines[0], res.stderr
