@@ -47,7 +47,7 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--log", metavar="FILE.mcap", default=None,
                    help="write every cycle to an MCAP log (needs cptbt[logs])")
     p.add_argument("--out", metavar="DIR", default=None,
-                   help="output folder (default: a new runs/<mission>-<digest>-seed<N>)")
+                   help="output folder (default: a new runs/<mission>-served[-N])")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.set_defaults(func=cmd_serve)
 
@@ -128,6 +128,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
         link.close()
         if cycle_log is not None:
             cycle_log.close()
+    if result.stop_reason == "no_vehicle":  # nothing happened: no folder, no empty summary
+        print(f"cptbt: serve: no vehicle spoke on {args.link} within --connect-timeout "
+              f"{args.connect_timeout:g} s; nothing written", file=sys.stderr)
+        return 1
     summary = served_summary(result, cycles, mission, source)
     out = Path(args.out) if args.out else _served_folder(mission.name)
     out.mkdir(parents=True, exist_ok=True)
