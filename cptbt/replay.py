@@ -155,7 +155,9 @@ def story(log: LogData) -> list[str]:
         fam = active.split(".")[0] if active else None
         if fam != family:
             family = fam
-            events.append((t, 1, f"  behaviour {active or 'none (no output)'}"))
+            # The family, not the leaf it happened to start in: a track-in/out story read as
+            # "track_in" eleven times while track_out drove a third of the cycles.
+            events.append((t, 1, f"  behaviour {fam or 'none (no output)'}"))
         p = c.get("percept") or {}
         if p.get("detected") and not detected:
             detected = True

@@ -97,6 +97,8 @@ def test_the_story_tells_the_phases_and_the_declaration(logged: Path) -> None:
     shares = story(read_log(logged))[-1]
     assert shares.startswith("cycles in each behaviour:")
     assert "maintain_plume.track_in" in shares and "maintain_plume.track_out" in shares
+    # ... so its lines name the family, not whichever leaf it happened to start in.
+    assert "behaviour maintain_plume\n" in text + "\n" and "behaviour maintain_plume." not in text
 
 
 def test_a_file_that_is_not_a_log_is_one_error(tmp_path: Path) -> None:
