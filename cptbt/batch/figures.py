@@ -147,9 +147,14 @@ def trajectory_figure(
         _map_panel(ax_map, belief, area, truth, declared, run.declaration_report or {}, plt)
     ax.set_aspect("equal")
     ax.invert_yaxis()  # TRO draws the planning y axis positive downward
-    _north_arrow(ax, mission, area)
-    bearing = area.frame.x_bearing_deg % 360
-    ax.set_xlabel(f"x (m): the OpArea's long axis, compass bearing {bearing:.1f}°")
+    if mission.frame == "planning":  # no compass: drawing a north would invent one
+        ax.set_xlabel("x (m), planning frame (no compass given)")
+    else:
+        _north_arrow(ax, mission, area)
+        bearing = area.frame.x_bearing_deg % 360
+        side = ("the OpArea's long axis" if area.xmax - area.xmin > area.ymax - area.ymin
+                else "the OpArea's x axis")
+        ax.set_xlabel(f"x (m): {side}, compass bearing {bearing:.1f}°")
     ax.set_ylabel("y (m), 90° clockwise from x")
     ax.set_title(title, fontsize=10)
     fig.legend(loc="outside right upper", fontsize=8, frameon=False)

@@ -1,0 +1,38 @@
+"""trajectory.png draws a north only where the mission says where north is."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("matplotlib")
+
+from cptbt.batch.engine import simulate
+from cptbt.batch.figures import plume_grid, trajectory_figure
+from cptbt.batch.scenario import launch_pose, to_sim_params
+from cptbt.cli.inspect_cmds import load
+from cptbt.types import Point
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize(("name", "north"), [("ab2001_strategy3.yaml", False),    # planning
+                                             ("oblique_flow.yaml", True)])
+def test_north_arrow_only_with_a_compass(name: str, north: bool, tmp_path: Path,
+                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    from matplotlib.figure import Figure
+
+    mission = load(str(ROOT / "missions" / name), simulate=True)
+    mission = mission.model_copy(update={"mission_a": None, "time_limit_s": 5.0})
+    params = to_sim_params(mission)
+    grid = plume_grid(mission.op_area_geometry())
+    (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True, plume_grid=grid)
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), "t",
+                      threshold=mission.perception.threshold)
+    ax = seen[0].axes[0]
+    texts = {t.get_text() for t in ax.texts}
+    assert ("N" in texts) == north
+    assert ("compass bearing " in ax.get_xlabel()) == north  # "... bearing 0.0°" or none given
