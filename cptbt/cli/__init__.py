@@ -136,8 +136,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return EXIT_RUNTIME
-    except KeyboardInterrupt:
-        print("cptbt: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as exc:  # a command may say what it kept
+        print(f"cptbt: interrupted{f': {exc}' if str(exc) else ''}", file=sys.stderr)
         return 130
     except OSError as exc:  # an unwritable output or unreadable input: the system says why
         if os.environ.get(DEBUG_ENV):

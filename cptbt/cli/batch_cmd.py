@@ -314,9 +314,15 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
             _mcap()  # one clear error before any run if mcap is missing
             tasks = log_sample(tasks, args.log_runs, seed, str(Path(args.out) / "logs"))
-        stats = run_study(tasks, store, workers=args.workers, scheduler=args.scheduler,
-                          scheduler_timeout_s=args.scheduler_timeout, quiet=args.quiet,
-                          on_rerun=rerun)
+        try:
+            stats = run_study(tasks, store, workers=args.workers, scheduler=args.scheduler,
+                              scheduler_timeout_s=args.scheduler_timeout, quiet=args.quiet,
+                              on_rerun=rerun)
+        except KeyboardInterrupt:
+            saved = sum(store.path(t.key).exists() for t in tasks)
+            raise KeyboardInterrupt(
+                f"{saved} of {len(tasks)} groups of runs are saved in {args.out}; the same "
+                "command carries on from them") from None
         wall += stats["wall_time_s"]
         flown_groups += stats["groups_run"]
         flown_runs += stats["runs"] - stats["runs_resumed"]
