@@ -13,6 +13,7 @@ import argparse
 import importlib.metadata
 import logging
 import os
+import re
 import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn
@@ -70,7 +71,19 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     log_cmds.add_parsers(sub)
     for module in _optional_command_modules(command):
         module.add_parsers(sub)
+    _plain_descriptions(parser)
     return parser
+
+
+def _plain_descriptions(parser: argparse.ArgumentParser) -> None:
+    """Sub-command descriptions are their functions' docstrings: ``--help`` shows them without
+    the reStructuredText literal marks (double backquotes)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                if sub.description:
+                    sub.description = re.sub(r"``(.+?)``", r"\1", sub.description, flags=re.S)
+                _plain_descriptions(sub)
 
 
 def configure_logging(verbose: int, quiet: bool) -> None:

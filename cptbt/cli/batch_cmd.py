@@ -53,7 +53,8 @@ def add_parsers(sub: Any) -> None:
     # "-60,71" (a start south-west of the centre) is a value, not an option: argparse's test
     # for negative numbers, widened to lists of them (X,Y;X,Y and X0:X1:STEP).
     p._negative_number_matcher = re.compile(r"^-\d*\.?\d+([,;:]\s*-?\d*\.?\d+)*$")
-    p.add_argument("mission", metavar="MISSION")
+    p.add_argument("mission", metavar="MISSION",
+                   help="mission YAML file (its study: section, if any, is the default study)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--grid", type=argtypes.grid, metavar="NXxNY",
                        help="starts at the cell centres of a grid over the OpArea, e.g. 10x10 "

@@ -62,7 +62,7 @@ def add_parsers(sub: Any) -> None:
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("tree", help="show a mission's behaviour tree", description=cmd_tree.__doc__)
-    p.add_argument("mission", metavar="MISSION")
+    p.add_argument("mission", metavar="MISSION", help="mission YAML file")
     p.add_argument("--dot", metavar="FILE", help="also write the tree as Graphviz dot")
     p.set_defaults(func=cmd_tree)
 
