@@ -114,6 +114,9 @@ def served_summary(result: ServeResult, cycles: AmpCycles, mission: MissionBase,
         waypoints=[], time_in_phase_s=cycles.phase_time,
     )
     summary["phases"] = phase_summary(phased, mission)
+    # What the AMP saw is all a served run knows of where the vehicle went: D0-D3 are measured
+    # on that track, LBL jumps included (cptbt run measures them on the simulator's true one).
+    summary["track"] = "navigation estimate (the vehicle's true track is not known here)"
     summary["link"] = {"stop_reason": result.stop_reason, "error": result.error,
                        "handed_back": result.handed_back, "heartbeats": result.heartbeats,
                        **result.link_stats}

@@ -173,7 +173,8 @@ def print_summary(s: dict[str, Any], session: AmpSession) -> None:
               f"E {d['east']:.1f} m" + (f"; error {_fmt(s['error_m'], ' m')}"
                                         if s["error_m"] is not None else ""))
     print(f"  T_F {_fmt(s['T_F'], ' s')}  T_T {_fmt(s['T_T'], ' s')}  "
-          f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}")
+          f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}"
+          + ("  (paths on the navigation track)" if "track" in s else ""))
     for c in s["phases"]["timeline"]:
         print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})"
               + (f" {c['detail']}" if c["detail"] else ""))
