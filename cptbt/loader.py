@@ -8,6 +8,7 @@ overwritten.
 from __future__ import annotations
 
 import difflib
+import json
 from pathlib import Path
 from types import UnionType
 from typing import Annotated, Any, Union, get_args, get_origin
@@ -298,9 +299,50 @@ def validate_data(
         result = model.model_validate(data, context={"problems": problems})
     except ValidationError as exc:
         raise MissionError(format_errors(exc, data, lines, source, model=model)) from None
+    coerced = _coercions(data, lines, source, model)
+    if coerced:
+        raise MissionError(coerced)
     if problems:
         raise MissionError(format_problems(problems, lines, source))
     return result
+
+
+_COERCIONS = {"float_type": "a number", "int_type": "a whole number", "bool_type": "true or false"}
+"""Strict-mode error types that mean pydantic's lax mode converted a YAML value of another
+type: ``cycle_hz: yes`` (a YAML boolean) read as 1, ``speed_mps: "1.5"`` (a string) as 1.5."""
+
+
+def _coercions(data: Any, lines: dict[Loc, int], source: str, model: type[BaseModel]
+               ) -> list[str]:
+    """Values that validated only by being converted from another YAML type, one line each.
+
+    YAML has its own numbers and booleans, so a boolean or a quoted string where a number is
+    meant is a slip (``yes`` for 1, ``"1.0"``), not a way of writing one. The mission is
+    validated again in strict JSON mode (JSON arrays still fill tuples, integers floats), and
+    only these type errors are kept: strict mode's other opinions are not the mission's.
+    """
+    try:
+        text = json.dumps(data, allow_nan=False)
+    except (TypeError, ValueError):  # values JSON cannot carry: the lax pass judged them
+        return []
+    try:
+        model.model_validate_json(text, strict=True, context={"problems": []})
+    except ValidationError as exc:
+        out = []
+        for err in exc.errors(include_url=False):
+            want = _COERCIONS.get(err["type"])
+            value = err.get("input")
+            if want is None or isinstance(value, (dict, list)):
+                continue
+            if isinstance(value, float) and value.is_integer() and err["type"] == "int_type":
+                continue  # 100.0 for a count: the value is whole, only its spelling is not
+            path = _data_path(tuple(err["loc"]), data)
+            shown = "a YAML boolean" if isinstance(value, bool) else (
+                "a quoted string" if isinstance(value, str) else type(value).__name__)
+            out.append(f"{source}:{_line(path, lines)}: {dotted(path)}: expected {want}, "
+                       f"got {value!r} ({shown})")
+        return out
+    return []
 
 
 def load_mission(

@@ -82,6 +82,18 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("zero success radius", sub("time_limit_s: 1800", "time_limit_s: 1800\nevaluation: "
                                 "{success_radius_m: 0}"), 10, "evaluation.success_radius_m",
      "greater than 0"),
+    # -- numbers are YAML numbers: no booleans or quoted strings converted --------------------
+    ("boolean cycle", sub("cycle_hz: 1", "cycle_hz: yes"), 8, "cycle_hz",
+     "expected a number, got True (a YAML boolean)"),
+    ("quoted speed", sub("speed_mps: 1.5", "speed_mps: '1.5'"), 7, "speed_mps",
+     "expected a number, got '1.5' (a quoted string)"),
+    ("quoted param", sub("beta_deg: 10}", "beta_deg: \"10\"}"), 17,
+     "behaviours[2].maintain_plume.beta_deg", "a quoted string"),
+    ("boolean flow speed", sub("flow_speed_mps: 0.1", "flow_speed_mps: on"), 30,
+     "environment.flow_speed_mps", "a YAML boolean"),
+    ("quoted corner", sub("[100, -50], [100, 50]", "[100, -50], ['100', 50]"), 4,
+     "op_area.corners[1][0]", "a quoted string"),
+    ("fractional seed", sub("seed: 3", "seed: 3.5"), 31, "environment.seed", "integer"),
     # -- the OpArea is a rectangle consistent with its bearing -------------------------------
     ("kite", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
                  "[[100, 0], [0, 50], [-100, 0], [0, -50]]"), 4, "op_area.corners",
@@ -200,3 +212,13 @@ def test_bad_mission_gives_one_precise_line(  # type: ignore[no-untyped-def]
     assert match, lines[0]
     assert (int(match[1]), match[2]) == (line, path), lines[0]
     assert fragment in match[3], lines[0]
+
+
+def test_whole_floats_for_counts_and_integers_for_floats_stay_valid(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Only conversions from another YAML type are refused: 3.0 is a whole number, 1 a number.
+    text = BASE.replace("seed: 3", "seed: 3.0").replace("speed_mps: 1.5", "speed_mps: 2")
+    path = tmp_path / "fine.yaml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["validate", str(path)]) == 0, capsys.readouterr().err
