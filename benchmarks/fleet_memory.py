@@ -57,16 +57,12 @@ def main() -> int:
     c0 = time.process_time()
     runs, _, _ = simulate(mission, params, starts, planner=args.planner)
     cpu = time.process_time() - c0
-    rec = runs[0].recorder
-    arrays = [v for v in vars(rec).values() if isinstance(v, np.ndarray)]
-    arrays += [a for v in vars(rec).values() if isinstance(v, dict) for a in v.values()
-               if isinstance(a, np.ndarray)]
-    rec_mb = sum(a.nbytes for a in arrays) / 2**20
+    rec_mb = runs[0].recorder.allocated_bytes() / 2**20
     ended = np.array([r.t_end for r in runs])
     print(f"machine: {platform.platform()}, {os.cpu_count()} CPUs, load average "
           f"{os.getloadavg()[0]:.1f}; kernels {kernels.tier()}; planner {args.planner}")
     print(f"{len(starts)} vehicles, limit {args.seconds:.0f} s: peak RSS {_rss_mb():.0f} MB "
-          f"(before the run {before:.0f} MB; recorder arrays {rec_mb:.0f} MB); {cpu:.0f} CPU s "
+          f"(before the run {before:.0f} MB; recorder arrays {rec_mb:.0f} MB allocated); {cpu:.0f} CPU s "
           f"= {len(starts) / cpu:.2f} missions/CPU s; mean end {np.nanmean(ended):.0f} s "
           f"(target ≤ 300 MB)")
     return 0
