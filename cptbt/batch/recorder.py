@@ -139,9 +139,10 @@ class Recorder:
         self._add_time(rows, values.get("t", np.nan))
         for col, twin in TWINS.items():
             if col in self.columns and col not in self.floats:
-                mine = np.broadcast_to(np.asarray(values.get(col, np.nan), dtype=float), rows.shape)
-                theirs = np.broadcast_to(np.asarray(values.get(twin, np.nan), dtype=float),
-                                         rows.shape)
+                mine = np.asarray(values.get(col, np.nan), dtype=float)
+                theirs = np.asarray(values.get(twin, np.nan), dtype=float)
+                if mine.shape != theirs.shape:
+                    mine, theirs = (np.broadcast_to(a, rows.shape) for a in (mine, theirs))
                 if not _same_bits(mine, theirs):
                     self.floats[col] = self._copy_of(self.floats[twin])
         for col, a in self.floats.items():
