@@ -8,10 +8,28 @@ recorder's preallocated arrays, and CPU time. Target (issue 15): ≤ 300 MB at 1
     python benchmarks/fleet_memory.py [--vehicles 1000] [--seconds 300] [--planner tree]
     CPTBT_KERNELS=numpy python benchmarks/fleet_memory.py
 
-Measured (benchmarks/results/fleet_memory.txt): the numba kernels cost ~100 MB of resident
-memory whatever N (numba and LLVM loaded into the process: 114 MB before the run against 55 MB
-without them); the simulator's per-vehicle noise bank ~47 MB at 1,000 vehicles (512 draws
-buffered per vehicle); the recorder's rows are paid for as they are written.
+Measured (benchmarks/results/fleet_memory.txt; 2-core VM, load average ~5 from other sessions):
+peak RSS 221 MB with the numba kernels (fleet planner; 248 MB with the py_trees planner), 119 MB
+(145 MB) with numpy alone — 345 (371) and 242 (269) MB before issue 15's memory work. Where it
+goes, fleet planner, numba kernels:
+
+- numba: ~60 MB to import, ~45 MB more when the first kernel is loaded from its on-disk cache
+  (numba's CPU target and LLVM): 114 MB before the run, ~165 MB once the world is built. A run
+  that compiles the kernels (an empty cache: the first run after install or a change to
+  ``sim/kernels.py``) peaks ~20 MB higher (240 MB).
+- noise: the fluorometer's bank holds 512 draws × 3 numbers per vehicle (12 MB at 1,000
+  vehicles: a bank of normals and uniforms must hold its whole block to keep its stream); the
+  ADCP's banks of normals only hold 128 draws (3 MB); error-free navigation (AB) draws nothing.
+  It was 48 MB (every bank held 512 draws; navigation 24 MB).
+- the recorder: 54 MB allocated (x, y, detected, behaviour codes; a shared time per row; the
+  estimates are not stored while equal to the truth), resident only as rows are written, in
+  4 kB pages: ~40 MB here (mean end 120 s). It was 129 MB allocated and all of it resident:
+  numpy backs arrays ≥ 4 MB with 2 MB transparent huge pages, and a huge page spans the rows of
+  ~85 vehicles, so the pages of vehicles that had ended were paid for too.
+
+The recorder's and the noise's changes read back and draw the same numbers bit for bit
+(``tests/batch/test_recorder_memory.py``, ``tests/sim/test_sim_noise_bank.py``); throughput is
+unchanged within the noise of a shared machine (the results file).
 """
 
 from __future__ import annotations
@@ -57,16 +75,13 @@ def main() -> int:
     c0 = time.process_time()
     runs, _, _ = simulate(mission, params, starts, planner=args.planner)
     cpu = time.process_time() - c0
-    rec = runs[0].recorder
-    arrays = [v for v in vars(rec).values() if isinstance(v, np.ndarray)]
-    arrays += [a for v in vars(rec).values() if isinstance(v, dict) for a in v.values()
-               if isinstance(a, np.ndarray)]
-    rec_mb = sum(a.nbytes for a in arrays) / 2**20
+    rec_mb = runs[0].recorder.allocated_bytes() / 2**20
     ended = np.array([r.t_end for r in runs])
     print(f"machine: {platform.platform()}, {os.cpu_count()} CPUs, load average "
           f"{os.getloadavg()[0]:.1f}; kernels {kernels.tier()}; planner {args.planner}")
     print(f"{len(starts)} vehicles, limit {args.seconds:.0f} s: peak RSS {_rss_mb():.0f} MB "
-          f"(before the run {before:.0f} MB; recorder arrays {rec_mb:.0f} MB); {cpu:.0f} CPU s "
+          f"(before the run {before:.0f} MB; recorder arrays {rec_mb:.0f} MB allocated); "
+          f"{cpu:.0f} CPU s "
           f"= {len(starts) / cpu:.2f} missions/CPU s; mean end {np.nanmean(ended):.0f} s "
           f"(target ≤ 300 MB)")
     return 0

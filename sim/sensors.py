@@ -5,7 +5,8 @@ caller), so vehicle i's noise does not depend on how many vehicles share the wor
 hot path free of a Python loop over vehicles, each stream is drawn ahead in blocks
 (``NoiseBank``): one loop over vehicles per block of samples, then array slices per sample. Each
 sample always consumes the same numbers whatever features are enabled, so switching on, say,
-dropouts does not change the noise.
+dropouts does not change the noise (error-free navigation, all of whose noise would be
+multiplied by zero, draws none: see :class:`Navigation`).
 """
 
 from __future__ import annotations
@@ -21,22 +22,39 @@ from pydantic import BaseModel, ConfigDict, Field
 class NoiseBank:
     """Per-vehicle random streams served as (N, k) arrays per draw.
 
+    Each vehicle's generator is read in blocks of ``block`` draws: the block's normals, then
+    its uniforms. That order fixes the stream, so ``block`` is part of the noise model (512
+    throughout). How many draws are held in memory at once is not, where it can be changed
+    without changing a number: a bank of normals only (or uniforms only) reads its stream in
+    order whatever the chunk (numpy's generators keep no draw cached between calls), so it
+    holds ``buffered`` draws; a bank of both must draw a whole
+    block's normals before the block's first uniform, so it holds the block. The memory is
+    ``N × draws held × (n_normal + n_uniform) × 8`` bytes (issue 15: a 512-draw navigation bank
+    was 24 MB at 1,000 vehicles). ``tests/sim/test_sim_noise_bank.py`` checks that every
+    buffer size draws the same numbers.
+
     Args:
         rngs: One generator per vehicle.
         n_normal: Standard normals per vehicle and draw.
         n_uniform: Uniforms on [0, 1) per vehicle and draw.
-        block: Draws generated ahead per refill.
+        block: Draws per block of the stream.
+        buffered: Draws held at once by a bank of one kind (its stream has no blocks).
     """
 
     def __init__(
-        self, rngs: Sequence[np.random.Generator], n_normal: int, n_uniform: int, block: int = 512
+        self,
+        rngs: Sequence[np.random.Generator],
+        n_normal: int,
+        n_uniform: int,
+        block: int = 512,
+        buffered: int = 128,
     ) -> None:
         self._rngs = list(rngs)
         self._shape = (n_normal, n_uniform)
-        self._block = block
-        self._i = block
-        self._normal = np.empty((block, len(self._rngs), n_normal))
-        self._uniform = np.empty((block, len(self._rngs), n_uniform))
+        self._block = block if n_normal and n_uniform else buffered
+        self._i = self._block
+        self._normal = np.empty((self._block, len(self._rngs), n_normal))
+        self._uniform = np.empty((self._block, len(self._rngs), n_uniform))
 
     def draw(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Next (normals (N, n_normal), uniforms (N, n_uniform))."""
@@ -210,6 +228,14 @@ class Navigation:
     ``drift_tau_s``). At Poisson fix times it is reset to ``N(0, fix_std_m²)``, so the estimate
     jumps by about the accumulated drift — the discontinuities TRO Figs. 11–12 show.
 
+    Error-free navigation (no drift, no fixes, no heading noise: AB's setup) draws nothing: its
+    noise would be multiplied by zero, and its stream (this sensor's own generator) feeds
+    nothing else, so the estimate is the truth plus an error that stays exactly 0.0 as before,
+    without the 24 MB bank (1,000 vehicles) and its draws (issue 15). The numbers are the same
+    bit for bit; the one value it could change is the sign of an estimated heading of -0.0
+    (which took the sign of the unused draw), and the vehicle model never outputs -0.0
+    (``wrap_deg`` returns ``180 - m``).
+
     Args:
         params: Navigation settings.
         rngs: One generator per vehicle.
@@ -218,7 +244,9 @@ class Navigation:
     def __init__(self, params: NavigationParams, rngs: Sequence[np.random.Generator]) -> None:
         self.params = params
         n = len(rngs)
-        self._bank = NoiseBank(rngs, n_normal=5, n_uniform=1)
+        exact = (params.drift_std_m == 0.0 and params.fix_rate_per_s == 0.0
+                 and params.heading_noise_std_deg == 0.0)
+        self._bank = None if exact else NoiseBank(rngs, n_normal=5, n_uniform=1)
         self.error = np.zeros((n, 2))
         self.fixes = 0
 
@@ -226,6 +254,8 @@ class Navigation:
         self, dt: float, true_xy: NDArray[np.float64], true_heading_deg: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Advance the error by ``dt``; return (estimated xy (N, 2), estimated heading (N,))."""
+        if self._bank is None:
+            return true_xy + self.error, true_heading_deg.copy()
         p = self.params
         normal, uniform = self._bank.draw()
         phi = math.exp(-dt / p.drift_tau_s)
