@@ -316,11 +316,14 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
     if len(groups) < 2:
         return None  # one bar says nothing the table does not
     labels = list(groups)
+    every = [r for rows in groups.values() for r in rows]
+    bars = [("success", "success", "#2ca02c")]
+    if _criterion(every) == "declaration" or any(r.get("t3") is not None for r in every):
+        bars.append(("false_declaration", "false declaration", "#d62728"))
+    width = 0.76 / len(bars)
     fig, ax = plt.subplots(figsize=(max(6.0, 1.4 * len(labels) + 2), 4.2), layout="constrained")
     pos = np.arange(len(labels))
-    for k, (key, name, colour) in enumerate((("success", "success", "#2ca02c"),
-                                             ("false_declaration", "false declaration",
-                                              "#d62728"))):
+    for k, (key, name, colour) in enumerate(bars):
         rate, lo, hi = [], [], []
         for lab in labels:
             rows = groups[lab]
@@ -330,12 +333,14 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
             # Wilson's bounds can land a rounding error past the rate (0 of n, n of n).
             lo.append(max(0.0, hits / len(rows) - a))
             hi.append(max(0.0, b - hits / len(rows)))
-        ax.bar(pos + (k - 0.5) * 0.38, rate, 0.38, yerr=[lo, hi], capsize=3, color=colour,
-               label=f"{name} (95% Wilson CI)")
+        ax.bar(pos + (k - (len(bars) - 1) / 2) * width, rate, width, yerr=[lo, hi], capsize=3,
+               color=colour, label=f"{name} (95% Wilson CI)")
     ax.set_xticks(pos, [f"{lab}\nn = {len(groups[lab])}" for lab in labels], fontsize=8)
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("rate")
-    ax.legend(fontsize=8)
+    judged = _SUCCESS.get(_criterion(every), "success").removesuffix(" (95% CI)")
+    ax.set_title(f"{judged}, per configuration", fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # off the bars
     ax.grid(axis="y", alpha=0.3)
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -392,12 +397,36 @@ def _mean(values: list[Any]) -> float:
     return float(np.mean(v)) if v else math.nan
 
 
+_DISTANCE_COLUMNS = {  # what a row's error_m is, by evaluation criterion (outcome.judge)
+    "declaration": ("mean error (m)", "max error (m)"),
+    "arrival": ("mean distance at the end (m)", "max distance at the end (m)"),
+    "maintain": ("mean closest approach (m)", "max closest approach (m)"),
+}
+_SUCCESS = {"declaration": "success: declared within the radius (95% CI)",
+            "arrival": "success: reached the source (95% CI)",
+            "maintain": "came within the radius (95% CI)"}
+
+
+def _criterion(rows: Rows) -> str:
+    """The study's evaluation criterion (its rows share one)."""
+    found = {r.get("criterion") or "declaration" for r in rows}
+    return found.pop() if len(found) == 1 else "declaration"
+
+
 def _tables(groups: dict[str, Rows], path: Path) -> Path:
-    lines = ["# Study results", "", "## Per configuration", "",
-             "| configuration | runs | success (95% CI) | false declarations "
-             "| mean time to source (s) | sd (s) "
-             "| mean search time, failures at the limit (s) | mean error (m) | max error (m) |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    every = [r for rows in groups.values() for r in rows]
+    criterion = _criterion(every)
+    mean_col, max_col = _DISTANCE_COLUMNS.get(criterion, _DISTANCE_COLUMNS["declaration"])
+    # A study whose runs cannot declare has no false declarations to count: "—", not 0.
+    declares = criterion == "declaration" or any(r.get("t3") is not None for r in every)
+    lines = ["# Study results", ""]
+    if is_maintain_study(every):  # what such a study measures comes first
+        lines += [*maintain_table(groups), ""]
+    lines += ["## Per configuration", "",
+              f"| configuration | runs | {_SUCCESS.get(criterion, 'success (95% CI)')} "
+              "| false declarations | mean time to source (s) | sd (s) "
+              f"| mean search time, failures at the limit (s) | {mean_col} | {max_col} |",
+              "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for label, rows in groups.items():
         t = np.array([_time_to_source(r) for r in rows])
         ok = t[np.isfinite(t)]
@@ -406,13 +435,13 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
         lo, hi = wilson(wins, len(rows))
         false = sum(bool(r.get("false_declaration")) for r in rows)
         lines.append(
-            f"| {label} | {len(rows)} | {wins / len(rows):.1%} ({lo:.1%}–{hi:.1%}) | {false} "
+            f"| {label} | {len(rows)} | {wins / len(rows):.1%} ({lo:.1%}–{hi:.1%}) "
+            f"| {false if declares else '—'} "
             f"| {_fmt(float(ok.mean()) if ok.size else None)} "
             f"| {_fmt(float(ok.std(ddof=1)) if ok.size > 1 else None)} "
             f"| {_fmt(_mean([_search_time(r) for r in rows]))} "
             f"| {_fmt(_mean(err))} | {_fmt(max(err) if err else None)} |")
-    if is_maintain_study([r for rows in groups.values() for r in rows]):
-        lines += ["", *maintain_table(groups)]  # nothing declared: TRO's tables say nothing
+    if is_maintain_study(every):  # nothing declared: TRO's tables say nothing
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         return path
     lines += ["", "## Evaluation protocol", "",

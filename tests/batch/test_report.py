@@ -73,9 +73,14 @@ def test_a_grid_of_two_configs_gives_maps_rates_and_counts_false_declarations(
 
 
 def test_arrival_runs_get_no_error_histogram(tmp_path: Path) -> None:
-    rows = [{**r, "criterion": "arrival"} for r in line_rows()]
+    rows = [{**r, "criterion": "arrival", "t3": None} for r in line_rows()]
     names = {p.name for p in write_report(rows, tmp_path)}
     assert "error_and_td_share.png" not in names
+    table = (tmp_path / "tables.md").read_text()
+    # Its columns say what its numbers are: no declarations to count, distances at the end.
+    assert "success: reached the source (95% CI)" in table
+    assert "| mean distance at the end (m) | max distance at the end (m) |" in table
+    assert "| m | 3 | 66.7% (20.8%–93.9%) | — |" in table
 
 
 def test_geometry_round_trips_through_study_json_data() -> None:
@@ -107,6 +112,9 @@ def test_a_maintain_study_reports_t_m_against_its_numeric_setting(tmp_path: Path
     assert "TRO Tables III and IV" not in text
     # beta 10: T_M 10 and 11 (the third run made no contact): mean 10.5 ± 0.5, 2 of 3 runs.
     assert "| preset=ab_large_meander, beta1_deg=10 | 3 | 2 | 10.5 ± 0.5 | 10.5 | 0 |" in text
+    # T_M first (what the study measures); closest approaches, not "errors", after it.
+    assert text.index("## Maintain time") < text.index("## Per configuration")
+    assert "mean closest approach (m)" in text and "mean error" not in text
 
 
 @pytest.mark.parametrize("n", [11, 27])
