@@ -156,7 +156,9 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str) -> li
             coords[sweep.name] = value
         text = yaml.safe_dump(data, sort_keys=False)
         env = type(mission.environment) if mission.environment is not None else None
-        validated = loads_mission(text, f"{source} [{coords}]", default_registry(), env)
+        swept = ", ".join(f"{k}={v}" for k, v in coords.items())
+        validated = loads_mission(text, f"{source} [sweep {swept}]" if swept else source,
+                                  default_registry(), env)
         out.append(Config(i, coords, dump_mission(validated)))
     return out
 

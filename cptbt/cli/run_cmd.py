@@ -210,9 +210,10 @@ def cmd_run(args: argparse.Namespace) -> int:
               f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
         if s["declared_source"]:
             d = s["declared_source"]
+            geo = f" ({d['lat']:.6f}, {d['lon']:.6f})" if "lat" in d else ""
             print(f"  declared at t3 = {_fmt(s['t3'], ' s')}: source N {d['north']:.1f} m, "
-                  f"E {d['east']:.1f} m; error {_fmt(s['error_m'], ' m')}")
-        if s["sources_true"] > 1 or s["sources_declared"] > 1 or s["withdrawn"]:
+                  f"E {d['east']:.1f} m{geo}; error {_fmt(s['error_m'], ' m')}")
+        if s["sources_true"] > 1 or s["sources_declared"] > 1 or s["withdrawn"] or s["flybys"]:
             print(f"  sources: {s['sources_found']} of {s['sources_true']} found, "
                   f"{s['false_declarations']} false; fly-bys {s['flybys']}, "
                   f"withdrawn {s['withdrawn']}")
@@ -225,7 +226,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                   f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}")
         for c in s.get("phases", {}).get("timeline", []):
             print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})")
-        share = ", ".join(f"{k} {v:.0%}" for k, v in s["time_share"].items())
+        share = ", ".join(f"{k} {v:.0%}" for k, v in s["time_share"].items()
+                          if k != "none" or v >= 0.005)  # "none 0%" says nothing
         print(f"  time in behaviours: {share}")
         print(f"  wrote {out / 'summary.json'}, {trace_path}" + (f", {figure}" if figure else "")
               + (f", {args.log}" if args.log else ""))
