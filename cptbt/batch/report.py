@@ -223,7 +223,15 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
     if len(xs_all) < 2 or len(ys_all) < 2:
         return None  # one start, or starts along a line: the line plot says it
     n = len(groups)
-    fig, axes = plt.subplots(1, n, figsize=(6.0 * n, 5.0), squeeze=False, layout="constrained")
+    # The figure takes the map's shape, so the colour bar beside it is as tall as the map.
+    if geometry is not None:
+        x0, x1, y0, y1 = geometry.area
+        aspect = (y1 - y0) / max(x1 - x0, 1e-9)
+    else:
+        aspect = (ys_all[-1] - ys_all[0]) / max(xs_all[-1] - xs_all[0], 1e-9)
+    height = min(max(4.6 * aspect + (1.4 if aspect >= 0.75 else 2.0), 3.2), 7.0)
+    fig, axes = plt.subplots(1, n, figsize=(6.0 * n, height), squeeze=False,
+                             layout="constrained")
     vmax = max(_mean([_search_time(r) for r in rows]) for rows in groups.values())
     for ax, (label, rows) in zip(axes[0], groups.items(), strict=True):
         by = _per_start(rows)
@@ -243,7 +251,9 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
             for (x, y), runs in by.items():
                 ax.text(x, y, f"n={len(runs)}", ha="center", va="center", fontsize=6,
                         color="white")
-        fig.colorbar(im, ax=ax, shrink=0.8,
+        # Beside a tall map, under a wide one: the bar is never taller than the map, and its
+        # label never longer than the bar.
+        fig.colorbar(im, ax=ax, shrink=0.8, location="right" if aspect >= 0.75 else "bottom",
                      label="mean time to source (s); a failure counts as the time it ran")
         if geometry is not None:
             x0, x1, y0, y1 = geometry.area
@@ -257,7 +267,7 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
                 # White with a dark outline: readable on every colour of the map.
                 from matplotlib import patheffects
 
-                halo = [patheffects.withStroke(linewidth=2.5, foreground="black")]
+                halo = [patheffects.withStroke(linewidth=2.0, foreground="black")]
                 arrow = ax.annotate("", xy=(cx + size * math.cos(th), cy + size * math.sin(th)),
                                     xytext=(cx, cy),
                                     arrowprops={"arrowstyle": "-|>", "color": "white", "lw": 2})
