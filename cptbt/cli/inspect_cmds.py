@@ -50,7 +50,10 @@ def load(path: str, simulate: bool = False) -> MissionBase:
                 raise MissionError(format_problems(found, lines, path))
             assert error is not None
             section = data.get("environment") or {}
-            raise MissionError(format_errors(error, section, lines, path, ("environment",)))
+            from cptbt.sim.world import EnvironmentParams
+
+            raise MissionError(format_errors(error, section, lines, path, ("environment",),
+                                             model=EnvironmentParams))
     return mission
 
 

@@ -222,3 +222,15 @@ def test_whole_floats_for_counts_and_integers_for_floats_stay_valid(
     path = tmp_path / "fine.yaml"
     path.write_text(text, encoding="utf-8")
     assert main(["validate", str(path)]) == 0, capsys.readouterr().err
+
+
+def test_an_unknown_simulator_override_gets_suggestions(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = BASE.replace("  seed: 3", "  seed: 3\n  plume: {release_rat_hz: 3}")
+    path = tmp_path / "typo.yaml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["run", str(path), "--no-figure", "--quiet", "--out", str(tmp_path / "o")]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.endswith("environment.plume.release_rat_hz: unknown key; did you mean "
+                         "'release_rate_hz'?"), line
