@@ -243,14 +243,26 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
             grid[ys.index(y), xs.index(x)] = _mean([_search_time(r) for r in runs])
             counts[ys.index(y), xs.index(x)] = len(runs)
         limit = max(float(r.get("sim_time_s") or 0) for r in rows)
-        im = ax.pcolormesh(_edges(xs), _edges(ys), grid, cmap="viridis", vmin=0,
-                           vmax=max(vmax, limit, 1.0), shading="flat")
-        if len(xs) >= 10 and len(ys) >= 10:
+        top = max(vmax, limit, 1.0)
+        if np.isnan(grid).any():  # scattered starts (--starts), not a grid: points, not cells
+            pts = list(by)
+            im = ax.scatter([x for x, _ in pts], [y for _, y in pts],
+                            c=[grid[ys.index(y), xs.index(x)] for x, y in pts], cmap="viridis",
+                            vmin=0, vmax=top, s=90, edgecolors="black", zorder=3)
+        else:
+            im = ax.pcolormesh(_edges(xs), _edges(ys), grid, cmap="viridis", vmin=0, vmax=top,
+                               shading="flat")
+        if len(xs) >= 10 and len(ys) >= 10 and not np.isnan(grid).any():
             ax.contour(xs, ys, grid, levels=6, colors="white", linewidths=0.6, alpha=0.7)
-        if grid.size <= 64:
+        scattered = bool(np.isnan(grid).any())
+        if grid.size <= 64 or scattered:
             for (x, y), runs in by.items():
-                ax.text(x, y, f"n={len(runs)}", ha="center", va="center", fontsize=6,
-                        color="white")
+                if scattered:  # beside the point, not on it
+                    ax.annotate(f"n={len(runs)}", (x, y), xytext=(0, 9),
+                                textcoords="offset points", ha="center", fontsize=7)
+                else:
+                    ax.text(x, y, f"n={len(runs)}", ha="center", va="center", fontsize=6,
+                            color="white")
         # Beside a tall map, under a wide one: the bar is never taller than the map, and its
         # label never longer than the bar.
         fig.colorbar(im, ax=ax, shrink=0.8, location="right" if aspect >= 0.75 else "bottom",

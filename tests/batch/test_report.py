@@ -128,3 +128,19 @@ def test_rates_chart_survives_wilson_bounds_a_rounding_error_past_the_rate(
             for c in range(2) for r in range(n)]
     names = {p.name for p in write_report(rows, tmp_path)}
     assert "success_and_false_declarations.png" in names
+
+
+def test_scattered_starts_are_drawn_as_points_not_cells(tmp_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    from matplotlib.collections import PathCollection, QuadMesh
+    from matplotlib.figure import Figure
+
+    rows = [r for r in grid_rows(1) if (r["start_x"], r["start_y"]) != (60.0, 20.0)]
+    seen: list[Figure] = []
+    real = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: (seen.append(self),
+                                                                  real(self, *a, **k)))
+    write_report(rows, tmp_path, StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0))
+    (fig,) = [f for f in seen if f.axes and "start x" in f.axes[0].get_xlabel()]
+    kinds = {type(c) for c in fig.axes[0].collections}
+    assert PathCollection in kinds and QuadMesh not in kinds  # 3 of a 2 x 2 grid's starts
