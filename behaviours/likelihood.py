@@ -31,7 +31,42 @@ from cptbt.types import Command, Percept, Point, SourceBelief
 
 
 class LikelihoodMapParams(DeclareParams, MapModelParams):
-    """Parameters of the likelihood-map declaration: the map's model, the rule, the fly-by."""
+    """Parameters of the likelihood-map declaration: the map's model, the rule, the fly-by.
+
+    The model's defaults here differ from :class:`MapModelParams`' (which infotaxis shares),
+    measured on the TRO ocean preset (MSN007's plume; calibration seeds 7001–7003, none of the
+    study's): every 3 s of 1200 s, 3 000 random points, each read as a planning cycle reads it
+    (the maximum of 9 samples along 1.5 m of track), placed by their range ``a`` up-flow and
+    offset ``c`` across the flow from the true source along the back-trajectory of the 100-s
+    flow estimate. On the axis, a cycle has a concentration above the threshold in 74% of
+    cycles within 10 m of the source, 55% at 25–50 m, 34% at 80–120 m and 26% at 120–230 m
+    (``detection_prob`` 0.72, ``detection_decay_m`` 150); above 3 × the threshold (a *strong*
+    detection) in 63%, 29%, 4.3% and 1–2% (``strong_prob`` 0.68, ``strong_decay_m`` 40). The
+    rms cross-flow offset of the hits grows as the 12° meander cone predicts to ~100 m (3.0,
+    5.6, 9.5, 16, 21 m) and then stays at 19–22 m (``max_spread_m`` 20). The former defaults
+    (0.6, 1000 m, no cap, one level) expected two to three times the hits seen 150 m down-flow,
+    so misses there ruled out true sources, and counted a plume 50 m to the side of a declared
+    source's as that source's (the two-source search ignored the second plume); a single level
+    cannot tell a detection next to the source from one 150 m down-flow, which a strong one
+    nearly does.
+    """
+
+    detection_prob: float = Field(
+        default=0.72, gt=0, lt=1, description="p0: chance of a detection per cycle on the "
+        "plume's mean axis next to the source (measured: class docstring)"
+    )
+    detection_decay_m: float = Field(
+        default=150.0, gt=0, description="L: range over which that chance falls by a factor e, "
+        "m (measured: class docstring)"
+    )
+    max_spread_m: float | None = Field(
+        default=20.0, gt=0, description="σmax: the meander's cross-flow spread stops growing at "
+        "this (measured: class docstring), m"
+    )
+    strong_factor: float | None = Field(
+        default=3.0, gt=1, description="A detection at least this many times the perception's "
+        "threshold is a strong one (None: one level of detection)"
+    )
 
     radius_m: float = Field(
         default=8.0, gt=0, description="Declare when the posterior mass within this of the map's "
@@ -155,7 +190,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
         """Bind the context and lay the grid over its OpArea."""
         super().setup(**kwargs)
         assert self.context is not None
-        self.map = SourceMap(self.context.op_area, self.params)
+        threshold, factor = self.context.threshold, self.params.strong_factor
+        strong = threshold * factor if threshold is not None and factor is not None else None
+        self.map = SourceMap(self.context.op_area, self.params, strong_concentration=strong)
         self.bb.declared_sources = ()
         self._report()
 

@@ -17,13 +17,16 @@ possible origins sideways. For a cell ``s`` whose along-flow distance up-flow of
 from the back-trajectory at that range is ``c``, the probability of a detection at ``x`` in one
 cycle, if the source were at ``s``, is
 
-    K(s; x) = p0 · exp(-a / L) · exp(-c² / (2 σ(a)²)),   σ(a)² = σ0² + (a · tan φ)²,
+    K(s; x) = p0 · exp(-a / L) · exp(-c² / (2 σ(a)²)),   σ(a)² = σ0² + min(a · tan φ, σmax)²,
 
 for ``0 <= a <= max_range_m``; down-flow of ``x`` (``a < 0``) it falls off as
 ``exp(-a² / (2 σ0²))`` (the vehicle's navigation error and the puff size blur "up-flow"), and
 beyond ``max_range_m`` it is 0. ``p0`` is the chance of a detection on the plume's mean axis near
 the source, ``L`` how fast that chance decays with range (filaments thin out and meander), ``σ0``
-the spread at the source (navigation error, puff size), ``φ`` the half-angle of the meander.
+the spread at the source (navigation error, puff size), ``φ`` the half-angle of the meander and
+``σmax`` (optional) the width at which the meander stops widening the plume: the back-trajectory
+follows the flow estimate's slow turns, so far down-flow the hits stay within a band of roughly
+constant width around it rather than a cone.
 
 - A **detection** multiplies cell ``s`` by ``1 - (1 - ε)(1 - K(s; x))(1 - q)``: a false alarm
   (``ε``), the hypothesised source, or one of the already *declared* sources (``q``, the chance
@@ -34,6 +37,16 @@ the spread at the source (navigation error, puff size), ``φ`` the half-angle of
 - A **non-detection** multiplies cell ``s`` by ``1 - K(s; x)``: it lowers the cells whose plume
   would probably have been seen at ``x`` (those up-flow of ``x`` along the back-trajectory), and
   leaves the cells it says nothing about (down-flow or far to the side) alone.
+- **Two levels of detection** (optional: a map made with ``strong_concentration``). Filaments
+  dilute as they travel, so how *strong* a detection is says how far it came: a *strong*
+  detection (concentration at least ``strong_concentration``) has its own kernel
+  ``K3(s; x) = p3 · exp(-a / L3) · (the same cross-flow shape)``, with ``L3`` much shorter than
+  ``L``, and a weak one (above the threshold, below the strong level) the rest,
+  ``K(s; x) - K3(s; x)``. A strong detection multiplies cell ``s`` by
+  ``1 - (1 - ε3)(1 - K3)(1 - q)``, a weak one by ``1 - (1 - ε)(1 - (K - K3))(1 - q)``. A strong
+  detection thus says "the source is close up-flow"; a weak one leans to sources farther off.
+  Without it the along-flow position comes only from misses up-flow of the source, since a
+  detection says "up-flow of here" but hardly how far.
 
 Assumptions, stated because the model is only as good as they are:
 
@@ -100,6 +113,10 @@ class MapModelParams(BehaviourParams):
     max_range_m: float = Field(
         default=250.0, gt=0, description="Detections are not traced back farther than this, m"
     )
+    max_spread_m: float | None = Field(
+        default=None, gt=0, description="σmax: the meander's cross-flow spread stops growing "
+        "at this (None: it grows with range without bound), m"
+    )
     detection_weight: float = Field(
         default=0.5, gt=0, le=1, description="Tempering exponent of a detection's likelihood"
     )
@@ -118,6 +135,18 @@ class MapModelParams(BehaviourParams):
         default=0.05, gt=0, lt=1, description="A detection a declared source's plume would "
         "cause with at least this chance is explained by it and says nothing about other sources"
     )
+    strong_prob: float = Field(
+        default=0.68, gt=0, lt=1, description="p3: chance per cycle of a *strong* detection "
+        "(see the module docstring) on the plume's axis next to the source"
+    )
+    strong_decay_m: float = Field(
+        default=40.0, gt=0, description="L3: range over which the chance of a strong detection "
+        "falls by a factor e, m"
+    )
+    strong_false_alarm_prob: float = Field(
+        default=0.002, gt=0, lt=1, description="ε3: chance of a strong detection with no plume, "
+        "per cycle"
+    )
     trajectory_points: int = Field(
         default=200, ge=2, le=10_000, description="Back-trajectory samples per observation"
     )
@@ -132,8 +161,10 @@ class SourceMap:
         model: the likelihood model's parameters.
     """
 
-    def __init__(self, area: OpArea, model: MapModelParams) -> None:
+    def __init__(self, area: OpArea, model: MapModelParams,
+                 strong_concentration: float | None = None) -> None:
         self.model = model
+        self.strong_concentration = strong_concentration
         w, h = area.xmax - area.xmin, area.ymax - area.ymin
         cell = max(model.cell_m, math.sqrt(w * h / MAX_CELLS))
         nx, ny = max(1, math.ceil(w / cell)), max(1, math.ceil(h / cell))
@@ -148,7 +179,7 @@ class SourceMap:
         self._cum = np.empty((1024, 2))  # cumulative flow displacement ∫U dt at each cycle
         self._n = 0
         self._flow = (0.0, 0.0)
-        self._obs: list[tuple[int, float, float, bool]] = []
+        self._obs: list[tuple[int, float, float, int]] = []
         self.known: tuple[Point, ...] = ()
         self.t = math.nan
         self.detections = 0
@@ -168,7 +199,11 @@ class SourceMap:
         self.explored |= (self._cx - x) ** 2 + (self._cy - y) ** 2 <= r * r
         if p.flow is None or not p.in_op_area or not math.isfinite(p.concentration):
             return False
-        obs = (self._n - 1, x, y, p.detected)
+        level = int(p.detected)
+        if p.detected and self.strong_concentration is not None \
+                and p.concentration >= self.strong_concentration:
+            level = 2
+        obs = (self._n - 1, x, y, level)
         self._obs.append(obs)
         self.detections += int(p.detected)
         self._log += self._log_likelihood(*obs)
@@ -224,6 +259,12 @@ class SourceMap:
     def kernel_shape(self, k: int, x: float | Array, y: float | Array, sx: Array,
                      sy: Array) -> Array:
         """The kernel's spatial shape (1 on the plume's axis at the source, 0 beyond range)."""
+        shape, ap = self._shape_and_range(k, x, y, sx, sy)
+        return shape * np.exp(-ap / self.model.detection_decay_m)
+
+    def _shape_and_range(self, k: int, x: float | Array, y: float | Array, sx: Array,
+                         sy: Array) -> tuple[Array, Array]:
+        """The kernel's shape without the decay with range, and the range ``max(a, 0)``."""
         m = self.model
         ux, uy, along, disp = self.back_trajectory(k)
         a = (x - sx) * ux + (y - sy) * uy  # how far up-flow of the detection each source is
@@ -231,10 +272,13 @@ class SourceMap:
         dy = np.interp(a, along, disp[:, 1])
         c = (sx - (x - dx)) * -uy + (sy - (y - dy)) * ux  # cross-flow offset from B(τ)
         ap = np.maximum(a, 0.0)
-        var = m.near_spread_m**2 + (self._tan * ap) ** 2
-        expo = -c * c / (2.0 * var) - ap / m.detection_decay_m
+        meander = self._tan * ap
+        if m.max_spread_m is not None:
+            meander = np.minimum(meander, m.max_spread_m)
+        var = m.near_spread_m**2 + meander**2
+        expo = -c * c / (2.0 * var)
         expo -= np.where(a < 0, a * a / (2.0 * m.near_spread_m**2), 0.0)
-        return np.where(a <= m.max_range_m, np.exp(expo), 0.0)
+        return np.where(a <= m.max_range_m, np.exp(expo), 0.0), ap
 
     def back_trajectory(self, k: int) -> tuple[float, float, Array, Array]:
         """The water's back-trajectory from cycle ``k``: ``(ux, uy, along, disp)``.
@@ -262,13 +306,20 @@ class SourceMap:
         along = np.maximum.accumulate(disp[:, 0] * ux + disp[:, 1] * uy)
         return float(ux), float(uy), along, disp
 
-    def _log_likelihood(self, k: int, x: float, y: float, detected: bool) -> Array:
+    def _log_likelihood(self, k: int, x: float, y: float, level: int) -> Array:
         m = self.model
-        if not detected:
+        if not level:
             k_cells = self.kernel(k, x, y, self._cx, self._cy)
             out = m.nondetection_weight * np.log1p(-k_cells)
         else:
-            k_cells = self.kernel(k, x, y, self._cx, self._cy)
+            strong_cells: Array | None = None
+            if self.strong_concentration is not None:  # the two-level model
+                shape, ap = self._shape_and_range(k, x, y, self._cx, self._cy)
+                k_cells = m.detection_prob * shape * np.exp(-ap / m.detection_decay_m)
+                strong_cells = np.minimum(
+                    m.strong_prob * shape * np.exp(-ap / m.strong_decay_m), k_cells)
+            else:
+                k_cells = self.kernel(k, x, y, self._cx, self._cy)
             miss_known = 1.0
             if self.known:
                 kx = np.array([s.x for s in self.known])
@@ -276,7 +327,13 @@ class SourceMap:
                 miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
                 if miss_known <= 1.0 - m.explained_prob:
                     return np.where(self._excluded, -np.inf, 0.0)
-            like = 1.0 - (1.0 - self.false_alarm(k)) * (1.0 - k_cells) * miss_known
+            if strong_cells is None:
+                like = 1.0 - (1.0 - self.false_alarm(k)) * (1.0 - k_cells) * miss_known
+            elif level >= 2:
+                like = 1.0 - (1.0 - m.strong_false_alarm_prob) * (1.0 - strong_cells) * miss_known
+            else:
+                like = 1.0 - (1.0 - self.false_alarm(k)) * (1.0 - (k_cells - strong_cells)) \
+                    * miss_known
             out = m.detection_weight * np.log(like)
         return np.where(self._excluded, -np.inf, out)
 

@@ -461,7 +461,8 @@ class FleetPlanner:
             raise ValueError(f"the fleet planner cannot run {mission.name}: {support.reason}")
         context = MissionContext(op_area=mission.op_area_geometry(),
                                  home=mission.to_xy(mission.home), start=None,
-                                 speed_mps=mission.speed_mps)
+                                 speed_mps=mission.speed_mps,
+                                 threshold=mission.perception.threshold)
         has_field = any(e.family == "move_to_field" for e in mission.entries())
         field = planner_keys(field_reached=not has_field)["field_reached"]
         return cls(support.leaves, context, mission.perception, n, field_reached=field)

@@ -82,6 +82,8 @@ class MissionContext:
     """Collaborators a behaviour binds in ``setup()``: the percept and the mission's geometry.
 
     The planner owns one per vehicle and replaces ``percept`` every cycle before it ticks.
+    ``threshold`` is the perception's detection threshold (for behaviours that read the
+    concentration's level, not only the detection flag); None when unknown.
     """
 
     op_area: OpArea
@@ -89,6 +91,7 @@ class MissionContext:
     start: Point | None
     speed_mps: float
     percept: Percept | None = None
+    threshold: float | None = None
 
 
 class PlanBehaviour(py_trees.behaviour.Behaviour):

@@ -53,6 +53,7 @@ class Planner:
             start=start if start is not None else (
                 mission.to_xy(mission.start) if mission.start is not None else None),
             speed_mps=mission.speed_mps,
+            threshold=mission.perception.threshold,
         )
         self.namespace = namespace or f"/cptbt/p{next(_ids)}"
         self.root = build_tree(entries, self.registry, self.namespace)

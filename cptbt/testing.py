@@ -50,6 +50,7 @@ def make_context(
     home: tuple[float, float] = (0.0, 0.0),
     start: tuple[float, float] | None = None,
     speed_mps: float = 1.0,
+    threshold: float | None = None,
 ) -> MissionContext:
     """A mission context for tests."""
     return MissionContext(
@@ -57,6 +58,7 @@ def make_context(
         home=Point(*home),
         start=Point(*start) if start else None,
         speed_mps=speed_mps,
+        threshold=threshold,
     )
 
 

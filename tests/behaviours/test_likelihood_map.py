@@ -42,6 +42,15 @@ ROOT = Path(__file__).resolve().parents[2]
 AREA = square_area(100.0)  # x 0..100, y -50..50
 FLOW = (0.2, 0.0)  # toward +x: up-flow is -x
 Plume = Callable[[float, float], float]
+CONE: dict[str, float | None] = {
+    "detection_prob": 0.6, "detection_decay_m": 1000.0, "max_spread_m": None}
+"""The map's model matched to :func:`cone_plume` (a detection chance that does not fall with
+range, a cone that keeps widening), not to the TRO ocean the defaults were measured on."""
+
+
+def cone_params(**kw: object) -> LikelihoodMapParams:
+    """Likelihood-map parameters with the model of :data:`CONE`."""
+    return LikelihoodMapParams(**{**CONE, **kw})
 
 
 def cell(m: SourceMap, x: float, y: float) -> int:
@@ -154,7 +163,7 @@ def test_declared_sources_explain_their_plume_away() -> None:
 
 # -- declaring -----------------------------------------------------------------------------
 def test_declares_near_the_source_of_a_synthetic_plume() -> None:
-    node = LikelihoodMapDeclare(namespace=fresh_namespace())
+    node = LikelihoodMapDeclare(cone_params(), namespace=fresh_namespace())
     plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
     harness, _, _ = sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20, 12]))
     assert node.declared is not None, "no declaration"
@@ -169,14 +178,14 @@ def test_declares_near_the_source_of_a_synthetic_plume() -> None:
 def test_no_declaration_on_false_alarms_alone() -> None:
     for seed in range(3):
         rng = np.random.default_rng(seed)
-        node = LikelihoodMapDeclare(namespace=fresh_namespace())
+        node = LikelihoodMapDeclare(cone_params(), namespace=fresh_namespace())
         path = lawnmower([95, 80, 65, 50, 35, 20, 5]) * 2
         sweep(node, lambda x, y, rng=rng: float(rng.random() < 0.03), path)
         assert node.declared is None and node.candidate is None, seed
 
 
 def test_no_declaration_before_the_minimum_detections() -> None:
-    params = LikelihoodMapParams(min_detections=10_000)
+    params = cone_params(min_detections=10_000)
     node = LikelihoodMapDeclare(params, namespace=fresh_namespace())
     plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
     sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20, 12]))
@@ -184,7 +193,7 @@ def test_no_declaration_before_the_minimum_detections() -> None:
 
 
 def test_after_declaring_it_goes_to_the_source_then_home() -> None:
-    node = LikelihoodMapDeclare(LikelihoodMapParams(source_radius_m=1.0),
+    node = LikelihoodMapDeclare(cone_params(source_radius_m=1.0),
                                 namespace=fresh_namespace())
     plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
     harness, script, t = sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20]))
@@ -204,7 +213,7 @@ def test_after_declaring_it_goes_to_the_source_then_home() -> None:
 # -- fly-by ---------------------------------------------------------------------------------
 def fly_by(plume_on_pass: Plume) -> tuple[LikelihoodMapDeclare, list[Point]]:
     """Make a candidate, then fly the fly-by it commands in closed loop past ``plume_on_pass``."""
-    params = LikelihoodMapParams(flyby=True)
+    params = cone_params(flyby=True)
     node = LikelihoodMapDeclare(params, namespace=fresh_namespace())
     plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
     harness, script, t = sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20]))
@@ -240,7 +249,7 @@ def test_a_fly_by_that_crosses_the_plume_confirms() -> None:
 def test_declares_two_sources_one_after_the_other() -> None:
     rng = np.random.default_rng(3)
     a, b = cone_plume((30.0, 25.0), rng), cone_plume((45.0, -25.0), rng)
-    node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=2), namespace=fresh_namespace())
+    node = LikelihoodMapDeclare(cone_params(max_sources=2), namespace=fresh_namespace())
     harness = TreeHarness(node, make_context(AREA))
     script = ScriptedPerception(AREA, flow=FLOW)
     path = lawnmower([95, 80, 65, 55, 50, 45, 42, 38, 34, 30, 26, 22, 15, 8]) * 2
