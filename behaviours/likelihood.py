@@ -43,7 +43,10 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     (``detection_prob`` 0.72, ``detection_decay_m`` 150); above 3 × the threshold (a *strong*
     detection) in 63%, 29%, 4.3% and 1–2% (``strong_prob`` 0.68, ``strong_decay_m`` 40). The
     rms cross-flow offset of the hits grows as the 12° meander cone predicts to ~100 m (3.0,
-    5.6, 9.5, 16, 21 m) and then stays at 19–22 m (``max_spread_m`` 20). The former defaults
+    5.6, 9.5, 16, 21 m) and then stays at 19–22 m (``max_spread_m`` 20). Up-flow of the
+    source the chance falls from 38% within 1 m to 8% at 1–2 m and under 1% beyond
+    (``behind_spread_m`` 1.5, where the one-sided σ0 of 3 m had placed declarations 3 m
+    down-flow of the source, median, on tuning replicates). The former defaults
     (0.6, 1000 m, no cap, one level) expected two to three times the hits seen 150 m down-flow,
     so misses there ruled out true sources, and counted a plume 50 m to the side of a declared
     source's as that source's (the two-source search ignored the second plume); a single level
@@ -62,6 +65,10 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     max_spread_m: float | None = Field(
         default=20.0, gt=0, description="σmax: the meander's cross-flow spread stops growing at "
         "this (measured: class docstring), m"
+    )
+    behind_spread_m: float | None = Field(
+        default=1.5, gt=0, description="σb: how fast K falls off for sources down-flow of the "
+        "observer (measured: class docstring), m"
     )
     strong_factor: float | None = Field(
         default=3.0, gt=1, description="A detection at least this many times the perception's "

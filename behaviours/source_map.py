@@ -20,7 +20,8 @@ cycle, if the source were at ``s``, is
     K(s; x) = p0 · exp(-a / L) · exp(-c² / (2 σ(a)²)),   σ(a)² = σ0² + min(a · tan φ, σmax)²,
 
 for ``0 <= a <= max_range_m``; down-flow of ``x`` (``a < 0``) it falls off as
-``exp(-a² / (2 σ0²))`` (the vehicle's navigation error and the puff size blur "up-flow"), and
+``exp(-a² / (2 σb²))`` (σb ``behind_spread_m``, by default σ0: the vehicle's navigation error
+and the puff size blur "up-flow"), and
 beyond ``max_range_m`` it is 0. ``p0`` is the chance of a detection on the plume's mean axis near
 the source, ``L`` how fast that chance decays with range (filaments thin out and meander), ``σ0``
 the spread at the source (navigation error, puff size), ``φ`` the half-angle of the meander and
@@ -105,6 +106,10 @@ class MapModelParams(BehaviourParams):
     near_spread_m: float = Field(
         default=3.0, gt=0, description="σ0: cross-flow spread at the source (navigation error, "
         "puff size), m"
+    )
+    behind_spread_m: float | None = Field(
+        default=None, gt=0, description="How fast K falls off for sources down-flow of the "
+        "observer (None: near_spread_m), m"
     )
     spread_deg: float = Field(
         default=12.0, ge=0, lt=80, description="φ: half-angle of the meander; the cross-flow "
@@ -277,7 +282,8 @@ class SourceMap:
             meander = np.minimum(meander, m.max_spread_m)
         var = m.near_spread_m**2 + meander**2
         expo = -c * c / (2.0 * var)
-        expo -= np.where(a < 0, a * a / (2.0 * m.near_spread_m**2), 0.0)
+        behind = m.behind_spread_m if m.behind_spread_m is not None else m.near_spread_m
+        expo -= np.where(a < 0, a * a / (2.0 * behind**2), 0.0)
         return np.where(a <= m.max_range_m, np.exp(expo), 0.0), ap
 
     def back_trajectory(self, k: int) -> tuple[float, float, Array, Array]:

@@ -231,6 +231,7 @@ def main() -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     rows_path = out.with_suffix(".jsonl")
     wall0 = time.perf_counter()
+    load0 = os.getloadavg()[0]
     rows: list[dict[str, Any]] = []
     if args.from_rows:
         rows = [json.loads(line) for line in rows_path.read_text(encoding="utf-8").splitlines()]
@@ -248,12 +249,14 @@ def main() -> int:
                 f.flush()
     wall = time.perf_counter() - wall0
     machine = (f"{platform.machine()}, {os.cpu_count()} CPUs (shared), Python "
-               f"{platform.python_version()}, {args.workers} workers")
+               f"{platform.python_version()}, {args.workers} workers, 1-min load average "
+               f"{load0:.1f} at the start and {os.getloadavg()[0]:.1f} at the end")
     lines = [
         "# Likelihood-map declaration study (issue 13)",
         "",
         f"Produced by `python benchmarks/likelihood_map.py --runs {args.runs} --two-runs "
-        f"{args.two_runs}` on {machine}"
+        f"{args.two_runs}" + (f" --seed {args.seed}" if args.seed != SEED else "")
+        + f"` on {machine}"
         + ("" if args.from_rows else f": {len(jobs)} runs in {wall / 60:.1f} min")
         + f". Root seed {args.seed}; replicate r flies the same plume, vehicle noise and start in "
         "every rule (paired).",

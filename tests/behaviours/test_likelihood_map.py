@@ -25,6 +25,7 @@ from cptbt.behaviours.likelihood import (
 )
 from cptbt.behaviours.source_map import MapModelParams, SourceMap, best_target
 from cptbt.cli import main
+from cptbt.frames import OpArea
 from cptbt.registry import BehaviourSpec
 from cptbt.testing import (
     FakeVehicle,
@@ -361,3 +362,63 @@ def test_validate_names_a_broken_contract_at_its_key(
     assert main(["validate", str(bad)]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert where in line and says in line
+
+
+# -- the measured model: two levels of detection, a capped meander -------------------------
+def test_a_strong_detection_points_close_up_flow_and_a_weak_one_farther() -> None:
+    def gains(conc: float) -> tuple[float, float]:
+        m = SourceMap(AREA, LikelihoodMapParams(), strong_concentration=0.6)
+        script = ScriptedPerception(AREA, flow=FLOW, threshold=0.2)
+        for t in range(30):
+            m.observe(script.step(t, 99.0, 49.0))
+        before = m.posterior()
+        m.observe(script.step(30, 80.0, 0.0, conc=conc))
+        gain = m.posterior() / before
+        return gain[cell(m, 75, 0)], gain[cell(m, 20, 0)]  # 5 m and 60 m up-flow
+
+    near, far = gains(1.0)  # strong: at least 3 x the threshold
+    assert near > 1.5 * far  # (0.60 / 0.15) ** 0.5 with the detection tempering
+    near, far = gains(0.3)  # weak: above the threshold, below the strong level
+    assert far > 1.2 * near
+    one_level = SourceMap(AREA, LikelihoodMapParams())
+    assert one_level.strong_concentration is None
+
+
+def test_the_meander_stops_widening_the_plume_at_max_spread() -> None:
+    # 190 m down-flow of a declared source and 50 m to its side (the two-source mission's
+    # second plume at the OpArea's down-flow edge): not that source's plume any more.
+    area = OpArea(-127.0, 127.0, -56.0, 56.0)
+    capped = SourceMap(area, LikelihoodMapParams())
+    cone = SourceMap(area, MapModelParams())
+    script = ScriptedPerception(area, flow=(0.1, 0.0))
+    for t in range(200):
+        pc = script.step(t, 120.0, -25.0)
+        capped.observe(pc)
+        cone.observe(pc)
+    known = Point(-70.0, 25.0)
+    explained = LikelihoodMapParams().explained_prob
+    assert capped.expected_detection(known, 120.0, -25.0) < 0.2 * explained
+    assert cone.expected_detection(known, 120.0, -25.0) > explained
+    assert capped.expected_detection(known, 120.0, 25.0) > 0.1  # on its own axis it still is
+
+
+def test_the_declaration_takes_the_strong_level_from_the_perception_threshold() -> None:
+    node = LikelihoodMapDeclare(namespace=fresh_namespace())
+    TreeHarness(node, make_context(AREA, threshold=0.25))
+    assert node.map is not None and node.map.strong_concentration == pytest.approx(0.75)
+    plain = LikelihoodMapDeclare(LikelihoodMapParams(strong_factor=None),
+                                 namespace=fresh_namespace())
+    TreeHarness(plain, make_context(AREA, threshold=0.25))
+    assert plain.map is not None and plain.map.strong_concentration is None
+
+
+def test_behind_spread_sets_how_far_down_flow_a_detection_can_place_the_source() -> None:
+    m, _ = warmed_map()
+    sharp = SourceMap(AREA, MapModelParams(behind_spread_m=1.5))
+    sharp._record_flow(ScriptedPerception(AREA, flow=FLOW).step(0, 99.0, 49.0))
+    k = m._n - 1
+    down = (np.array([63.0, 60.0]), np.array([0.0, 0.0]))  # 3 m down-flow of (60, 0), and at it
+    wide, tight = m.kernel(k, 60.0, 0.0, *down), sharp.kernel(0, 60.0, 0.0, *down)
+    assert wide[1] == pytest.approx(tight[1])  # at the observer: the same
+    assert wide[0] == pytest.approx(wide[1] * math.exp(-0.5), rel=1e-6)  # σ0 = 3 m
+    assert tight[0] == pytest.approx(tight[1] * math.exp(-2.0), rel=1e-6)  # σb = 1.5 m
