@@ -52,6 +52,16 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     source's as that source's (the two-source search ignored the second plume); a single level
     cannot tell a detection next to the source from one 150 m down-flow, which a strong one
     nearly does.
+
+    ``detection_weight`` 0.3: with the sharper model a run of correlated detections (a filament
+    patch gives several strong cycles in a row) made the map confident on the first approach,
+    some 15-50 m short of the source when the meander then carried the plume off the axis the
+    100-s flow gives and the misses of the reacquire pattern ruled out the true source. On
+    tuning replicates (root seeds 77 and 78, 40 MSN007 runs each, 24 two-source runs) 0.3
+    against 0.5 gave 0 against 0 and 0 against 1 declarations beyond 15 m, median error 2.6 and
+    3.0 m against 3.1 and 4.0 m, both sources found in 24/24 two-source runs against 21/24 with
+    0 against 3 false declarations, at the price of a T_D share of 36% and 33% against 30% and
+    25%. The study (``benchmarks/likelihood_map.py``) flies 0.5 as a row of its own.
     """
 
     detection_prob: float = Field(
@@ -69,6 +79,10 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     behind_spread_m: float | None = Field(
         default=1.5, gt=0, description="σb: how fast K falls off for sources down-flow of the "
         "observer (measured: class docstring), m"
+    )
+    detection_weight: float = Field(
+        default=0.3, gt=0, le=1, description="Tempering exponent of a detection's likelihood "
+        "(0.3 rather than the map's 0.5: class docstring)"
     )
     strong_factor: float | None = Field(
         default=3.0, gt=1, description="A detection at least this many times the perception's "

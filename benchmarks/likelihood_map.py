@@ -63,6 +63,8 @@ CONFIGS: dict[str, dict[str, Any]] = {
     "recent_box": {"declare_source.variant": "recent_box"},
     "upflow_spread": {"declare_source.variant": "upflow_spread"},
     "likelihood_map": {"declare_source.variant": "likelihood_map"},
+    "likelihood_map (detection_weight 0.5)": {"declare_source.variant": "likelihood_map",
+                                              "declare_source.detection_weight": 0.5},
     "likelihood_map+flyby": {"declare_source.variant": "likelihood_map",
                              "declare_source.flyby": True},
     "likelihood_map+map_guided": {"declare_source.variant": "likelihood_map",
@@ -115,10 +117,10 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
     """The side-by-side table of (a)."""
     by = {name: {r["replicate"]: r for r in rows if r["study"] == name} for name in CONFIGS}
     base = by["upflow_cluster"]
-    out = [f"| rule (MSN007, N = {n} paired) | declared | false (> 15 m) | error median / p95 / "
-           "max (m) | T_D share (mean) | D3 mean (m) | D3 paired change vs upflow_cluster | "
-           "fly-bys / withdrawn |",
-           "|---|---|---|---|---|---|---|---|"]
+    out = [f"| rule (MSN007, up to N = {n} paired) | N | declared | false (> 15 m) | error "
+           "median / p95 / max (m) | T_D share (mean) | D3 mean (m) | D3 paired change vs "
+           "upflow_cluster | fly-bys / withdrawn |",
+           "|---|---|---|---|---|---|---|---|---|"]
     for name, runs in by.items():
         got = list(runs.values())
         if not got:
@@ -136,7 +138,8 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
         fly = sum(r["flybys"] or 0 for r in got)
         wd = sum(r["withdrawn"] or 0 for r in got)
         out.append(
-            f"| {name} | {100 * len(dec) / len(got):.1f}% ({len(dec)}/{len(got)}) | {false} | "
+            f"| {name} | {len(got)} | {100 * len(dec) / len(got):.1f}% ({len(dec)}/{len(got)}) | "
+            f"{false} | "
             f"{_f(_q(err, 0.5))} / {_f(_q(err, 0.95))} / {_f(max(err) if err else None)} | "
             f"{_f(100 * statistics.fmean(share) if share else None)}% | "
             f"{_f(statistics.fmean(d3) if d3 else None, '.0f')} | "
@@ -216,8 +219,9 @@ def main() -> int:
     ap.add_argument("--cost-seeds", type=int, default=2)
     ap.add_argument("--out", default=str(ROOT / "benchmarks/results/likelihood_map.md"))
     ap.add_argument("--from-rows", action="store_true",
-                    help="only tabulate the finished replicates already in the .jsonl next to "
-                    "--out (a study stopped early)")
+                    help="only tabulate the rows already in the .jsonl next to --out (a study "
+                    "stopped early, or several studies' rows put together; each rule's N is its "
+                    "own, paired changes use the replicates both rules have)")
     args = ap.parse_args()
     names = [c for c in args.configs.split(",") if c]
     # Replicate by replicate, so the rows written so far always hold whole paired replicates.
@@ -235,11 +239,10 @@ def main() -> int:
     rows: list[dict[str, Any]] = []
     if args.from_rows:
         rows = [json.loads(line) for line in rows_path.read_text(encoding="utf-8").splitlines()]
-        done = {r["replicate"] for r in rows if r["study"] == names[-1]}
-        rows = [r for r in rows if r["replicate"] in done]
-        args.runs = len(done)
+        rows = [r for r in rows if r["study"] in names or r["study"] == "two_sources"]
+        args.runs = max((sum(r["study"] == name for r in rows) for name in names), default=0)
         args.two_runs = sum(r["study"] == "two_sources" for r in rows)
-        jobs = [j for j in jobs if j[3] in done]
+        jobs = []
     else:
         with ProcessPoolExecutor(max_workers=args.workers) as pool, \
                 rows_path.open("w", encoding="utf-8") as f:
