@@ -84,6 +84,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=0.3, gt=0, le=1, description="Tempering exponent of a detection's likelihood "
         "(0.3 rather than the map's 0.5: class docstring)"
     )
+    mask_radius_m: float = Field(
+        default=15.0, gt=0, description="Cells within this of a declared source are ruled out "
+        "as another source (15 m, TRO's bound: two sources closer than that cannot be told "
+        "apart by the declaration's own criterion), m"
+    )
     strong_factor: float | None = Field(
         default=3.0, gt=1, description="A detection at least this many times the perception's "
         "threshold is a strong one (None: one level of detection)"
@@ -95,8 +100,8 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     )
     confidence: float = Field(default=0.9, gt=0, lt=1, description="Posterior mass to declare")
     min_detections: int = Field(
-        default=10, ge=0, description="Detections needed (since the last declaration or "
-        "withdrawal) before declaring"
+        default=10, ge=0, description="Detections no declared source explains needed (since "
+        "the last declaration or withdrawal) before declaring"
     )
     min_lost_contacts: int = Field(
         default=0, ge=0, description="Lost contacts (SPEC §2) needed before declaring"
@@ -152,7 +157,10 @@ class LikelihoodMapDeclare(SourceDeclaration):
     assumptions) and the posterior is published on ``source_map``. The rule: once
     ``min_detections`` detections have been folded in, take the map's most probable cell; when
     the posterior mass within ``radius_m`` of it exceeds ``confidence``, the source is declared
-    at the posterior mean of that disc.
+    at the posterior mean of that disc. After a declaration only detections no declared source
+    explains count towards the next one's ``min_detections``: a posterior renormalised over what
+    is left once every plume seen is explained piles up where no evidence reaches (the OpArea's
+    edge) and would otherwise be declared there on the strength of the known plume's detections.
 
     With ``flyby``, a declaration is first a *candidate*: the vehicle flies ``flyby_passes``
     straight passes across the flow, ``flyby_offset_m`` down-flow of it (TRO VI: "drive the AUV
@@ -236,7 +244,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
 
     def _test_rule(self, p: Percept, post: np.ndarray) -> None:
         assert self.map is not None
-        if self.map.detections - self.detections_used < self.params.min_detections:
+        if self.map.unexplained - self.detections_used < self.params.min_detections:
             return
         if len(p.lost_contacts) < self.params.min_lost_contacts:
             return
@@ -253,7 +261,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         assert self.map is not None
         self.candidate, self.route = None, ()
         self.sources = (*self.sources, source)
-        self.detections_used = self.map.detections
+        self.detections_used = self.map.unexplained
         self.at_declaration = self.map.belief()
         self.bb.set("source_map_at_declaration", self.at_declaration)
         self.bb.declared_sources = self.sources
@@ -300,7 +308,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         else:
             self.withdrawn += 1
             self.withdrawn_at = (*self.withdrawn_at, self.candidate)
-            self.detections_used = self.map.detections
+            self.detections_used = self.map.unexplained
             self.candidate, self.route = None, ()
         self._report()
 

@@ -188,6 +188,7 @@ class SourceMap:
         self.known: tuple[Point, ...] = ()
         self.t = math.nan
         self.detections = 0
+        self.unexplained = 0  # detections no declared source explains (at the time)
         self.explored = np.zeros(self._cx.size, dtype=bool)
         self._log = np.zeros(self._cx.size)
         self._excluded = np.zeros(self._cx.size, dtype=bool)
@@ -211,6 +212,8 @@ class SourceMap:
         obs = (self._n - 1, x, y, level)
         self._obs.append(obs)
         self.detections += int(p.detected)
+        if p.detected and not self.explained_by_known(self._n - 1, x, y):
+            self.unexplained += 1
         self._log += self._log_likelihood(*obs)
         self._log -= self._log[~self._excluded].max()
         return True
@@ -342,6 +345,16 @@ class SourceMap:
                     * miss_known
             out = m.detection_weight * np.log(like)
         return np.where(self._excluded, -np.inf, out)
+
+    def explained_by_known(self, k: int, x: float, y: float) -> bool:
+        """Whether the declared sources' plumes would cause a detection at ``(x, y)`` on cycle
+        ``k`` with at least ``explained_prob``."""
+        if not self.known:
+            return False
+        kx = np.array([s.x for s in self.known])
+        ky = np.array([s.y for s in self.known])
+        miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
+        return miss_known <= 1.0 - self.model.explained_prob
 
     def expected_detection(self, source: Point, x: float, y: float) -> float:
         """``K(source; (x, y))`` on the latest cycle: how likely a detection there is now."""
