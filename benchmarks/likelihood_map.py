@@ -252,14 +252,19 @@ def main() -> int:
                 f.flush()
     wall = time.perf_counter() - wall0
     machine = (f"{platform.machine()}, {os.cpu_count()} CPUs (shared), Python "
-               f"{platform.python_version()}, {args.workers} workers, 1-min load average "
-               f"{load0:.1f} at the start and {os.getloadavg()[0]:.1f} at the end")
+               f"{platform.python_version()}, {args.workers} workers")
+    if not args.from_rows:
+        machine += (f", 1-min load average {load0:.1f} at the start and "
+                    f"{os.getloadavg()[0]:.1f} at the end")
     lines = [
         "# Likelihood-map declaration study (issue 13)",
         "",
-        f"Produced by `python benchmarks/likelihood_map.py --runs {args.runs} --two-runs "
-        f"{args.two_runs}" + (f" --seed {args.seed}" if args.seed != SEED else "")
-        + f"` on {machine}"
+        ("Tabulated by `python benchmarks/likelihood_map.py --from-rows` from the rows in "
+         f"`{rows_path.name}` ({args.runs} MSN007 replicates at most per rule, {args.two_runs} "
+         f"two-source runs; how they were flown: the notes) on {machine}" if args.from_rows else
+         f"Produced by `python benchmarks/likelihood_map.py --runs {args.runs} --two-runs "
+         f"{args.two_runs}" + (f" --seed {args.seed}" if args.seed != SEED else "")
+         + f"` on {machine}")
         + ("" if args.from_rows else f": {len(jobs)} runs in {wall / 60:.1f} min")
         + f". Root seed {args.seed}; replicate r flies the same plume, vehicle noise and start in "
         "every rule (paired).",

@@ -427,3 +427,17 @@ def test_behind_spread_sets_how_far_down_flow_a_detection_can_place_the_source()
     assert wide[1] == pytest.approx(tight[1])  # at the observer: the same
     assert wide[0] == pytest.approx(wide[1] * math.exp(-0.5), rel=1e-6)  # σ0 = 3 m
     assert tight[0] == pytest.approx(tight[1] * math.exp(-2.0), rel=1e-6)  # σb = 1.5 m
+
+
+def test_only_detections_no_declared_source_explains_count_towards_the_next_one() -> None:
+    m = SourceMap(AREA, LikelihoodMapParams())
+    script = ScriptedPerception(AREA, flow=FLOW)
+    for t in range(30):
+        m.observe(script.step(t, 99.0, 49.0))
+    m.explain((Point(40.0, 0.0),))
+    m.observe(script.step(30, 60.0, 0.0, conc=1.0))  # straight down-flow of the known source
+    assert (m.detections, m.unexplained) == (1, 0)
+    m.observe(script.step(31, 60.0, -40.0, conc=1.0))  # 40 m to its side: another plume
+    assert (m.detections, m.unexplained) == (2, 1)
+    # the known source's neighbourhood is ruled out to TRO's 15-m bound
+    assert m.posterior()[cell(m, 40, 12)] == 0.0 and m.posterior()[cell(m, 40, 20)] > 0.0
