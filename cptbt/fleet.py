@@ -374,6 +374,8 @@ class FleetSupport:
 
 def fleet_support(mission: MissionBase, registry: Registry | None = None) -> FleetSupport:
     """Whether every behaviour of ``mission`` has an array form (and the tree is flat)."""
+    if mission.turn_guard_radius_m is not None:
+        return FleetSupport(False, "turn_guard_radius_m (cptbt.turns) has no array form")
     registry = registry or default_registry()
     namespace = f"/cptbt/fleetcheck{next(_check_ids)}"
     root = build_tree(mission.entries(), registry, namespace)

@@ -143,6 +143,12 @@ class MissionBase(BaseModel):
     )
     speed_mps: float = Field(default=1.5, gt=0, le=20, description="Cruise speed command, m/s")
     cycle_hz: float = Field(default=1.0, gt=0, le=100, description="Planner cycle rate, Hz")
+    turn_guard_radius_m: float | None = Field(
+        default=None, gt=0, le=1000,
+        description="The vehicle's tightest turn, m. When given, a command needing more than "
+        "90° of turn is started on the side that keeps the turning circle inside the OpArea "
+        "(the autopilot turns the short way); see cptbt.turns. Off by default",
+    )
     time_limit_s: float = Field(
         default=3600.0, gt=0, le=7 * 86400, description="AMP time limit, s"
     )

@@ -19,6 +19,7 @@ from cptbt.node import MissionContext, planner_keys
 from cptbt.perception import Perception
 from cptbt.registry import Registry, default_registry
 from cptbt.tree import build_tree, plan_leaves
+from cptbt.turns import guard_heading
 from cptbt.types import Command, Percept, Point, Pose
 
 _ids = itertools.count()
@@ -112,6 +113,13 @@ class Planner:
         else:
             self.root.tick_once()
         cmd = storage[self._key["command"]] if self.root.status == Status.RUNNING else None
+        radius = self.mission.turn_guard_radius_m
+        if cmd is not None and radius is not None:
+            pose = percept.pose
+            heading = guard_heading(pose.x, pose.y, pose.heading_deg, cmd.heading_deg, radius,
+                                    self.op_area)
+            if heading != cmd.heading_deg:
+                cmd = Command(heading, cmd.speed_mps)
         self.command = cmd
         tip = self.root.tip() if cmd is not None else None
         self.active = tip.name if tip is not None else None
