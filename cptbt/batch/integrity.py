@@ -20,7 +20,8 @@ from typing import Any
 # The packages whose source shapes a run's rows, and the modules among them that only present
 # the results (changing a figure's label must not force a study to start over).
 CODE_PACKAGES = ("cptbt", "cptbt.batch", "cptbt.behaviours", "cptbt.sim")
-PRESENTATION = frozenset({"cptbt.batch/report.py", "cptbt.batch/figures.py"})
+PRESENTATION = frozenset({"cptbt.batch/report.py", "cptbt.batch/figures.py",
+                          "cptbt.batch/study_figures.py"})
 
 
 def digest(value: Any) -> str:

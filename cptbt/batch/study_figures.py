@@ -1,0 +1,240 @@
+"""The study report's figures: maps and lines of time to source over the starts, success rates,
+error and T_D-share histograms (the tables and the protocol are :mod:`cptbt.batch.report`'s).
+
+Only presentation: these change no row, so they are outside the code identity
+(:data:`cptbt.batch.integrity.PRESENTATION`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cptbt.batch.report import (
+    _SUCCESS,
+    Rows,
+    StudyGeometry,
+    _criterion,
+    _mean,
+    _search_time,
+    _sem,
+    _td_share,
+    wilson,
+)
+
+
+def _starts(rows: Rows) -> tuple[np.ndarray, np.ndarray]:
+    xs = np.array([r["start_x"] for r in rows], dtype=float)
+    ys = np.array([r["start_y"] for r in rows], dtype=float)
+    return xs, ys
+
+
+def _per_start(rows: Rows) -> dict[tuple[float, float], Rows]:
+    by: dict[tuple[float, float], Rows] = defaultdict(list)
+    for r in rows:
+        by[(float(r["start_x"]), float(r["start_y"]))].append(r)
+    return by
+
+
+def _edges(centres: list[float]) -> np.ndarray:
+    """Cell edges around sorted cell centres."""
+    c = np.asarray(centres, dtype=float)
+    mid = (c[1:] + c[:-1]) / 2
+    return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
+
+
+def _map(groups: dict[str, Rows], path: Path, plt: Any,
+         geometry: StudyGeometry | None) -> Path | None:
+    """Mean time to source over start positions (AB Figs. 6 and 11), one panel per config.
+
+    A heat map on the real aspect ratio, planning frame with y drawn down (as TRO and AB draw
+    it), with the OpArea, the true source and the mean flow; contours are added on grids of at
+    least 10 × 10 starts. As in AB, a search that fails counts with the time it ran.
+    """
+    first = next(iter(groups.values()))
+    xs_all = sorted({float(r["start_x"]) for r in first})
+    ys_all = sorted({float(r["start_y"]) for r in first})
+    if len(xs_all) < 2 or len(ys_all) < 2:
+        return None  # one start, or starts along a line: the line plot says it
+    n = len(groups)
+    # The figure takes the map's shape, so the colour bar beside it is as tall as the map.
+    if geometry is not None:
+        x0, x1, y0, y1 = geometry.area
+        aspect = (y1 - y0) / max(x1 - x0, 1e-9)
+    else:
+        aspect = (ys_all[-1] - ys_all[0]) / max(xs_all[-1] - xs_all[0], 1e-9)
+    height = min(max(4.6 * aspect + (1.4 if aspect >= 0.75 else 2.0), 3.2), 7.0)
+    fig, axes = plt.subplots(1, n, figsize=(6.0 * n, height), squeeze=False,
+                             layout="constrained")
+    vmax = max(_mean([_search_time(r) for r in rows]) for rows in groups.values())
+    for ax, (label, rows) in zip(axes[0], groups.items(), strict=True):
+        by = _per_start(rows)
+        xs = sorted({k[0] for k in by})
+        ys = sorted({k[1] for k in by})
+        grid = np.full((len(ys), len(xs)), np.nan)
+        counts = np.zeros(grid.shape, dtype=int)
+        for (x, y), runs in by.items():
+            grid[ys.index(y), xs.index(x)] = _mean([_search_time(r) for r in runs])
+            counts[ys.index(y), xs.index(x)] = len(runs)
+        limit = max(float(r.get("sim_time_s") or 0) for r in rows)
+        top = max(vmax, limit, 1.0)
+        if np.isnan(grid).any():  # scattered starts (--starts), not a grid: points, not cells
+            pts = list(by)
+            im = ax.scatter([x for x, _ in pts], [y for _, y in pts],
+                            c=[grid[ys.index(y), xs.index(x)] for x, y in pts], cmap="viridis",
+                            vmin=0, vmax=top, s=90, edgecolors="black", zorder=3)
+        else:
+            im = ax.pcolormesh(_edges(xs), _edges(ys), grid, cmap="viridis", vmin=0, vmax=top,
+                               shading="flat")
+        if len(xs) >= 10 and len(ys) >= 10 and not np.isnan(grid).any():
+            ax.contour(xs, ys, grid, levels=6, colors="white", linewidths=0.6, alpha=0.7)
+        scattered = bool(np.isnan(grid).any())
+        if grid.size <= 64 or scattered:
+            for (x, y), runs in by.items():
+                if scattered:  # beside the point, not on it
+                    ax.annotate(f"n={len(runs)}", (x, y), xytext=(0, 9),
+                                textcoords="offset points", ha="center", fontsize=7)
+                else:
+                    ax.text(x, y, f"n={len(runs)}", ha="center", va="center", fontsize=6,
+                            color="white")
+        # Beside a tall map, under a wide one: the bar is never taller than the map, and its
+        # label never longer than the bar.
+        fig.colorbar(im, ax=ax, shrink=0.8, location="right" if aspect >= 0.75 else "bottom",
+                     label="mean time to source (s); a failure counts as the time it ran")
+        if geometry is not None:
+            x0, x1, y0, y1 = geometry.area
+            ax.add_patch(plt.Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ec="black",
+                                       lw=1.2))
+            ax.plot(*geometry.source, "*", color="gold", mec="black", ms=15, label="source")
+            if geometry.flow_deg is not None:
+                size = 0.12 * min(x1 - x0, y1 - y0)
+                th = math.radians(geometry.flow_deg)
+                cx, cy = x0 + 1.5 * size, y0 + 1.2 * size
+                # White with a dark outline: readable on every colour of the map.
+                from matplotlib import patheffects
+
+                halo = [patheffects.withStroke(linewidth=2.0, foreground="black")]
+                arrow = ax.annotate("", xy=(cx + size * math.cos(th), cy + size * math.sin(th)),
+                                    xytext=(cx, cy),
+                                    arrowprops={"arrowstyle": "-|>", "color": "white", "lw": 2})
+                arrow.arrow_patch.set_path_effects(halo)
+                ax.text(cx, cy - 0.3 * size, "mean flow", color="white", fontsize=8,
+                        ha="center", path_effects=halo)
+        runs_n = sorted(set(counts[counts > 0].ravel().tolist()))
+        per_cell = f"n = {runs_n[0]}" if len(runs_n) == 1 else f"n = {runs_n[0]}–{runs_n[-1]}"
+        ok = sum(bool(r["success"]) for r in rows)
+        lo, hi = wilson(ok, len(rows))
+        ax.set_title(f"{label}\nsuccess {ok / len(rows):.1%} (95% CI {lo:.1%}–{hi:.1%}) of "
+                     f"{len(rows)} runs; {per_cell} per start", fontsize=9)
+        ax.set_aspect("equal")
+        ax.invert_yaxis()
+        ax.set_xlabel("start x (m)")
+        ax.set_ylabel("start y (m), drawn down")
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def _line(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
+    """Mean time to source against the start's x (AB Fig. 10), ± one standard error."""
+    first = next(iter(groups.values()))
+    xs_all = {float(r["start_x"]) for r in first}
+    ys_all = {float(r["start_y"]) for r in first}
+    if len(ys_all) == 1 and len(xs_all) > 1:
+        axis, fixed = "x", f"y = {next(iter(ys_all)):g} m"
+    elif len(xs_all) == 1 and len(ys_all) > 1:
+        axis, fixed = "y", f"x = {next(iter(xs_all)):g} m"
+    else:
+        return None
+    fig, ax = plt.subplots(figsize=(7.5, 4.4), layout="constrained")
+    for label, rows in groups.items():
+        by: dict[float, list[float]] = defaultdict(list)
+        for r in rows:
+            by[float(r[f"start_{axis}"])].append(_search_time(r))
+        pos = sorted(by)
+        mean = np.array([_mean(by[p]) for p in pos])
+        se = np.array([_sem(by[p]) for p in pos])
+        ns = sorted({len(by[p]) for p in pos})
+        per = f"{ns[0]}" if len(ns) == 1 else f"{ns[0]}–{ns[-1]}"
+        line = ax.plot(pos, mean, "o-", ms=3, label=f"{label} (n = {per} per start)")
+        ax.fill_between(pos, mean - se, mean + se, color=line[0].get_color(), alpha=0.25, lw=0)
+    ax.set_xlabel(f"start {axis} (m), {fixed}")
+    ax.set_ylabel("mean time to source (s) ± 1 SE;\na failure counts as the time it ran")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
+    """Success and false-declaration rates per configuration, with 95% Wilson intervals."""
+    if len(groups) < 2:
+        return None  # one bar says nothing the table does not
+    labels = list(groups)
+    every = [r for rows in groups.values() for r in rows]
+    bars = [("success", "success", "#2ca02c")]
+    if _criterion(every) == "declaration" or any(r.get("t3") is not None for r in every):
+        bars.append(("false_declaration", "false declaration", "#d62728"))
+    width = 0.76 / len(bars)
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.4 * len(labels) + 2), 4.2), layout="constrained")
+    pos = np.arange(len(labels))
+    for k, (key, name, colour) in enumerate(bars):
+        rate, lo, hi = [], [], []
+        for lab in labels:
+            rows = groups[lab]
+            hits = sum(bool(r.get(key)) for r in rows)
+            a, b = wilson(hits, len(rows))
+            rate.append(hits / len(rows))
+            # Wilson's bounds can land a rounding error past the rate (0 of n, n of n).
+            lo.append(max(0.0, hits / len(rows) - a))
+            hi.append(max(0.0, b - hits / len(rows)))
+        ax.bar(pos + (k - (len(bars) - 1) / 2) * width, rate, width, yerr=[lo, hi], capsize=3,
+               color=colour, label=f"{name} (95% Wilson CI)")
+    ax.set_xticks(pos, [f"{lab}\nn = {len(groups[lab])}" for lab in labels], fontsize=8)
+    ax.set_ylim(0, 1.05)
+    ax.set_ylabel("rate")
+    judged = _SUCCESS.get(_criterion(every), "success").removesuffix(" (95% CI)")
+    ax.set_title(f"{judged}, per configuration", fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # off the bars
+    ax.grid(axis="y", alpha=0.3)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
+    """Declaration error and T_D share (TRO Table III) histograms, where they exist."""
+    judged = {k: rows for k, rows in groups.items()
+              if any(r.get("criterion", "declaration") == "declaration" for r in rows)}
+    err = {k: [float(r["error_m"]) for r in rows if r.get("error_m") is not None
+               and r.get("t3") is not None] for k, rows in judged.items()}
+    share = {k: [v for v in map(_td_share, rows) if v is not None] for k, rows in judged.items()}
+    if not any(err.values()) and not any(share.values()):
+        return None
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")
+    radius = next((float(r["success_radius_m"]) for rows in judged.values() for r in rows
+                   if r.get("success_radius_m") is not None), None)
+    top = max([v for vals in err.values() for v in vals] + [radius or 0.0, 1.0])
+    edges = np.linspace(0.0, top * 1.02, 31)  # one set of bins for every configuration
+    for k in judged:
+        if err[k]:
+            a1.hist(err[k], bins=edges, alpha=0.6, label=f"{k} (n = {len(err[k])})")
+        if share[k]:
+            a2.hist(share[k], bins=20, range=(0, 1), alpha=0.6, label=f"{k} (n = {len(share[k])})")
+    if radius is not None:
+        a1.axvline(radius, color="#d62728", ls="--", lw=1, label=f"success radius {radius:g} m")
+    a1.set_xlabel("declaration error (m)")
+    a2.set_xlabel("T_D / mission time to declaration (TRO Table III)")
+    for ax in (a1, a2):
+        ax.set_ylabel("runs")
+        ax.yaxis.get_major_locator().set_params(integer=True)  # counts: no 0.25-run ticks
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
