@@ -178,7 +178,8 @@ def print_summary(s: dict[str, Any], session: AmpSession) -> None:
     for c in s["phases"]["timeline"]:
         print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})"
               + (f" {c['detail']}" if c["detail"] else ""))
-    share = ", ".join(f"{k} {v:.0%}" for k, v in s["time_share"].items())
+    share = ", ".join(f"{k} {v:.0%}" for k, v in s["time_share"].items()
+                      if k != "none" or v >= 0.005)  # as cptbt run: "none 0%" says nothing
     print(f"  time in behaviours: {share or '—'}")
     print(f"  link: {link.get('received', 0)} datagrams in, {link.get('sent', 0)} out, "
           f"{link.get('ignored', 0)} ignored, {link['heartbeats']} heartbeats; "
