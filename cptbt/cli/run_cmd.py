@@ -18,6 +18,7 @@ from cptbt.batch.summary import summarise
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
+from cptbt.cli.output import fmt, fresh_folder, time_share
 from cptbt.loader import dump_mission, loads_mission
 from cptbt.mission import MissionBase
 from cptbt.registry import default_registry
@@ -112,19 +113,6 @@ def run_folder(mission: MissionBase, seed: int, root: Path = Path("runs")) -> Pa
     return fresh_folder(root / f"{mission.name}-{digest}-seed{seed}")
 
 
-def fresh_folder(base: Path) -> Path:
-    """``base``, or ``base-2``, ``base-3``... : the first that does not exist."""
-    out, k = base, 1
-    while out.exists():
-        k += 1
-        out = base.with_name(f"{base.name}-{k}")
-    return out
-
-
-def _fmt(v: float | None, unit: str = "") -> str:
-    return "—" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.1f}{unit}"
-
-
 def _open_log(args: argparse.Namespace, mission: MissionBase, seed: int) -> CycleLog | None:
     """The cycle log ``--log`` asks for (None without it)."""
     if not getattr(args, "log", None):
@@ -206,28 +194,27 @@ def cmd_run(args: argparse.Namespace) -> int:
             judged = ("came" if s["success"] else "never came") + \
                 f" within {s['success_radius_m']:g} m of the source"
         print(f"{mission.name}, seed {seed}: {s['outcome']} ({verdict}: {judged}); the AMP "
-              f"ended at {_fmt(s['sim_time_s'], ' s')} "
+              f"ended at {fmt(s['sim_time_s'], ' s')} "
               f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
         if s["declared_source"]:
             d = s["declared_source"]
             geo = f" ({d['lat']:.6f}, {d['lon']:.6f})" if "lat" in d else ""
-            print(f"  declared at t3 = {_fmt(s['t3'], ' s')}: source N {d['north']:.1f} m, "
-                  f"E {d['east']:.1f} m{geo}; error {_fmt(s['error_m'], ' m')}")
+            print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source N {d['north']:.1f} m, "
+                  f"E {d['east']:.1f} m{geo}; error {fmt(s['error_m'], ' m')}")
         if s["sources_true"] > 1 or s["sources_declared"] > 1 or s["withdrawn"] or s["flybys"]:
             print(f"  sources: {s['sources_found']} of {s['sources_true']} found, "
                   f"{s['false_declarations']} false; fly-bys {s['flybys']}, "
                   f"withdrawn {s['withdrawn']}")
         if s["criterion"] == "maintain":
-            print(f"  first detection {_fmt(s['t1'], ' s')}; maintain time T_M "
-                  f"{_fmt(s['T_M'], ' s')} (AB eq. 3); closest to the source "
-                  f"{_fmt(s['closest_approach_m'], ' m')}")
+            print(f"  first detection {fmt(s['t1'], ' s')}; maintain time T_M "
+                  f"{fmt(s['T_M'], ' s')} (AB eq. 3); closest to the source "
+                  f"{fmt(s['closest_approach_m'], ' m')}")
         else:
-            print(f"  T_F {_fmt(s['T_F'], ' s')}  T_T {_fmt(s['T_T'], ' s')}  "
-                  f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}")
+            print(f"  T_F {fmt(s['T_F'], ' s')}  T_T {fmt(s['T_T'], ' s')}  "
+                  f"T_D {fmt(s['T_D'], ' s')}  D1/D0 {fmt(s['D1_over_D0'])}")
         for c in s.get("phases", {}).get("timeline", []):
             print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})")
-        share = ", ".join(f"{k} {v:.0%}" for k, v in s["time_share"].items()
-                          if k != "none" or v >= 0.005)  # "none 0%" says nothing
+        share = time_share(s["time_share"])
         print(f"  time in behaviours: {share}")
         print(f"  wrote {out / 'summary.json'}, {trace_path}" + (f", {figure}" if figure else "")
               + (f", {args.log}" if args.log else ""))

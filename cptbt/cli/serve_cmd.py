@@ -18,6 +18,7 @@ from cptbt.batch.served import AmpCycles, served_summary
 from cptbt.bridge import LinkURIError, open_link, parse_uri
 from cptbt.bridge.serve import ServeOptions, serve
 from cptbt.cli.inspect_cmds import load
+from cptbt.cli.output import fmt, fresh_folder, time_share
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
 from cptbt.session import AmpSession
@@ -133,7 +134,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
               f"{args.connect_timeout:g} s; nothing written", file=sys.stderr)
         return 1
     summary = served_summary(result, cycles, mission, source)
-    out = Path(args.out) if args.out else _served_folder(mission.name)
+    out = Path(args.out) if args.out else fresh_folder(Path("runs") / f"{mission.name}-served")
     out.mkdir(parents=True, exist_ok=True)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     if not args.quiet:
@@ -141,19 +142,6 @@ def cmd_serve(args: argparse.Namespace) -> int:
         extra = f", {args.log}" if args.log else ""
         print(f"  wrote {out / 'summary.json'}{extra}")
     return 0 if result.stop_reason in ("post_mission", "given_back") else 1
-
-
-def _served_folder(name: str, root: Path = Path("runs")) -> Path:
-    """A new ``runs/<mission>-served[-N]`` folder that no earlier run wrote."""
-    out, k = root / f"{name}-served", 1
-    while out.exists():
-        k += 1
-        out = root / f"{name}-served-{k}"
-    return out
-
-
-def _fmt(v: float | None, unit: str = "") -> str:
-    return "—" if v is None or v != v else f"{v:.1f}{unit}"
 
 
 def print_summary(s: dict[str, Any], session: AmpSession) -> None:
@@ -169,18 +157,16 @@ def print_summary(s: dict[str, Any], session: AmpSession) -> None:
           + ("; control handed back" if link["handed_back"] else ""))
     if s["declared_source"]:
         d = s["declared_source"]
-        print(f"  declared at t3 = {_fmt(s['t3'], ' s')}: source N {d['north']:.1f} m, "
-              f"E {d['east']:.1f} m" + (f"; error {_fmt(s['error_m'], ' m')}"
+        print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source N {d['north']:.1f} m, "
+              f"E {d['east']:.1f} m" + (f"; error {fmt(s['error_m'], ' m')}"
                                         if s["error_m"] is not None else ""))
-    print(f"  T_F {_fmt(s['T_F'], ' s')}  T_T {_fmt(s['T_T'], ' s')}  "
-          f"T_D {_fmt(s['T_D'], ' s')}  D1/D0 {_fmt(s['D1_over_D0'])}"
+    print(f"  T_F {fmt(s['T_F'], ' s')}  T_T {fmt(s['T_T'], ' s')}  "
+          f"T_D {fmt(s['T_D'], ' s')}  D1/D0 {fmt(s['D1_over_D0'])}"
           + ("  (paths on the navigation track)" if "track" in s else ""))
     for c in s["phases"]["timeline"]:
         print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})"
               + (f" {c['detail']}" if c["detail"] else ""))
-    share = ", ".join(f"{k} {v:.0%}" for k, v in s["time_share"].items()
-                      if k != "none" or v >= 0.005)  # as cptbt run: "none 0%" says nothing
-    print(f"  time in behaviours: {share or '—'}")
+    print(f"  time in behaviours: {time_share(s['time_share']) or '—'}")
     print(f"  link: {link.get('received', 0)} datagrams in, {link.get('sent', 0)} out, "
           f"{link.get('ignored', 0)} ignored, {link['heartbeats']} heartbeats; "
           f"{session.refusals} commands refused")
