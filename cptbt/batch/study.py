@@ -23,7 +23,7 @@ import yaml
 from cptbt.batch.integrity import digest
 from cptbt.loader import dump_mission, loads_mission
 from cptbt.mission import MissionBase, mission_to_data
-from cptbt.registry import default_registry
+from cptbt.registry import RegistryError, default_registry
 
 MAX_STARTS = 100_000
 """Most starts a study may have: a bound on typos such as ``--starts-x 0:100:0.0001``."""
@@ -118,7 +118,7 @@ def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
                     continue
                 try:
                     defaults = registry.get(family, str(value)).params().model_dump(mode="json")
-                except Exception:  # an unknown variant fails validation in configurations()
+                except RegistryError:  # an unknown variant fails in configurations()
                     continue
                 lost |= {k: v for k, v in body.items() if k != "variant" and k not in also
                          and k in defaults and defaults[k] != v}
