@@ -19,10 +19,24 @@ Rows = list[dict[str, Any]]
 
 
 def config_label(coords: dict[str, Any], mission: str) -> str:
-    """The name of a configuration in tables and legends: its sweep values, else the mission."""
+    """The name of a configuration in tables and legends: its sweep values, else the mission.
+
+    Each swept setting is named by its last key (``speed_mps=1``); where two sweeps share a last
+    key (``maintain_plume.speed_mps`` and ``find_plume.speed_mps``) both keep their full path,
+    so no label can be read two ways.
+    """
     if not coords:
         return mission
-    return ", ".join(f"{path.split('.')[-1]}={value}" for path, value in coords.items())
+    short = {path: _last_keys(path) for path in coords}
+    clash = {name for name in short.values() if list(short.values()).count(name) > 1}
+    return ", ".join(f"{path if short[path] in clash else short[path]}={value}"
+                     for path, value in coords.items())
+
+
+def _last_keys(path: str) -> str:
+    """``a.b`` -> ``b``; a joint sweep ``a.variant+b.variant`` -> ``variant``."""
+    names = dict.fromkeys(part.split(".")[-1] for part in path.split("+"))
+    return "+".join(names)
 
 
 def _config_label(row: dict[str, Any]) -> str:

@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from cptbt.batch.report import StudyGeometry, wilson, write_report
+from cptbt.batch.report import StudyGeometry, config_label, wilson, write_report
 
 BASE: dict[str, Any] = {
     "config": 0, "replicate": 0, "mission": "m", "start_y": 0.0, "error_m": None, "T_F": None,
@@ -144,3 +144,14 @@ def test_scattered_starts_are_drawn_as_points_not_cells(tmp_path: Path,
     (fig,) = [f for f in seen if f.axes and "start x" in f.axes[0].get_xlabel()]
     kinds = {type(c) for c in fig.axes[0].collections}
     assert PathCollection in kinds and QuadMesh not in kinds  # 3 of a 2 x 2 grid's starts
+
+
+def test_config_label_names_each_setting_unambiguously() -> None:
+    assert config_label({}, "msn") == "msn"
+    assert config_label({"maintain_plume.speed_mps": 1.0}, "msn") == "speed_mps=1.0"
+    joint = "maintain_plume.variant+reacquire_plume.variant"
+    assert config_label({joint: "strategy_1"}, "msn") == "variant=strategy_1"
+    # Two sweeps ending in the same key would both read "speed_mps=...": full paths instead.
+    two = {"maintain_plume.speed_mps": 1.0, "find_plume.speed_mps": 2.0, "environment.seed": 3}
+    assert config_label(two, "msn") == (
+        "maintain_plume.speed_mps=1.0, find_plume.speed_mps=2.0, seed=3")
