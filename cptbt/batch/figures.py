@@ -103,11 +103,15 @@ def trajectory_figure(
     # plus room for the legend on the right.
     aspect = (area.xmax - area.xmin) / max(area.ymax - area.ymin, 1e-9)
     width = min(12.5, max(8.0, 3.8 + 4.6 * aspect))
+    # A long thin area (10:1) fills the width at a fraction of the usual height: the page
+    # shrinks to it (title, axis labels and colour bar need ~2.6 in) rather than leaving most
+    # of it blank between the panels.
+    panel = min(5.6, max(3.4, (width - 3.8) / aspect + 2.6))
     if belief is None:
-        fig, ax = plt.subplots(figsize=(width, 5.6), layout="constrained")
+        fig, ax = plt.subplots(figsize=(width, panel), layout="constrained")
     else:
-        fig, (ax, ax_map) = plt.subplots(2, 1, figsize=(width, 10.4), layout="constrained",
-                                         sharex=True, sharey=True)
+        fig, (ax, ax_map) = plt.subplots(2, 1, figsize=(width, 2 * panel - 0.8),
+                                         layout="constrained", sharex=True, sharey=True)
     snap = run.plume
     if snap is not None:
         vmax = max(float(np.percentile(snap.conc, 99.7)), (threshold or 0.0) * 2, 1e-9)

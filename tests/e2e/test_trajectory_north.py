@@ -36,3 +36,30 @@ def test_north_arrow_only_with_a_compass(name: str, north: bool, tmp_path: Path,
     texts = {t.get_text() for t in ax.texts}
     assert ("N" in texts) == north
     assert ("compass bearing " in ax.get_xlabel()) == north  # "... bearing 0.0°" or none given
+
+
+def test_a_long_thin_area_gets_a_page_of_its_shape(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """A 300 x 30 m box fills the page's width at a fraction of its height: the page shrinks
+    to it instead of leaving most of it blank (an ordinary box keeps the usual height)."""
+    from matplotlib.figure import Figure
+
+    base = load(str(ROOT / "missions" / "oblique_flow.yaml"), simulate=True)
+    heights = {}
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    for name, corners in (("usual", None),
+                          ("thin", [[150, 15], [-150, 15], [-150, -15], [150, -15]])):
+        mission = base.model_copy(update={"time_limit_s": 5.0})
+        if corners is not None:
+            area = mission.op_area.model_copy(update={"corners": corners})
+            mission = mission.model_copy(update={"op_area": area, "start": [-100, 0],
+                                                 "home": [-120, 0]})
+        params = to_sim_params(mission)
+        grid = plume_grid(mission.op_area_geometry())
+        (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True,
+                                plume_grid=grid)
+        trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), "t")
+        heights[name] = float(seen[-1].get_size_inches()[1])
+    assert heights["usual"] == pytest.approx(5.6)
+    assert heights["thin"] < 4.0
