@@ -24,7 +24,7 @@ from cptbt.batch.recorder import PATH_COLUMNS, TRACE_COLUMNS, Recorder
 from cptbt.fleet import FleetPlanner, FleetSupport, fleet_support, planner_choice
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
-from cptbt.policy import give_back_trigger
+from cptbt.policy import TIME_EPS_S, give_back_trigger
 from cptbt.sim.world import EnvironmentParams, StepOutput, World
 from cptbt.types import Point
 
@@ -255,8 +255,8 @@ def simulate(
         if out.adcp_flow is not None:
             for i in active:
                 planners[i].add_flow(t, float(out.adcp_flow[i, 0]), float(out.adcp_flow[i, 1]))
-        if t + 1e-9 < next_tick:
-            return True
+        if t + 1e-9 < next_tick and t + TIME_EPS_S < limit:
+            return True  # no cycle due; at the time limit one is, on the cycle grid or not
         next_tick += period
         m = len(active)
         detected = np.zeros(m, dtype=bool)
@@ -373,8 +373,8 @@ def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: 
             fleet.add_samples(active, out.fluorometer[active])
         if out.adcp_flow is not None:
             fleet.add_flows(t, active, out.adcp_flow[active, 0], out.adcp_flow[active, 1])
-        if t + 1e-9 < next_tick:
-            return True
+        if t + 1e-9 < next_tick and t + TIME_EPS_S < limit:
+            return True  # no cycle due; at the time limit one is, on the cycle grid or not
         next_tick += period
         ex, ey = out.nav_xy[active, 0], out.nav_xy[active, 1]
         fleet.set_poses(active, ex, ey, out.nav_heading_deg[active])
