@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cptbt.batch.engine import VehicleRun
-from cptbt.batch.outcome import judge
+from cptbt.batch.outcome import Verdict, judge
 from cptbt.mission import MissionBase
 from cptbt.types import Point
 
@@ -157,6 +157,13 @@ def summarise(
     assert run.outcome is not None, "summarise a finished run"
     verdict = judge(run.outcome, declared, source, run.distance_at_end_m, mission.evaluation,
                     run.closest_m)
+    truth = list(sources) if sources else [source]
+    radius = success_radius_m or mission.evaluation.success_radius_m
+    declared_all = list(run.declared_all) or ([declared] if declared is not None else [])
+    found = _match(declared_all, truth, radius)
+    if mission.evaluation.criterion == "declaration" and (len(truth) > 1 or len(declared_all) > 1
+                                                          or (declared_all and declared is None)):
+        verdict = _judge_set(declared_all, truth, found)
     i0 = int(np.searchsorted(path_t, t0)) if len(path_t) else 0
     i_end = int(np.searchsorted(path_t, t3)) + 1 if t3 is not None else len(path_t)
     path_m = _path_length(true[i0:i_end]) if len(true) else None
@@ -164,10 +171,6 @@ def summarise(
                 if i0 < len(true) else None)
     time_in = run.time_in
     total_time = sum(time_in.values()) or 1.0
-    truth = list(sources) if sources else [source]
-    radius = success_radius_m or mission.evaluation.success_radius_m
-    declared_all = list(run.declared_all) or ([declared] if declared is not None else [])
-    found = _match(declared_all, truth, radius)
     report = run.declaration_report or {}
     return RunSummary(
         mission=mission.name,
@@ -215,6 +218,23 @@ def _maintain_time(run: VehicleRun) -> float | None:
         return None
     hits = run.path_t[run.recorder.column("detected", run.index)]
     return float(hits[-1] - run.t1) if len(hits) else 0.0
+
+
+def _judge_set(declared: Sequence[Point], truth: Sequence[Point], found: int) -> Verdict:
+    """The declaration criterion for several sources, or several declarations: success when
+    every true source has a declared point within the radius and no declared point is false;
+    the error is the worst declared point's distance to its nearest true source.
+
+    Reading chosen: a run that declared every true source but was still searching for more
+    (``max_sources`` above the sources there are) at its time limit is a success with outcome
+    ``timeout``; judging only the declaration that ends the search (the planner's
+    ``declared_source``, set once ``max_sources`` are declared) called it a failure while it
+    reported "1 of 1 found, 0 false".
+    """
+    errors = [min(d.distance_to(s) for s in truth) for d in declared]
+    return Verdict(success=found == len(truth) and found == len(declared),
+                   false_declaration=found < len(declared),
+                   error_m=max(errors) if errors else None)
 
 
 def _match(declared: Sequence[Point], truth: Sequence[Point], radius_m: float) -> int:

@@ -1,0 +1,45 @@
+"""The declaration criterion when a mission declares several sources (``max_sources``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from cptbt.batch.engine import simulate
+from cptbt.batch.outcome import Verdict
+from cptbt.batch.scenario import Environment, launch_pose, to_sim_params
+from cptbt.batch.summary import _judge_set, summarise
+from cptbt.loader import loads_mission
+from cptbt.registry import default_registry
+from cptbt.types import Point
+
+ROOT = Path(__file__).resolve().parents[2]
+A, B = Point(0, 0), Point(100, 0)
+
+
+def test_every_true_source_declared_and_nothing_false_is_a_success() -> None:
+    assert _judge_set([Point(3, 4)], [A], 1) == Verdict(True, False, 5.0)
+    ok = _judge_set([Point(1, 0), Point(98, 0)], [A, B], 2)
+    assert ok.success and not ok.false_declaration and ok.error_m == 2.0
+    one_missing = _judge_set([Point(1, 0)], [A, B], 1)
+    assert not one_missing.success and not one_missing.false_declaration
+    one_false = _judge_set([Point(1, 0), Point(50, 0)], [A], 1)
+    assert not one_false.success and one_false.false_declaration and one_false.error_m == 50.0
+    assert _judge_set([], [A], 0) == Verdict(False, False, None)
+
+
+def test_asking_for_two_sources_where_there_is_one() -> None:
+    """max_sources 2 over one real source: the AMP declares it, searches on to the time limit
+    (outcome timeout) and is judged on what it declared: a success, not a failure."""
+    text = (ROOT / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8")
+    start = text.index("declare_source:")
+    end = text.index("\n", start)
+    text = text[:start] + ("declare_source: {variant: likelihood_map, max_sources: 2}"
+                           ) + text[end:]
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    mission = mission.model_copy(update={"mission_a": None, "time_limit_s": 900.0})
+    params = to_sim_params(mission, 1)
+    (run,), _, wall = simulate(mission, params, [launch_pose(mission)])
+    s = summarise(run, mission, Point(*params.source_xy_m), 1, wall).to_dict()
+    assert s["outcome"] == "timeout" and s["sources_declared"] == 1
+    assert s["sources_found"] == 1 and s["false_declarations"] == 0
+    assert s["success"] and s["error_m"] is not None and s["error_m"] <= 15.0
