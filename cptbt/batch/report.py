@@ -280,7 +280,7 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
         if not declared:
             continue  # TRO's tables are about declarations (AB's arrival runs declare nothing)
         lines += ["", f"## {label}: times and paths (TRO Tables III and IV form)", "",
-                  "| run | start (x, y) | declared (N, E) | error (m) | T_F (s) | T_T (s) "
+                  "| run | start (x, y) | declared (x, y) | error (m) | T_F (s) | T_T (s) "
                   "| T_D (s) | T_D share | D0 (m) | D1 (m) | D2 (m) | D3 (m) | D1/D0 |",
                   "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         shown = declared if len(declared) <= 20 else []
@@ -288,8 +288,8 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
             share = _td_share(r)
             lines.append(
                 f"| r{r['replicate']}s{r['start']} | ({_fmt(r['start_x'])}, {_fmt(r['start_y'])}) "
-                f"| ({_fmt(r.get('declared_source_north'))}, "
-                f"{_fmt(r.get('declared_source_east'))}) "
+                f"| ({_fmt(r.get('declared_source_x'))}, "
+                f"{_fmt(r.get('declared_source_y'))}) "
                 f"| {_fmt(r.get('error_m'))} | {_fmt(r.get('T_F'))} | {_fmt(r.get('T_T'))} "
                 f"| {_fmt(r.get('T_D'))} | {_fmt(share * 100 if share is not None else None)}% "
                 f"| {_fmt(r.get('D0'))} | {_fmt(r.get('D1'))} | {_fmt(r.get('D2'))} "

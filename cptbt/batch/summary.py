@@ -26,11 +26,17 @@ def _path_length(points: NDArray[np.float64]) -> float:
 
 
 def where(mission: MissionBase, p: Point | None) -> dict[str, float] | None:
-    """A planning point in planning, N-E and (when the mission has a geodetic anchor) lat/lon."""
+    """A planning point in planning, N-E and (when the mission has a geodetic anchor) lat/lon.
+
+    A planning-frame mission has no compass: its points have ``x`` and ``y`` only (they were
+    copied into ``north`` and ``east``, which said a bearing nobody gave).
+    """
     if p is None:
         return None
-    n, e = mission.to_ne(p)
-    out = {"x": p.x, "y": p.y, "north": n, "east": e}
+    out = {"x": p.x, "y": p.y}
+    if mission.frame != "planning":
+        n, e = mission.to_ne(p)
+        out |= {"north": n, "east": e}
     geo = mission.to_geodetic(p)
     if geo is not None:
         out |= {"lat": geo.lat_deg, "lon": geo.lon_deg}

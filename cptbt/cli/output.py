@@ -24,3 +24,15 @@ def fmt(v: float | None, unit: str = "") -> str:
 def time_share(shares: dict[str, Any]) -> str:
     """``behaviour 12%, ...`` of a summary's ``time_share``; "none 0%" says nothing, left out."""
     return ", ".join(f"{k} {v:.0%}" for k, v in shares.items() if k != "none" or v >= 0.005)
+
+
+def place(d: dict[str, float]) -> str:
+    """A summary's point (``where``): ``N 12.3 m, E -4.5 m`` and lat/lon when known; a
+    planning-frame mission has no compass, so its point is ``x 12.3 m, y -4.5 m``."""
+    if "north" in d:
+        text = f"N {d['north']:.1f} m, E {d['east']:.1f} m"
+    else:
+        text = f"x {d['x']:.1f} m, y {d['y']:.1f} m"
+    if "lat" in d:
+        text += f" ({d['lat']:.6f}, {d['lon']:.6f})"
+    return text

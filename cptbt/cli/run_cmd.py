@@ -18,7 +18,7 @@ from cptbt.batch.summary import summarise
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
-from cptbt.cli.output import fmt, fresh_folder, time_share
+from cptbt.cli.output import fmt, fresh_folder, place, time_share
 from cptbt.loader import dump_mission, loads_mission
 from cptbt.mission import MissionBase
 from cptbt.registry import default_registry
@@ -197,14 +197,13 @@ def cmd_run(args: argparse.Namespace) -> int:
               f"ended at {fmt(s['sim_time_s'], ' s')} "
               f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
         if s["declared_source"]:
-            d = s["declared_source"]
-            geo = f" ({d['lat']:.6f}, {d['lon']:.6f})" if "lat" in d else ""
-            print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source N {d['north']:.1f} m, "
-                  f"E {d['east']:.1f} m{geo}; error {fmt(s['error_m'], ' m')}")
+            print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source "
+                  f"{place(s['declared_source'])}; error {fmt(s['error_m'], ' m')}")
         if s["sources_true"] > 1 or s["sources_declared"] > 1 or s["withdrawn"] or s["flybys"]:
             print(f"  sources: {s['sources_found']} of {s['sources_true']} found, "
-                  f"{s['false_declarations']} false; fly-bys {s['flybys']}, "
-                  f"withdrawn {s['withdrawn']}")
+                  f"{s['false_declarations']} false"
+                  + (f"; fly-bys {s['flybys']}, withdrawn {s['withdrawn']}"
+                     if s["flybys"] is not None else ""))
         if s["criterion"] == "maintain":
             print(f"  first detection {fmt(s['t1'], ' s')}; maintain time T_M "
                   f"{fmt(s['T_M'], ' s')} (AB eq. 3); closest to the source "

@@ -18,7 +18,7 @@ from cptbt.batch.served import AmpCycles, served_summary
 from cptbt.bridge import LinkURIError, open_link, parse_uri
 from cptbt.bridge.serve import ServeOptions, serve
 from cptbt.cli.inspect_cmds import load
-from cptbt.cli.output import fmt, fresh_folder, time_share
+from cptbt.cli.output import fmt, fresh_folder, place, time_share
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
 from cptbt.session import AmpSession
@@ -156,10 +156,8 @@ def print_summary(s: dict[str, Any], session: AmpSession) -> None:
           + (f" ({link['error']})" if link["error"] else "")
           + ("; control handed back" if link["handed_back"] else ""))
     if s["declared_source"]:
-        d = s["declared_source"]
-        print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source N {d['north']:.1f} m, "
-              f"E {d['east']:.1f} m" + (f"; error {fmt(s['error_m'], ' m')}"
-                                        if s["error_m"] is not None else ""))
+        print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source {place(s['declared_source'])}"
+              + (f"; error {fmt(s['error_m'], ' m')}" if s["error_m"] is not None else ""))
     print(f"  T_F {fmt(s['T_F'], ' s')}  T_T {fmt(s['T_T'], ' s')}  "
           f"T_D {fmt(s['T_D'], ' s')}  D1/D0 {fmt(s['D1_over_D0'])}"
           + ("  (paths on the navigation track)" if "track" in s else ""))

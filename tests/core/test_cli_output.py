@@ -5,7 +5,12 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from cptbt.cli.output import fmt, fresh_folder, time_share
+from cptbt.batch.scenario import Environment
+from cptbt.batch.summary import where
+from cptbt.cli.output import fmt, fresh_folder, place, time_share
+from cptbt.loader import load_mission
+from cptbt.registry import default_registry
+from cptbt.types import Point
 
 
 def test_fresh_folder_never_reuses_one(tmp_path: Path) -> None:
@@ -21,3 +26,18 @@ def test_time_share_leaves_out_only_an_empty_none() -> None:
     assert time_share({"a.b": 0.5, "none": 0.001}) == "a.b 50%"
     assert time_share({"a.b": 0.9, "none": 0.1}) == "a.b 90%, none 10%"
     assert fmt(None) == fmt(math.nan) == "—" and fmt(3.14159, " m") == "3.1 m"
+
+
+def test_a_point_is_told_in_the_frame_the_mission_has() -> None:
+    assert place({"x": 1.0, "y": -2.0, "north": 3.0, "east": 4.0}) == "N 3.0 m, E 4.0 m"
+    assert place({"x": 1.0, "y": -2.0}) == "x 1.0 m, y -2.0 m"  # planning frame: no compass
+    geo = {"x": 0.0, "y": 0.0, "north": 1.0, "east": 2.0, "lat": 32.5, "lon": -118.25}
+    assert place(geo) == "N 1.0 m, E 2.0 m (32.500000, -118.250000)"
+
+
+def test_a_planning_frame_summary_point_has_no_north() -> None:
+    root = Path(__file__).resolve().parents[2]
+    ab = load_mission(root / "missions/ab2001_strategy3.yaml", default_registry(), Environment)
+    assert where(ab, Point(20, 5)) == {"x": 20, "y": 5}
+    tro = load_mission(root / "missions/oblique_flow.yaml", default_registry(), Environment)
+    assert {"x", "y", "north", "east"} == set(where(tro, Point(20, 5)) or {})
