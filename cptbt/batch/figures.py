@@ -257,6 +257,9 @@ def _graticule(ax: Any, mission: MissionBase, area: OpArea) -> None:
                for y in (area.ymin, area.ymax)]
     lats = [g.lat_deg for g in corners if g is not None]
     lons = [g.lon_deg for g in corners if g is not None]
+    # Across the antimeridian the corners read 179.99 and -179.99: unwrap them about the first
+    # so the lines run between them (min/max over the raw values spanned the whole globe).
+    lons = [lons[0] + _wrap180(lon - lons[0]) for lon in lons]
     for values, is_lat in ((lats, True), (lons, False)):
         lo, hi = min(values), max(values)
         step = _nice_step((hi - lo) / 4)
@@ -276,9 +279,15 @@ def _graticule(ax: Any, mission: MissionBase, area: OpArea) -> None:
             # Latitudes labelled where they enter the OpArea, longitudes where they leave it,
             # so the two sets of labels do not pile up on one edge.
             k = int(np.flatnonzero(inside)[0 if is_lat else -1])
-            ax.text(xs[k], ys[k], _dm(v, "NS" if is_lat else "EW"), fontsize=6,
+            ax.text(xs[k], ys[k], _dm(v if is_lat else _wrap180(v), "NS" if is_lat else "EW"),
+                    fontsize=6,
                     color="#2a6099", ha="center", va="center", zorder=1,
                     bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 0.5})
+
+
+def _wrap180(deg: float) -> float:
+    """An angle in [-180, 180)."""
+    return (deg + 180.0) % 360.0 - 180.0
 
 
 def _nice_step(raw: float) -> float:

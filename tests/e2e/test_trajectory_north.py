@@ -63,3 +63,24 @@ def test_a_long_thin_area_gets_a_page_of_its_shape(tmp_path: Path,
         heights[name] = float(seen[-1].get_size_inches()[1])
     assert heights["usual"] == pytest.approx(5.6)
     assert heights["thin"] < 4.0
+
+
+@pytest.mark.parametrize("centre_lon", [179.9995, -179.9995, 0.0])
+def test_longitude_lines_across_the_antimeridian(centre_lon: float) -> None:
+    """The graticule took min/max of the corners' longitudes: across +-180 that spanned the
+    globe and no longitude line was drawn. Lines and labels on both sides of it now."""
+    import matplotlib.pyplot as plt
+
+    from cptbt.batch.figures import _graticule
+
+    base = load(str(ROOT / "missions" / "oblique_flow.yaml"), simulate=True)
+    area_spec = base.op_area.model_copy(update={"geodetic_centre_deg": (-20.0, centre_lon)})
+    mission = base.model_copy(update={"op_area": area_spec})
+    fig, ax = plt.subplots()
+    _graticule(ax, mission, mission.op_area_geometry())
+    labels = [t.get_text() for t in ax.texts]
+    plt.close(fig)
+    lon_labels = [s for s in labels if s.endswith(("E", "W"))]
+    assert len(ax.lines) >= 4 and len(lon_labels) >= 2, labels
+    if centre_lon == 179.9995:  # the 120 m E-W box reaches 0.0011 deg past 180: both named
+        assert {s[-1] for s in lon_labels} == {"E", "W"}, labels
