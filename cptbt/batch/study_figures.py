@@ -181,7 +181,15 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
     if _criterion(every) == "declaration" or any(r.get("t3") is not None for r in every):
         bars.append(("false_declaration", "false declaration", "#d62728"))
     width = 0.76 / len(bars)
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.4 * len(labels) + 2), 4.2), layout="constrained")
+    # One swept setting per line under each bar, and each bar as wide as its longest line
+    # (two sweeps' "a=1, b=2" labels ran into each other); past 20 in the labels slant instead.
+    ticks = ["\n".join(lab.split(", ")) + f"\nn = {len(groups[lab])}" for lab in labels]
+    longest = max(len(line) for t in ticks for line in t.splitlines())
+    per_bar = max(1.4, 0.075 * longest)
+    slant = per_bar * len(labels) + 2.5 > 20.0
+    fig_w = min(20.0, max(6.0, (1.4 if slant else per_bar) * len(labels) + 2.5))
+    fig, ax = plt.subplots(figsize=(fig_w, 4.2 + (0.14 * longest if slant else 0.0)),
+                           layout="constrained")
     pos = np.arange(len(labels))
     for k, (key, name, colour) in enumerate(bars):
         rate, lo, hi = [], [], []
@@ -195,7 +203,11 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
             hi.append(max(0.0, b - hits / len(rows)))
         ax.bar(pos + (k - (len(bars) - 1) / 2) * width, rate, width, yerr=[lo, hi], capsize=3,
                color=colour, label=f"{name} (95% Wilson CI)")
-    ax.set_xticks(pos, [f"{lab}\nn = {len(groups[lab])}" for lab in labels], fontsize=8)
+    ax.set_xticks(pos, ticks, fontsize=8)
+    if slant:
+        ax.tick_params(axis="x", labelrotation=30)
+        for tick in ax.get_xticklabels():
+            tick.set_horizontalalignment("right")
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("rate")
     judged = _SUCCESS.get(_criterion(every), "success").removesuffix(" (95% CI)")

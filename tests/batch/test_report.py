@@ -155,3 +155,29 @@ def test_config_label_names_each_setting_unambiguously() -> None:
     two = {"maintain_plume.speed_mps": 1.0, "find_plume.speed_mps": 2.0, "environment.seed": 3}
     assert config_label(two, "msn") == (
         "maintain_plume.speed_mps=1.0, find_plume.speed_mps=2.0, seed=3")
+
+
+def test_rates_chart_gives_each_swept_setting_a_line_and_room(tmp_path: Path,
+                                                              monkeypatch: pytest.MonkeyPatch
+                                                              ) -> None:
+    """Two sweeps' labels ("a.speed_mps=1, b.speed_mps=2") under 1.4 in bars ran into each
+    other: one setting per line, and each bar as wide as its longest line."""
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    from cptbt.batch.figures import pyplot
+    from cptbt.batch.study_figures import _rates
+
+    two = {"maintain_plume.speed_mps": 1.0, "find_plume.speed_mps": 1.5}
+    label = config_label(two, "m")
+    groups = {label.replace("1.5", str(v)): [{**BASE, "success": True, "criterion": "arrival"}]
+              for v in (1.5, 2.5, 3.5, 4.5)}
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    assert _rates(groups, tmp_path / "r.png", pyplot()) is not None
+    fig = seen[0]
+    ticks = [t.get_text() for t in fig.axes[0].get_xticklabels()]
+    assert ticks[0].splitlines() == ["maintain_plume.speed_mps=1.0", "find_plume.speed_mps=1.5",
+                                     "n = 1"]
+    per_bar_in = (fig.get_size_inches()[0] - 2.5) / len(groups)
+    assert per_bar_in >= 0.075 * len("maintain_plume.speed_mps=1.0")
