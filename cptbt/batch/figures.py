@@ -80,6 +80,7 @@ def trajectory_figure(
     waypoints: Sequence[Point] | None = None,
     sources: Sequence[Point] = (),
     goal: Point | None = None,
+    flow_deg: float | None = None,
 ) -> None:
     """The run in the planning frame, drawn as TRO Figs. 10–12 (y positive down).
 
@@ -91,7 +92,8 @@ def trajectory_figure(
     override are drawn dashed (Mission A) or dotted (return to the break-off point), and the
     planned Mission A ``waypoints`` as a light dashed line (TRO Fig. 1). ``sources`` are every
     true source (default: ``source``); ``goal`` is the run's move-to-field goal when it is not
-    the mission's start point (a study row's start). When the run's declaration kept a
+    the mission's start point (a study row's start); ``flow_deg`` (planning angle the mean
+    current flows toward) draws an arrow in the OpArea's corner. When the run's declaration kept a
     source-likelihood map, a second panel draws its posterior at the (last) declaration with the
     declared points, the withdrawn fly-by candidates and the true sources.
     """
@@ -147,6 +149,8 @@ def trajectory_figure(
     ax.plot(home.x, home.y, "^", mfc="#8c564b", mec="black", ms=9, label="home")
     declared = list(run.declared_all) or ([run.declared] if run.declared is not None else [])
     _sources(ax, truth, declared)
+    if flow_deg is not None:
+        _flow_arrow(ax, area, flow_deg)
     if belief is not None:
         _map_panel(ax_map, belief, area, truth, declared, run.declaration_report or {}, plt)
     ax.set_aspect("equal")
@@ -164,6 +168,24 @@ def trajectory_figure(
     fig.legend(loc="outside right upper", fontsize=8, frameon=False)
     fig.savefig(path, dpi=150)
     plt.close(fig)
+
+
+def _flow_arrow(ax: Any, area: OpArea, flow_deg: float) -> None:
+    """The mean current's direction, in the OpArea's corner (the plume alone can mislead:
+    the meander bends it)."""
+    from matplotlib import patheffects
+
+    size = 0.12 * min(area.xmax - area.xmin, area.ymax - area.ymin)
+    th = math.radians(flow_deg)
+    cx, cy = area.xmin + 1.4 * size, area.ymax - 1.4 * size
+    halo = [patheffects.withStroke(linewidth=3.0, foreground="white")]
+    arrow = ax.annotate("", xy=(cx + size * math.cos(th), cy + size * math.sin(th)),
+                        xytext=(cx, cy),
+                        arrowprops={"arrowstyle": "-|>", "color": "#1f3b73", "lw": 1.8},
+                        zorder=4)
+    arrow.arrow_patch.set_path_effects(halo)
+    ax.text(cx, cy + 0.35 * size, "mean current", color="#1f3b73", fontsize=7, ha="center",
+            va="top", path_effects=halo, zorder=4)
 
 
 def _sources(ax: Any, truth: Sequence[Point], declared: Sequence[Point],

@@ -184,7 +184,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         trajectory_figure(figure, run, mission, source,
                           f"{mission.name} (seed {seed}): {summary['outcome']}\n{variants}",
                           threshold=mission.perception.threshold, waypoints=waypoints,
-                          sources=sources)
+                          sources=sources, flow_deg=params.flow.mean_dir_deg)
     if not args.quiet:
         s = summary
         verdict = "success" if s["success"] else (
@@ -274,7 +274,8 @@ def refly(args: argparse.Namespace) -> int:
                           f"{args.row} ({task.key}, start {row['start']}): "
                           f"{summary['outcome']}",
                           threshold=mission.perception.threshold,
-                          sources=true_sources(mission), goal=Point(*task.starts[0]))
+                          sources=true_sources(mission), goal=Point(*task.starts[0]),
+                          flow_deg=to_sim_params(mission).flow.mean_dir_deg)
     if not args.quiet:
         same = "the same as the study's row, bit for bit" if not diff else (
             f"DIFFERENT from the study's row in {', '.join(diff)}")

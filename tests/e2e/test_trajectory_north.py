@@ -84,3 +84,25 @@ def test_longitude_lines_across_the_antimeridian(centre_lon: float) -> None:
     assert len(ax.lines) >= 4 and len(lon_labels) >= 2, labels
     if centre_lon == 179.9995:  # the 120 m E-W box reaches 0.0011 deg past 180: both named
         assert {s[-1] for s in lon_labels} == {"E", "W"}, labels
+
+
+def test_the_mean_current_is_drawn_when_given(tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    from matplotlib.figure import Figure
+
+    mission = load(str(ROOT / "missions" / "oblique_flow.yaml"), simulate=True)
+    mission = mission.model_copy(update={"time_limit_s": 5.0})
+    params = to_sim_params(mission)
+    (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True,
+                            plume_grid=plume_grid(mission.op_area_geometry()))
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    for flow in (None, params.flow.mean_dir_deg):
+        trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), "t",
+                          flow_deg=flow)
+    texts = [{t.get_text() for t in fig.axes[0].texts} for fig in seen]
+    assert "mean current" not in texts[0] and "mean current" in texts[1]
+    arrow = next(c for c in seen[1].axes[0].texts if c.get_text() == "")  # the annotation
+    (x0, y0), (x1, y1) = arrow.xyann, arrow.xy
+    # Toward 240 deg compass in a box with x north: mostly west (-y), partly south (-x).
+    assert x1 < x0 and y1 < y0 and abs(y1 - y0) > abs(x1 - x0)
