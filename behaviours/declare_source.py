@@ -72,6 +72,7 @@ class SourceDeclaration(PlanBehaviour):
         super().__init__(params, **kwargs)
         self.bb.register_key("declared_source", access=Access.WRITE)
         self.bb.register_key("mission_done", access=Access.WRITE)
+        self.bb.register_key("homeward", access=Access.WRITE)
         self.declared: Point | None = None
         self.heading_home = False
 
@@ -99,6 +100,7 @@ class SourceDeclaration(PlanBehaviour):
         here = p.pose.point
         if not self.heading_home and here.distance_to(self.declared) <= self.params.source_radius_m:
             self.heading_home = True
+            self.bb.homeward = True
         if not self.heading_home:
             return self.command(here.bearing_to(self.declared))
         home = self.context.home

@@ -55,6 +55,13 @@ class OpAreaSafety(PlanBehaviour):
     On handing back it writes a :class:`~cptbt.frames.WallExit` to the blackboard key
     ``oparea_exit`` (where it took over and the walls the vehicle was beyond during the
     excursion), so that find-plume's next leg leaves that wall instead of driving out again.
+
+    **(clarified) A home outside the OpArea.** A mission may place home outside
+    (``allow_outside: [home]``); the homeward leg must then leave the box, and safety pulling
+    the vehicle back at every ``trigger_m`` locked the two in a loop at the wall until the time
+    limit. Once the AMP is on its way home (blackboard ``homeward``: the declaration is done
+    with the source, or home was asked for) and home lies outside, safety stands aside; the
+    AMP's give-back rule (:data:`cptbt.policy.RELINQUISH_OUTSIDE_M`) still bounds the excursion.
     """
 
     family: ClassVar[str] = "safety"
@@ -66,6 +73,7 @@ class OpAreaSafety(PlanBehaviour):
     def __init__(self, params: BehaviourParams | None = None, **kwargs: str) -> None:
         super().__init__(params, **kwargs)
         self.bb.register_key("oparea_exit", access=Access.WRITE)
+        self.bb.register_key("homeward", access=Access.READ)
         self.taken_over_at: Point | None = None
         self.walls: tuple[Normal, ...] = ()
 
@@ -80,6 +88,10 @@ class OpAreaSafety(PlanBehaviour):
         a = self.context.op_area
         x, y = p.pose.x, p.pose.y
         active = self.status == Status.RUNNING
+        if self.bb.homeward and a.distance_outside(self.context.home.x, self.context.home.y) > 0:
+            if active:
+                self._report(p.t)
+            return None  # the homeward leg leaves the box on purpose
         if not active:
             if a.distance_outside(x, y) <= self.params.trigger_m:
                 return None
@@ -125,6 +137,8 @@ class OpAreaSafetyFleet(FleetRule):
         self.exit_x = b.array("oparea_exit_x")
         self.exit_y = b.array("oparea_exit_y")
         self.exit_walls = b.array("oparea_exit_walls", np.int64, 0)
+        self.homeward = b.array("homeward", bool, False)
+        self.home_outside = a.distance_outside(self.context.home.x, self.context.home.y) > 0
 
     def initialise(self, ids: Index) -> None:
         """A new take-over: forget the previous excursion."""
@@ -135,7 +149,16 @@ class OpAreaSafetyFleet(FleetRule):
         """:meth:`OpAreaSafety.decide`, element by element."""
         a = self.context.op_area
         out = np.full(len(p), np.nan)
-        take = ~running
+        aside = self.homeward[p.ids] & self.home_outside  # the homeward leg leaves on purpose
+        if np.count_nonzero(aside):
+            k = p.ids[aside & running]
+            report = k[self.has_taken[k] & (self.walls[k] != 0)]
+            self.exit_t[report] = p.t
+            self.exit_x[report], self.exit_y[report] = self.taken_x[report], self.taken_y[report]
+            self.exit_walls[report] = self.walls[report]
+            self.has_taken[k] = False
+        running = running & ~aside
+        take = ~running & ~aside
         take[take] = a.distance_outside_array(p.x[take], p.y[take]) > self.params.trigger_m
         work = running | take
         if not np.count_nonzero(work):

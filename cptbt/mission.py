@@ -26,6 +26,7 @@ from cptbt.geodesy import GeoPoint, LocalFrame
 from cptbt.mission_a import MissionASpec
 from cptbt.node import BehaviourParams, Contract
 from cptbt.perception import PerceptionSettings
+from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.registry import BehaviourSpec, Registry, UnknownBehaviourError
 from cptbt.study_spec import StudySpec
 from cptbt.types import Point
@@ -199,11 +200,16 @@ class MissionBase(BaseModel):
             return out  # places are judged against a sound OpArea
         for key in ("start", "home"):
             coord = getattr(self, key)
-            if coord is None or key in self.allow_outside:
+            if coord is None:
                 continue
             p = self.to_xy(coord)
-            if not area.contains(p.x, p.y):
-                out.append(((key,), f"{area.distance_outside(p.x, p.y):.1f} m outside the OpArea "
+            outside = area.distance_outside(p.x, p.y)
+            if outside > RELINQUISH_OUTSIDE_M:  # allowed or not: the AMP cannot drive there
+                out.append(((key,), f"{outside:.1f} m outside the OpArea: the AMP gives control "
+                             f"back {RELINQUISH_OUTSIDE_M:g} m outside it (TRO II), so it could "
+                             "never fly there; place it within that distance"))
+            elif outside > 0 and key not in self.allow_outside:
+                out.append(((key,), f"{outside:.1f} m outside the OpArea "
                              f"(list '{key}' in allow_outside if that is intended)"))
         out += self._limit_problems()
         out += self._study_problems(area)

@@ -62,10 +62,12 @@ def planner_keys(field_reached: bool) -> dict[str, Any]:
 
     ``command`` is the active behaviour's output; ``field_reached`` lets find-plume drive (False
     only while move-to-field has work to do); ``declared_source``, ``go_home`` and
-    ``mission_done`` carry the mission's end game.
+    ``mission_done`` carry the mission's end game; ``homeward`` says the AMP is on its way home
+    (the declaration is done with the source, or home was asked for), so safety lets it leave
+    the OpArea toward a home the mission places outside it.
     """
     return {"command": None, "field_reached": field_reached, "declared_source": None,
-            "go_home": False, "mission_done": False}
+            "go_home": False, "homeward": False, "mission_done": False}
 
 
 class PerceptSource(Protocol):

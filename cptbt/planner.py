@@ -92,6 +92,7 @@ class Planner:
     def request_home(self) -> None:
         """Ask the return-home behaviour (if the mission has one) to take over."""
         self.bb.go_home = True
+        self.bb.homeward = True
 
     # -- the cycle ------------------------------------------------------------------------
     def tick(self, t: float) -> Command | None:

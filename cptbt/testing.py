@@ -474,6 +474,8 @@ def check_fleet_rule(
     seed: int = 0,
     lambda_s: float = 1.0,
     flow_window_s: float = 0.3,
+    home: tuple[float, float] = (5.0, 0.0),
+    homeward_rate: float = 0.0,
 ) -> dict[str, int]:
     """A behaviour's array form against its py_trees leaf, tick by tick, on random percepts.
 
@@ -481,7 +483,8 @@ def check_fleet_rule(
     under a scripted higher-priority leaf that pre-empts it at random (so ``initialise`` and
     kept state are exercised); the fleet form flies all of them at once through the same
     samples. Asserts, per vehicle and tick, the same percept, the same active leaf and the same
-    command bit for bit.
+    command bit for bit. ``home`` is the mission's home (OpArea ``square_area(100)``); with
+    ``homeward_rate`` > 0 the planner key ``homeward`` flips at that rate per vehicle and tick.
 
     Returns:
         How many (vehicle, tick) pairs each leaf drove ('' for none); every pair is compared.
@@ -491,18 +494,20 @@ def check_fleet_rule(
     """
     params = params if params is not None else spec.params()
     area = square_area(100.0)
-    context = make_context(area, home=(5.0, 0.0), start=(50.0, 10.0))
+    context = make_context(area, home=home, start=(50.0, 10.0))
     settings = PerceptionSettings(lambda_s=lambda_s, flow_window_s=flow_window_s)
     scalars: list[_Scalar] = []
     preempts: list[_Preempt] = []
+    harnesses: list[TreeHarness] = []
     for _ in range(vehicles):
         ns = fresh_namespace()
         leaf = spec.build(params, ns)
         pre = _Preempt(namespace=ns)
         root = py_trees.composites.Selector("subsumption", memory=False, children=[pre, leaf])
-        ctx = make_context(area, home=(5.0, 0.0), start=(50.0, 10.0))
+        ctx = make_context(area, home=home, start=(50.0, 10.0))
         harness = TreeHarness(root, ctx)
         preempts.append(pre)
+        harnesses.append(harness)
 
         def tick(p: Percept, harness: TreeHarness = harness) -> tuple[Command | None, str | None]:
             tk = harness.tick(p)
@@ -527,11 +532,17 @@ def check_fleet_rule(
     pre_rule = fleet.rules[0]
     assert isinstance(pre_rule, _PreemptFleet)
 
+    homeward = fleet.board.array("homeward", bool, False)
+
     def on_tick(k: int, rng: np.random.Generator) -> None:
         flip = rng.random(vehicles) < 0.03
         for i in np.flatnonzero(flip):
             preempts[i].on = not preempts[i].on
             pre_rule.on[i] = preempts[i].on
+        if homeward_rate > 0:
+            for i in np.flatnonzero(rng.random(vehicles) < homeward_rate):
+                homeward[i] = not homeward[i]
+                harnesses[i].set("homeward", bool(homeward[i]))
 
     return _differential(scalars, fleet, area, ticks=ticks, seed=seed, label=spec.key,
                          on_tick=on_tick)

@@ -13,6 +13,7 @@ from typing import Annotated, Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema
 
 from cptbt.mission import Coord, Loc, MissionBase, Problem
+from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.schema import partial_schema
 from cptbt.sim.flow import FlowParams
 from cptbt.sim.plume import PlumeParams
@@ -134,9 +135,22 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
                                             and -180 <= env.source[1] <= 180):
         return [(("environment", "source"), "not [latitude, longitude]")]
     area = mission.op_area_geometry()
+    out: list[Problem] = []
+    if env.launch is not None and mission.mission_a is None:
+        if mission.frame == "geodetic" and not (-90 < env.launch[0] < 90
+                                                and -180 <= env.launch[1] <= 180):
+            out.append((("environment", "launch"), "not [latitude, longitude]"))
+        else:
+            at = mission.to_xy(env.launch)
+            outside = area.distance_outside(at.x, at.y)
+            if outside > RELINQUISH_OUTSIDE_M:
+                out.append((("environment", "launch"),
+                            f"{outside:.1f} m outside the OpArea: without a mission_a the AMP "
+                            f"drives from the launch, and it gives control back "
+                            f"{RELINQUISH_OUTSIDE_M:g} m outside the OpArea (TRO II); launch "
+                            "within that distance, or add a mission_a that brings the vehicle in"))
     places: list[tuple[Loc, Coord]] = [(("environment", "source"), env.source)]
     places += [(("environment", "extra_sources", i), c) for i, c in enumerate(env.extra_sources)]
-    out: list[Problem] = []
     for loc, coord in places:
         if mission.frame == "geodetic" and not (-90 < coord[0] < 90 and -180 <= coord[1] <= 180):
             out.append((loc, "not [latitude, longitude]"))

@@ -150,3 +150,30 @@ def test_safety_and_find_plume_share_the_wall_without_repeated_take_overs(
     assert len(takes) <= 8, takes
     gaps = [b - a for a, b in pairwise(takes)]
     assert all(g > 30 for g in gaps), gaps
+
+
+def test_stands_aside_for_the_homeward_leg_to_a_home_outside() -> None:
+    """A home outside the OpArea (allow_outside): once the AMP is homeward, safety no longer
+    pulls the vehicle back at the wall (the two looped there until the time limit)."""
+    area = square_area(100)
+    for home, homeward, expect_output in (((50, -70), True, False),   # home outside: aside
+                                          ((50, -70), False, True),   # not homeward yet
+                                          ((50, 0), True, True)):     # home inside: as usual
+        node = OpAreaSafety(OpAreaSafetyParams(), namespace=fresh_namespace())
+        h = TreeHarness(node, make_context(area, home=home))
+        h.set("homeward", homeward)
+        tk = h.tick(ScriptedPerception(area).step(0.0, 50, -60))  # 10 m outside
+        assert (tk.command is not None) == expect_output, (home, homeward)
+
+
+def test_hands_back_when_the_vehicle_turns_homeward_mid_excursion() -> None:
+    area = square_area(100)
+    node = OpAreaSafety(OpAreaSafetyParams(), namespace=fresh_namespace())
+    h = TreeHarness(node, make_context(area, home=(50, -70)))
+    script = ScriptedPerception(area)
+    assert h.tick(script.step(0.0, 50, -60)).command is not None  # takes over
+    h.set("homeward", True)
+    tk = h.tick(script.step(1.0, 50, -61))
+    assert tk.command is None and tk.status == Status.FAILURE
+    report = py_trees.blackboard.Blackboard.storage.get(f"{node.namespace}/oparea_exit")
+    assert isinstance(report, WallExit)  # the excursion is still reported to find-plume

@@ -156,3 +156,11 @@ def test_ab_groups_fly_identically(path: Path, seed: int) -> None:
         assert a.closest_m == b.closest_m
     outcomes = {str(r.outcome) for r in flown["fleet"]}
     assert outcomes & {"found", "contact_lost"}
+
+
+def test_safety_array_form_stands_aside_homeward_like_the_leaf() -> None:
+    """A home outside the OpArea and ``homeward`` flipping at random: the array form of safety
+    stands aside for the homeward leg exactly when the py_trees leaf does."""
+    spec = default_registry().get("safety", "oparea")
+    drove = check_fleet_rule(spec, home=(50.0, -70.0), homeward_rate=0.02, ticks=600)
+    assert drove.get(spec.key, 0) > 100

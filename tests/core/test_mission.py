@@ -93,6 +93,14 @@ BAD = [
     ("empty file", lambda s: "", "m.yaml:1: (top):", "empty"),
     ("planning area not aligned", lambda s: s.replace("[100, 50]", "[101, 50]"),
      "m.yaml:4: op_area.corners:", "axis-aligned"),
+    # Allowed outside, but beyond the AMP's 30 m give-back: the run would end at once (start)
+    # or never reach home.
+    ("home beyond give-back", lambda s: s.replace("home: [5, 0]", "home: [-35, 0]\n"
+                                                  "allow_outside: [home]"),
+     "m.yaml:5: home:", "gives control back 30 m outside"),
+    ("start beyond give-back", lambda s: s.replace("start: [50, 10]", "start: [50, 85]\n"
+                                                   "allow_outside: [start]"),
+     "m.yaml:6: start:", "could never fly there"),
 ]
 
 
@@ -103,3 +111,8 @@ def test_bad_files_give_one_precise_line(what, edit, where, fragment) -> None:  
     problems = exc.value.problems
     assert any(p.startswith(where) and fragment in p for p in problems), problems
     assert all("\n" not in p for p in problems)
+
+
+def test_a_place_allowed_outside_within_the_give_back_distance_loads() -> None:
+    mission = load(GOOD.replace("home: [5, 0]", "home: [-25, 0]\nallow_outside: [home]"))
+    assert mission.home == (-25, 0)

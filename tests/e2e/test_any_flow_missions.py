@@ -100,3 +100,15 @@ def test_the_turn_guard_keeps_a_small_oparea_mission_inside() -> None:
     # Measured (seeds 0-11): the farthest outside 7.3 -> 3.8 m on average, safety 5.7% -> 0.8%.
     assert sum(out["guarded"]) < 0.75 * sum(out["bare"]), out
     assert safety["guarded"] < 0.5 * safety["bare"], safety
+
+
+def test_a_home_outside_the_oparea_is_reached() -> None:
+    """Home 20 m outside (allow_outside): safety and the homeward leg fought at the wall until
+    the time limit (1800 s); safety now stands aside once the AMP is homeward."""
+    base = load("oblique_flow.yaml")
+    mission = base.model_copy(update={"home": (-145.0, 0.0), "allow_outside": ["home"]})
+    run, _ = fly(mission, 7)
+    assert run.outcome.value == "declared" and run.t_end < 1000, (run.outcome, run.t_end)
+    home = mission.to_xy(mission.home)
+    x, y = run.path_true[-1]
+    assert home.distance_to(Point(float(x), float(y))) <= 12.0  # at home (home_radius 10 m)

@@ -226,3 +226,19 @@ def test_a_planner_choice_it_cannot_honour_is_a_usage_error(tmp_path: Path, valu
                 env={**os.environ, "CPTBT_PLANNER": value})
     assert fragment in one_line(res, 2)
     assert not out.exists()  # refused before any folder is made
+
+
+def test_a_launch_beyond_the_give_back_distance_is_refused(tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]
+                                                          ) -> None:
+    """Without a mission_a the AMP drives from the launch; 7 km out it gave control back at
+    t = 0.1 s ("relinquished", 0x real time). Now a validation line at environment.launch."""
+    base = (ROOT / "missions/oblique_flow.yaml").read_text(encoding="utf-8")
+    assert "mission_a" not in base and base.rstrip().endswith("seed: 7")
+    bad = tmp_path / "far.yaml"
+    bad.write_text(base.rstrip() + "\n  launch: [7000, 0]\n", encoding="utf-8")
+    assert cli.main(["run", str(bad), "--no-figure"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    lines = len(base.rstrip().splitlines()) + 1
+    assert len(err) == 1 and f":{lines}: environment.launch: " in err[0], err
+    assert "gives control back 30 m outside" in err[0]
