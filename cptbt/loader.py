@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import difflib
 import json
+import re
 from pathlib import Path
 from types import UnionType
 from typing import Annotated, Any, Union, get_args, get_origin
@@ -34,6 +35,32 @@ MOVED_KEYS: dict[tuple[str, ...], str] = {
     ("maintain_plume", "lambda_s"): "perception.lambda_s",
 }
 """Keys of earlier mission files that moved, by (parent, key): where they live now."""
+
+
+class MissionLoader(yaml.SafeLoader):
+    """The safe YAML loader of every mission, study and sweep value cptbt reads.
+
+    PyYAML follows YAML 1.1, where a float needs a dot: ``1e-3`` and ``1E9`` are strings there,
+    and a mission would refuse them as quoted strings. YAML 1.2 reads them as numbers, and
+    users write small probabilities so; this loader adds YAML 1.2's exponent floats. A quoted
+    ``'1e-3'`` stays a string (implicit resolution applies to plain scalars only).
+    """
+
+
+MissionLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."),
+)
+
+
+def load_scalar(text: str) -> Any:
+    """One YAML value read as a mission would read it (e.g. a ``--sweep`` value)."""
+    loader = MissionLoader(text)
+    try:
+        return loader.get_single_data()
+    finally:
+        loader.dispose()
 
 
 class MissionError(Exception):
@@ -111,7 +138,7 @@ _CLOSERS = (yaml.BlockEndToken, yaml.FlowMappingEndToken, yaml.FlowSequenceEndTo
 def _check_depth(text: str, source: str) -> None:
     """Refuse deep nesting before the (recursive) composer sees it."""
     depth = 0
-    for token in yaml.scan(text, Loader=yaml.SafeLoader):
+    for token in yaml.scan(text, Loader=MissionLoader):
         if isinstance(token, _OPENERS):
             depth += 1
             if depth > MAX_DEPTH:
@@ -137,10 +164,10 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
     if size > MAX_BYTES:
         raise MissionError([f"{source}:1: (file): {size} bytes; a mission file may have at most "
                             f"{MAX_BYTES}"])
-    loader: yaml.SafeLoader | None = None
+    loader: MissionLoader | None = None
     try:
         _check_depth(text, source)
-        loader = yaml.SafeLoader(text)
+        loader = MissionLoader(text)
         node = loader.get_single_node()
         if node is None:
             raise MissionError([f"{source}:1: (top): the file is empty"])

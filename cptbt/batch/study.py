@@ -21,7 +21,7 @@ import numpy as np
 import yaml
 
 from cptbt.batch.integrity import digest
-from cptbt.loader import dump_mission, loads_mission
+from cptbt.loader import dump_mission, load_scalar, loads_mission
 from cptbt.mission import MissionBase, mission_to_data
 from cptbt.registry import RegistryError, default_registry
 
@@ -45,11 +45,20 @@ class Sweep:
 
     @classmethod
     def parse(cls, text: str) -> Sweep:
-        """From ``path[+path...]=v1,v2,...`` (values read as YAML scalars)."""
+        """From ``path[+path...]=v1,v2,...`` (values read as YAML scalars, as a mission file's
+        are: ``1e-3`` is a number).
+
+        Raises:
+            ValueError: no ``=``, no values, or a value YAML cannot read.
+        """
         if "=" not in text:
             raise ValueError(f"{text!r}: expected PATH=V1,V2,...")
         left, right = text.split("=", 1)
-        values = tuple(yaml.safe_load(v) for v in right.split(",") if v.strip())
+        try:
+            values = tuple(load_scalar(v) for v in right.split(",") if v.strip())
+        except yaml.YAMLError as exc:
+            raise ValueError(f"{text!r}: a value is not YAML: {' '.join(str(exc).split())}"
+                             ) from None
         if not values:
             raise ValueError(f"{text!r}: no values")
         return cls(tuple(p.strip() for p in left.split("+")), values)

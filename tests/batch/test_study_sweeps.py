@@ -54,6 +54,17 @@ def test_sweep_parses_joined_paths_and_yaml_values() -> None:
     assert Sweep.parse("perception.lambda_s=1,2.5").values == (1, 2.5)
 
 
+def test_sweep_values_read_exponent_floats_as_a_mission_file_does() -> None:
+    # YAML 1.1 (PyYAML's) reads 1e-3 as a string; a mission reads it as a number (YAML 1.2).
+    assert Sweep.parse("declare_source.false_alarm_prob=1e-3,2E-2").values == (0.001, 0.02)
+    assert Sweep.parse("x='1e-3'").values == ("1e-3",)  # quoted: a string, refused later
+
+
+def test_a_sweep_value_yaml_cannot_read_is_a_value_error() -> None:
+    with pytest.raises(ValueError, match="not YAML"):
+        Sweep.parse("speed_mps=[")
+
+
 
 AB1 = "missions/ab2001_strategy1.yaml"
 

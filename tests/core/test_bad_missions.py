@@ -93,6 +93,8 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      "environment.flow_speed_mps", "a YAML boolean"),
     ("quoted corner", sub("[100, -50], [100, 50]", "[100, -50], ['100', 50]"), 4,
      "op_area.corners[1][0]", "a quoted string"),
+    ("quoted exponent float", sub("speed_mps: 1.5", "speed_mps: '15e-1'"), 7, "speed_mps",
+     "expected a number, got '15e-1' (a quoted string)"),
     ("fractional seed", sub("seed: 3", "seed: 3.5"), 31, "environment.seed", "integer"),
     # -- the OpArea is a rectangle consistent with its bearing -------------------------------
     ("kite", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
@@ -222,6 +224,20 @@ def test_whole_floats_for_counts_and_integers_for_floats_stay_valid(
     path = tmp_path / "fine.yaml"
     path.write_text(text, encoding="utf-8")
     assert main(["validate", str(path)]) == 0, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("spelling", ["15e-1", "1.5E0", "+.15e+1", "150e-2"])
+def test_exponent_floats_without_a_dot_are_numbers(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], spelling: str
+) -> None:
+    # YAML 1.2 reads 1e-3 as a number; PyYAML (YAML 1.1) would read it as a string that the
+    # strict-number rule then refuses as quoted. The mission loader resolves YAML 1.2 floats.
+    path = tmp_path / "sci.yaml"
+    path.write_text(BASE.replace("speed_mps: 1.5", f"speed_mps: {spelling}")
+                    .replace("time_limit_s: 1800", "time_limit_s: 18e2"), encoding="utf-8")
+    assert main(["validate", "--dump", str(path)]) == 0, capsys.readouterr().err
+    out = capsys.readouterr().out
+    assert "speed_mps: 1.5" in out and "time_limit_s: 1800.0" in out, out
 
 
 def test_an_unknown_simulator_override_gets_suggestions(
