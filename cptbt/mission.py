@@ -142,7 +142,13 @@ class MissionBase(BaseModel):
         "'source' (the simulator's)",
     )
     speed_mps: float = Field(default=1.5, gt=0, le=20, description="Cruise speed command, m/s")
-    cycle_hz: float = Field(default=1.0, gt=0, le=100, description="Planner cycle rate, Hz")
+    cycle_hz: float = Field(
+        default=1.0, ge=0.01, le=100,
+        description="Planner cycle rate, Hz. At least 0.01 Hz (a 100 s cycle): the planner "
+        "reacts, and the time limit and OpArea are judged, once a cycle, and the behaviours' "
+        "timings (contact loss λ, turn and leg times) are seconds; a slower rate is a slip "
+        "such as 0.0001 for 1. The cycle period must not exceed time_limit_s",
+    )
     turn_guard_radius_m: float | None = Field(
         default=None, gt=0, le=1000,
         description="The vehicle's tightest turn, m. When given, a command needing more than "
@@ -206,6 +212,7 @@ class MissionBase(BaseModel):
                 out.append(((key,), f"{area.distance_outside(p.x, p.y):.1f} m outside the OpArea "
                              f"(list '{key}' in allow_outside if that is intended)"))
         out += self._limit_problems()
+        out += self._rate_problems()
         out += self._study_problems(area)
         out += self._behaviour_problems()
         return out
@@ -276,6 +283,19 @@ class MissionBase(BaseModel):
                 out.append((("mission_a", key), f"{depth:g} m is deeper than the vehicle's limit "
                                                  f"{lim.max_depth_m:g} m (mission_a.limits)"))
         return out
+
+    def _rate_problems(self) -> list[Problem]:
+        """A cycle period longer than a time limit: the run would end before a second tick."""
+        period = 1.0 / self.cycle_hz
+        limits = [("time_limit_s", self.time_limit_s)]
+        if self.study is not None and self.study.time_limit_s is not None:
+            limits.append(("study.time_limit_s", self.study.time_limit_s))
+        for name, limit in limits:
+            if period > limit:
+                return [(("cycle_hz",), f"{self.cycle_hz:g} Hz is a cycle of {period:g} s, "
+                                        f"longer than {name} ({limit:g} s): the planner would "
+                                        "tick once before the time limit")]
+        return []
 
     def _study_problems(self, area: OpArea) -> list[Problem]:
         if self.study is None or not self.study.starts or "start" in self.allow_outside:

@@ -82,6 +82,16 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("zero success radius", sub("time_limit_s: 1800", "time_limit_s: 1800\nevaluation: "
                                 "{success_radius_m: 0}"), 10, "evaluation.success_radius_m",
      "greater than 0"),
+    # -- a mission that validates flies in bounded time ---------------------------------------
+    ("cycle too slow", sub("cycle_hz: 1", "cycle_hz: 1e-7"), 8, "cycle_hz",
+     "greater than or equal to 0.01"),
+    ("cycle longer than the limit", sub("cycle_hz: 1\ntime_limit_s: 1800",
+                                        "cycle_hz: 0.01\ntime_limit_s: 60"), 8, "cycle_hz",
+     "cycle of 100 s, longer than time_limit_s (60 s)"),
+    ("cycle longer than the study's limit",
+     sub("cycle_hz: 1\ntime_limit_s: 1800",
+         "cycle_hz: 0.1\ntime_limit_s: 1800\nstudy: {grid: [2, 2], time_limit_s: 5}"), 8,
+     "cycle_hz", "longer than study.time_limit_s (5 s)"),
     # -- numbers are YAML numbers: no booleans or quoted strings converted --------------------
     ("boolean cycle", sub("cycle_hz: 1", "cycle_hz: yes"), 8, "cycle_hz",
      "expected a number, got True (a YAML boolean)"),
