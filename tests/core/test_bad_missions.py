@@ -92,6 +92,10 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      sub("cycle_hz: 1\ntime_limit_s: 1800",
          "cycle_hz: 0.1\ntime_limit_s: 1800\nstudy: {grid: [2, 2], time_limit_s: 5}"), 8,
      "cycle_hz", "longer than study.time_limit_s (5 s)"),
+    ("tiny vehicle step", sub("  seed: 3", "  seed: 3\n  dt_s: 0.000001"), 32,
+     "environment.dt_s", "greater than or equal to 0.005"),
+    ("day-long spin-up", sub("  seed: 3", "  seed: 3\n  warm_up_s: 1e8"), 32,
+     "environment.warm_up_s", "less than or equal to 86400"),
     # -- numbers are YAML numbers: no booleans or quoted strings converted --------------------
     ("boolean cycle", sub("cycle_hz: 1", "cycle_hz: yes"), 8, "cycle_hz",
      "expected a number, got True (a YAML boolean)"),
