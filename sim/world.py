@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from .flow import Domain, FlowParams, make_flow
+from .flow import MIN_SUBSTEP_S, Domain, FlowParams, flow_substep_s, make_flow
 from .plume import PlumeParams, PuffPlume
 from .sensors import (
     ADCP,
@@ -50,6 +50,15 @@ MIN_DT_S = 0.005
 
 MAX_WARM_UP_S = 86_400.0
 """Longest spin-up a mission may ask for, s (see ``EnvironmentParams.warm_up_s``)."""
+
+MAX_EXTRA_SOURCES = 20
+"""Most extra sources a world may have (see ``EnvironmentParams.extra_sources_xy_m``)."""
+
+MAX_PLUME_DT_S = 60.0
+"""Longest flow and plume step, s (the presets: 1 s and 0.05 s)."""
+
+MAX_WARM_UP_STEP_S = 600.0
+"""Longest spin-up step, s (the warm-up tests use 10 s and 0.5 s)."""
 
 DEFAULT_WARM_UP_CAP_S = 7_200.0
 """Longest *default* spin-up, s: the domain crossing time grows without bound as the mean flow
@@ -75,8 +84,10 @@ class EnvironmentParams(BaseModel):
     source_xy_m: tuple[float, float] = (-70.0, 6.0)
     extra_sources_xy_m: tuple[tuple[float, float], ...] = Field(
         default=(),
+        max_length=MAX_EXTRA_SOURCES,
         description="More sources (x, y), m, each with a plume of its own in the same flow; "
-        "the concentration is the sum of the plumes.",
+        f"the concentration is the sum of the plumes. At most {MAX_EXTRA_SOURCES}: each plume "
+        "allocates its puffs and is stepped and summed on every sample.",
     )
     flow: FlowParams = FlowParams(preset="ocean")
     plume: PlumeParams = PlumeParams(preset="ocean")
@@ -90,7 +101,11 @@ class EnvironmentParams(BaseModel):
         "sampling): every step moves every vehicle and samples its sensors, so a 1800 s run of "
         "1e-6 s steps would be 1.8e9 steps (days of computing).",
     )
-    plume_dt_s: float = Field(default=1.0, gt=0.0, description="Flow and plume step, s (≥ dt_s).")
+    plume_dt_s: float = Field(
+        default=1.0, gt=0.0, le=MAX_PLUME_DT_S,
+        description=f"Flow and plume step, s (≥ dt_s); at most {MAX_PLUME_DT_S:g} s: a step's "
+        "puff releases are drawn at once, and puffs move U·plume_dt_s per step.",
+    )
     warm_up_s: float | None = Field(
         default=None,
         ge=0.0,
@@ -103,9 +118,11 @@ class EnvironmentParams(BaseModel):
     warm_up_step_s: float | None = Field(
         default=None,
         gt=0.0,
+        le=MAX_WARM_UP_STEP_S,
         description=(
             "Flow and plume step during the spin-up, s; None = the plume step. A longer step "
-            "spins the plume up in fewer steps with the same statistics (another realisation)."
+            "spins the plume up in fewer steps with the same statistics (another realisation). "
+            f"At most {MAX_WARM_UP_STEP_S:g} s: a step's puff releases are drawn at once."
         ),
     )
     seed: int | None = Field(
@@ -121,6 +138,13 @@ class EnvironmentParams(BaseModel):
             raise ValueError("plume_dt_s must be at least dt_s")
         if self.dt_s > 1.0 / self.fluorometer.rate_hz + 1e-12:
             raise ValueError("dt_s must not exceed the fluorometer sample period")
+        substep = flow_substep_s(self.flow, self.area_m)
+        if substep is not None and substep < MIN_SUBSTEP_S:
+            raise ValueError(
+                f"the flow model would step every {substep:.3g} s (at least {MIN_SUBSTEP_S:g} s "
+                "is needed to finish in reasonable time): its grid is too fine for its speed, "
+                "noise and diffusivity; lower flow.diffusivity_m2ps or the flow speeds, or "
+                "coarsen the grid (flow.grid_n)")
         return self
 
     @classmethod

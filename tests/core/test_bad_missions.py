@@ -96,6 +96,23 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      "environment.dt_s", "greater than or equal to 0.005"),
     ("day-long spin-up", sub("  seed: 3", "  seed: 3\n  warm_up_s: 1e8"), 32,
      "environment.warm_up_s", "less than or equal to 86400"),
+    ("a billion cloverleaves", sub("{variant: cloverleaf}",
+                                   "{variant: cloverleaf, repeats: 1000000000}"), 18,
+     "behaviours[3].reacquire_plume.repeats", "less than or equal to 100"),
+    ("three-point visits", sub("{variant: cloverleaf}", "{variant: three_point, visits: 100000}"),
+     18, "behaviours[3].reacquire_plume.visits", "less than or equal to 1000"),
+    ("a 1e300 m/s current", sub("flow_speed_mps: 0.1", "flow_speed_mps: 1e300"), 30,
+     "environment.flow_speed_mps", "less than or equal to 10"),
+    ("a flow grid too fine to step", sub("  seed: 3", "  seed: 3\n  flow: {diffusivity_m2ps: 1e6}"),
+     26, "environment", "the flow model would step every"),
+    ("a billion puffs", sub("  seed: 3", "  seed: 3\n  plume: {max_puffs: 1000000000}"), 32,
+     "environment.plume.max_puffs", "less than or equal to 200000"),
+    ("too many sources", sub("  seed: 3", "  seed: 3\n  extra_sources: [" +
+                             ", ".join(["[50, 0]"] * 21) + "]"), 32,
+     "environment.extra_sources", "at most 20 items"),
+    ("a mission A of 3e4 years", sub("  amp_depth_m: 3", "  amp_depth_m: 3\n"
+                                     "  duration_limit_s: 1e12"), 25,
+     "mission_a.duration_limit_s", "less than or equal to 604800"),
     # -- numbers are YAML numbers: no booleans or quoted strings converted --------------------
     ("boolean cycle", sub("cycle_hz: 1", "cycle_hz: yes"), 8, "cycle_hz",
      "expected a number, got True (a YAML boolean)"),
