@@ -20,12 +20,13 @@ from typing import Any
 import numpy as np
 import yaml
 
+from cptbt import study_spec
 from cptbt.batch.integrity import digest
 from cptbt.loader import dump_mission, load_scalar, loads_mission
 from cptbt.mission import MissionBase, mission_to_data
 from cptbt.registry import RegistryError, default_registry
 
-MAX_STARTS = 100_000
+MAX_STARTS = study_spec.MAX_STARTS
 """Most starts a study may have: a bound on typos such as ``--starts-x 0:100:0.0001``."""
 
 

@@ -113,6 +113,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("a mission A of 3e4 years", sub("  amp_depth_m: 3", "  amp_depth_m: 3\n"
                                      "  duration_limit_s: 1e12"), 25,
      "mission_a.duration_limit_s", "less than or equal to 604800"),
+    ("a million starts", sub("time_limit_s: 1800", "time_limit_s: 1800\n"
+                             "study: {grid: [1000, 1000]}"), 10, "study",
+     "more than 100000 starts"),
     # -- numbers are YAML numbers: no booleans or quoted strings converted --------------------
     ("boolean cycle", sub("cycle_hz: 1", "cycle_hz: yes"), 8, "cycle_hz",
      "expected a number, got True (a YAML boolean)"),
