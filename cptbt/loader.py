@@ -64,11 +64,18 @@ def load_scalar(text: str) -> Any:
 
 
 class MissionError(Exception):
-    """A mission file is malformed; ``problems`` holds one line per problem."""
+    """A mission file is malformed; ``problems`` holds one line per problem.
 
-    def __init__(self, problems: list[str]) -> None:
+    ``located`` holds the same problems as (key path, message) when each is about a key of the
+    validated data (validation errors, not YAML syntax), so a caller that built the data itself
+    (a sweep) can say where they are in its own terms.
+    """
+
+    def __init__(self, problems: list[str], located: list[tuple[Loc, str]] | None = None
+                 ) -> None:
         super().__init__("\n".join(problems))
         self.problems = problems
+        self.located = located
 
 
 class _Walk:
@@ -292,6 +299,17 @@ def format_errors(
     model: type[BaseModel] | None = None,
 ) -> list[str]:
     """One ``FILE:LINE: path: message`` line per pydantic error."""
+    return _render(located_errors(exc, data, prefix, model), lines, source)
+
+
+def _render(located: list[tuple[Loc, str]], lines: dict[Loc, int], source: str) -> list[str]:
+    return [f"{source}:{_line(loc, lines)}: {dotted(loc)}: {msg}" for loc, msg in located]
+
+
+def located_errors(
+    exc: ValidationError, data: Any, prefix: Loc = (), model: type[BaseModel] | None = None
+) -> list[tuple[Loc, str]]:
+    """(key path, message) per pydantic error."""
     out = []
     for err in exc.errors(include_url=False):
         path = _data_path(tuple(err["loc"]), data)
@@ -303,14 +321,13 @@ def format_errors(
             if isinstance(item, dict) and len(item) == 1:
                 (family,) = item
                 path = (*path, family, "variant") if isinstance(item[family], dict) else path
-        full = (*prefix, *path)
-        out.append(f"{source}:{_line(full, lines)}: {dotted(full)}: {msg}")
+        out.append(((*prefix, *path), msg))
     return out
 
 
 def format_problems(problems: list[Problem], lines: dict[Loc, int], source: str) -> list[str]:
     """One ``FILE:LINE: path: message`` line per cross-field problem of a mission."""
-    return [f"{source}:{_line(loc, lines)}: {dotted(loc)}: {msg}" for loc, msg in problems]
+    return _render(list(problems), lines, source)
 
 
 def validate_data(
@@ -325,12 +342,11 @@ def validate_data(
     try:
         result = model.model_validate(data, context={"problems": problems})
     except ValidationError as exc:
-        raise MissionError(format_errors(exc, data, lines, source, model=model)) from None
-    coerced = _coercions(data, lines, source, model)
-    if coerced:
-        raise MissionError(coerced)
-    if problems:
-        raise MissionError(format_problems(problems, lines, source))
+        located = located_errors(exc, data, model=model)
+        raise MissionError(_render(located, lines, source), located) from None
+    located = _coercions(data, model) or list(problems)
+    if located:
+        raise MissionError(_render(located, lines, source), located)
     return result
 
 
@@ -339,9 +355,9 @@ _COERCIONS = {"float_type": "a number", "int_type": "a whole number", "bool_type
 type: ``cycle_hz: yes`` (a YAML boolean) read as 1, ``speed_mps: "1.5"`` (a string) as 1.5."""
 
 
-def _coercions(data: Any, lines: dict[Loc, int], source: str, model: type[BaseModel]
-               ) -> list[str]:
-    """Values that validated only by being converted from another YAML type, one line each.
+def _coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
+    """Values that validated only by being converted from another YAML type, (path, message)
+    each.
 
     YAML has its own numbers and booleans, so a boolean or a quoted string where a number is
     meant is a slip (``yes`` for 1, ``"1.0"``), not a way of writing one. The mission is
@@ -366,8 +382,7 @@ def _coercions(data: Any, lines: dict[Loc, int], source: str, model: type[BaseMo
             path = _data_path(tuple(err["loc"]), data)
             shown = "a YAML boolean" if isinstance(value, bool) else (
                 "a quoted string" if isinstance(value, str) else type(value).__name__)
-            out.append(f"{source}:{_line(path, lines)}: {dotted(path)}: expected {want}, "
-                       f"got {value!r} ({shown})")
+            out.append((path, f"expected {want}, got {value!r} ({shown})"))
         return out
     return []
 

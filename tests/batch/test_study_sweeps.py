@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from cptbt.batch.study import Sweep, apply_setting
@@ -101,3 +103,29 @@ def test_a_variant_sweep_says_which_mission_settings_it_drops() -> None:
     # A sweep of the mission's own variant alone drops nothing.
     same = Sweep.parse("maintain_plume.variant+reacquire_plume.variant=strategy_1")
     assert variant_sweep_notes(mission, [same]) == []
+
+
+OBLIQUE = Path(__file__).resolve().parents[2] / "missions/oblique_flow.yaml"
+
+
+@pytest.mark.parametrize(("sweep", "where"), [
+    # a key the file has: its line, the sweep named
+    ("maintain_plume.beta_deg=5,500", ":43: behaviours[2].maintain_plume.beta_deg: Input should "
+     "be less than 90 (with sweep maintain_plume.beta_deg=500)"),
+    # a key the file lacks: no line (the swept mission's own text is no file the user has)
+    ("reacquire_plume.arrive_radius_m=-1", " [sweep reacquire_plume.arrive_radius_m=-1]: "
+     "behaviours[3].reacquire_plume.arrive_radius_m: Input should be greater than 0"),
+    # the simulator's limits are checked before any run, as for the file itself
+    ("environment.dt_s=1e-7", " [sweep environment.dt_s=1e-07]: environment.dt_s: Input should "
+     "be greater than or equal to 0.005"),
+])
+def test_a_bad_swept_value_is_reported_at_the_files_key_or_without_a_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], sweep: str, where: str
+) -> None:
+    from cptbt.cli import main
+
+    status = main(["batch", str(OBLIQUE), "--grid", "1x1", "--sweep", sweep,
+                   "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and err == [f"{OBLIQUE}{where}"], err
+    assert not (tmp_path / "out").exists()
