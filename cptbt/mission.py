@@ -109,6 +109,12 @@ class EvaluationSpec(BaseModel):
     )
 
 
+def _exact(v: float) -> str:
+    """A number as written (every digit it needs): 180.0003, not ``:g``'s 180."""
+    text = repr(float(v))
+    return text.removesuffix(".0")
+
+
 class MissionBase(BaseModel):
     """Fields every mission has; :func:`mission_model` adds the behaviour list's schema.
 
@@ -230,8 +236,8 @@ class MissionBase(BaseModel):
                    (("op_area", "geodetic_centre_deg"), self.op_area.geodetic_centre_deg)]
         for loc, c in places:
             if c is not None and not (-90 < c[0] < 90 and -180 <= c[1] <= 180):
-                out.append((loc, f"[{c[0]:g}, {c[1]:g}] is not [latitude, longitude]: latitude "
-                                 "must lie in (-90, 90) and longitude in [-180, 180]"))
+                out.append((loc, f"[{_exact(c[0])}, {_exact(c[1])}] is not [latitude, longitude]: "
+                                 "latitude must lie in (-90, 90) and longitude in [-180, 180]"))
         if not out and len({tuple(c) for c in self.op_area.corners}) != 4:
             out.append((("op_area", "corners"), "the four corners must be distinct"))
         return out

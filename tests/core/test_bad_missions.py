@@ -165,6 +165,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("longitude out of range", lambda s: geodetic(s).replace("home: [32.9802, -118.5368]",
                                                              "home: [32.9805, 218.5]"),
      6, "home", "not [latitude, longitude]"),
+    ("longitude just past 180", lambda s: geodetic(s).replace("home: [32.9802, -118.5368]",
+                                                              "home: [32.9805, 180.0003]"),
+     6, "home", "[32.9805, 180.0003] is not [latitude, longitude]"),  # not rounded to 180
     # -- behaviours --------------------------------------------------------------------------
     ("behaviour twice", sub("  - find_plume: {variant: billiard}",
                             "  - find_plume: {variant: billiard}\n  - safety: {}"), 20,
