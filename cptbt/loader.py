@@ -403,11 +403,27 @@ def load_mission(
     """
     source = str(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) else None
-        raise MissionError([f"{source}:0: (file): {reason or exc}"]) from None
-    return loads_mission(text, source, registry, environment)
+        raw = Path(path).read_bytes()
+    except OSError as exc:
+        raise MissionError([f"{source}:0: (file): {exc.strerror or exc}"]) from None
+    return loads_mission(decode(raw, source), source, registry, environment)
+
+
+def decode(raw: bytes, source: str) -> str:
+    """A mission file's bytes as UTF-8 text.
+
+    Raises:
+        MissionError: a byte sequence is not UTF-8, reported at its line and column (1-based;
+            the column counts bytes).
+    """
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise MissionError([f"{source}:{line}: (file): byte 0x{raw[exc.start]:02x} at column "
+                            f"{column} is not UTF-8 ({exc.reason}); save the file as UTF-8"]
+                           ) from None
 
 
 def loads_mission(

@@ -253,6 +253,18 @@ def test_bad_mission_gives_one_precise_line(  # type: ignore[no-untyped-def]
     assert fragment in match[3], lines[0]
 
 
+def test_a_file_not_in_utf8_is_reported_at_the_bad_bytes_line_and_column(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Latin-1 'é' in a description (line 2): was ':0: (file): ... in position 41'.
+    text = BASE.replace("frame: ne", "description: café\nframe: ne")
+    path = tmp_path / "latin1.yaml"
+    path.write_bytes(text.encode("latin-1"))
+    assert main(["validate", str(path)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"{path}:2: (file): byte 0xe9 at column 17 is not UTF-8"), line
+
+
 def test_whole_floats_for_counts_and_integers_for_floats_stay_valid(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
