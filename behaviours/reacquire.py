@@ -147,7 +147,12 @@ class CloverleafParams(TourParams):
         gt=0,
         description="Distance from the centre to each leaf tip; must exceed the turning radius, m",
     )
-    repeats: int = Field(default=3, ge=1, description="N_re: times the cloverleaf is flown")
+    repeats: int = Field(
+        default=3, ge=1, le=100,
+        description="N_re: times the cloverleaf is flown (TRO: 3). At most 100: the tour is laid "
+        "out in full at activation (6 waypoints a repeat; 1e9 repeats ran out of memory), and "
+        "100 repeats of 15 m leaves already fly for hours",
+    )
 
 
 class CloverleafReacquire(_WaypointTour):
@@ -192,7 +197,9 @@ class ThreePointParams(TourParams):
         default=15.0, gt=0, description="Radius of the circle through P1, P2, P3 about C, m"
     )
     visits: int = Field(
-        default=10, ge=1, description="Points visited in turn, P1 P2 P3 P1 ... (OMAE: 10)"
+        default=10, ge=1, le=1000,
+        description="Points visited in turn, P1 P2 P3 P1 ... (OMAE: 10). At most 1000: the tour "
+        "is laid out in full at activation, and 1000 legs of 26 m already fly for hours",
     )
 
 

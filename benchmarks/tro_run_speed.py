@@ -44,6 +44,7 @@ from cptbt.batch.engine import simulate
 from cptbt.batch.phased import simulate_phased
 from cptbt.batch.scenario import launch_pose, to_sim_params
 from cptbt.cli.inspect_cmds import load
+from cptbt.loader import MissionLoader
 from cptbt.sim import kernels
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -121,7 +122,7 @@ def main() -> int:
         return 0
     mission = load(args.mission, simulate=True)
     amp_only = mission.model_copy(update={"mission_a": None})
-    raw = yaml.safe_load(Path(args.mission).read_text(encoding="utf-8"))
+    raw = yaml.load(Path(args.mission).read_text(encoding="utf-8"), Loader=MissionLoader)
     tiers = ["numpy", "exact"] if kernels.HAVE_NUMBA else ["numpy"]
     with tempfile.TemporaryDirectory() as tmp:
         coarse_file = Path(tmp) / "mission_coarse_warm_up.yaml"

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import difflib
 import json
+import re
 from pathlib import Path
 from types import UnionType
 from typing import Annotated, Any, Union, get_args, get_origin
@@ -36,12 +37,45 @@ MOVED_KEYS: dict[tuple[str, ...], str] = {
 """Keys of earlier mission files that moved, by (parent, key): where they live now."""
 
 
-class MissionError(Exception):
-    """A mission file is malformed; ``problems`` holds one line per problem."""
+class MissionLoader(yaml.SafeLoader):
+    """The safe YAML loader of every mission, study and sweep value cptbt reads.
 
-    def __init__(self, problems: list[str]) -> None:
+    PyYAML follows YAML 1.1, where a float needs a dot: ``1e-3`` and ``1E9`` are strings there,
+    and a mission would refuse them as quoted strings. YAML 1.2 reads them as numbers, and
+    users write small probabilities so; this loader adds YAML 1.2's exponent floats. A quoted
+    ``'1e-3'`` stays a string (implicit resolution applies to plain scalars only).
+    """
+
+
+MissionLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."),
+)
+
+
+def load_scalar(text: str) -> Any:
+    """One YAML value read as a mission would read it (e.g. a ``--sweep`` value)."""
+    loader = MissionLoader(text)
+    try:
+        return loader.get_single_data()
+    finally:
+        loader.dispose()
+
+
+class MissionError(Exception):
+    """A mission file is malformed; ``problems`` holds one line per problem.
+
+    ``located`` holds the same problems as (key path, message) when each is about a key of the
+    validated data (validation errors, not YAML syntax), so a caller that built the data itself
+    (a sweep) can say where they are in its own terms.
+    """
+
+    def __init__(self, problems: list[str], located: list[tuple[Loc, str]] | None = None
+                 ) -> None:
         super().__init__("\n".join(problems))
         self.problems = problems
+        self.located = located
 
 
 class _Walk:
@@ -111,7 +145,7 @@ _CLOSERS = (yaml.BlockEndToken, yaml.FlowMappingEndToken, yaml.FlowSequenceEndTo
 def _check_depth(text: str, source: str) -> None:
     """Refuse deep nesting before the (recursive) composer sees it."""
     depth = 0
-    for token in yaml.scan(text, Loader=yaml.SafeLoader):
+    for token in yaml.scan(text, Loader=MissionLoader):
         if isinstance(token, _OPENERS):
             depth += 1
             if depth > MAX_DEPTH:
@@ -137,10 +171,10 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
     if size > MAX_BYTES:
         raise MissionError([f"{source}:1: (file): {size} bytes; a mission file may have at most "
                             f"{MAX_BYTES}"])
-    loader: yaml.SafeLoader | None = None
+    loader: MissionLoader | None = None
     try:
         _check_depth(text, source)
-        loader = yaml.SafeLoader(text)
+        loader = MissionLoader(text)
         node = loader.get_single_node()
         if node is None:
             raise MissionError([f"{source}:1: (top): the file is empty"])
@@ -265,6 +299,17 @@ def format_errors(
     model: type[BaseModel] | None = None,
 ) -> list[str]:
     """One ``FILE:LINE: path: message`` line per pydantic error."""
+    return _render(located_errors(exc, data, prefix, model), lines, source)
+
+
+def _render(located: list[tuple[Loc, str]], lines: dict[Loc, int], source: str) -> list[str]:
+    return [f"{source}:{_line(loc, lines)}: {dotted(loc)}: {msg}" for loc, msg in located]
+
+
+def located_errors(
+    exc: ValidationError, data: Any, prefix: Loc = (), model: type[BaseModel] | None = None
+) -> list[tuple[Loc, str]]:
+    """(key path, message) per pydantic error."""
     out = []
     for err in exc.errors(include_url=False):
         path = _data_path(tuple(err["loc"]), data)
@@ -276,14 +321,13 @@ def format_errors(
             if isinstance(item, dict) and len(item) == 1:
                 (family,) = item
                 path = (*path, family, "variant") if isinstance(item[family], dict) else path
-        full = (*prefix, *path)
-        out.append(f"{source}:{_line(full, lines)}: {dotted(full)}: {msg}")
+        out.append(((*prefix, *path), msg))
     return out
 
 
 def format_problems(problems: list[Problem], lines: dict[Loc, int], source: str) -> list[str]:
     """One ``FILE:LINE: path: message`` line per cross-field problem of a mission."""
-    return [f"{source}:{_line(loc, lines)}: {dotted(loc)}: {msg}" for loc, msg in problems]
+    return _render(list(problems), lines, source)
 
 
 def validate_data(
@@ -298,12 +342,11 @@ def validate_data(
     try:
         result = model.model_validate(data, context={"problems": problems})
     except ValidationError as exc:
-        raise MissionError(format_errors(exc, data, lines, source, model=model)) from None
-    coerced = _coercions(data, lines, source, model)
-    if coerced:
-        raise MissionError(coerced)
-    if problems:
-        raise MissionError(format_problems(problems, lines, source))
+        located = located_errors(exc, data, model=model)
+        raise MissionError(_render(located, lines, source), located) from None
+    located = _coercions(data, model) or list(problems)
+    if located:
+        raise MissionError(_render(located, lines, source), located)
     return result
 
 
@@ -312,9 +355,9 @@ _COERCIONS = {"float_type": "a number", "int_type": "a whole number", "bool_type
 type: ``cycle_hz: yes`` (a YAML boolean) read as 1, ``speed_mps: "1.5"`` (a string) as 1.5."""
 
 
-def _coercions(data: Any, lines: dict[Loc, int], source: str, model: type[BaseModel]
-               ) -> list[str]:
-    """Values that validated only by being converted from another YAML type, one line each.
+def _coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
+    """Values that validated only by being converted from another YAML type, (path, message)
+    each.
 
     YAML has its own numbers and booleans, so a boolean or a quoted string where a number is
     meant is a slip (``yes`` for 1, ``"1.0"``), not a way of writing one. The mission is
@@ -339,8 +382,7 @@ def _coercions(data: Any, lines: dict[Loc, int], source: str, model: type[BaseMo
             path = _data_path(tuple(err["loc"]), data)
             shown = "a YAML boolean" if isinstance(value, bool) else (
                 "a quoted string" if isinstance(value, str) else type(value).__name__)
-            out.append(f"{source}:{_line(path, lines)}: {dotted(path)}: expected {want}, "
-                       f"got {value!r} ({shown})")
+            out.append((path, f"expected {want}, got {value!r} ({shown})"))
         return out
     return []
 
@@ -361,11 +403,27 @@ def load_mission(
     """
     source = str(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) else None
-        raise MissionError([f"{source}:0: (file): {reason or exc}"]) from None
-    return loads_mission(text, source, registry, environment)
+        raw = Path(path).read_bytes()
+    except OSError as exc:
+        raise MissionError([f"{source}:0: (file): {exc.strerror or exc}"]) from None
+    return loads_mission(decode(raw, source), source, registry, environment)
+
+
+def decode(raw: bytes, source: str) -> str:
+    """A mission file's bytes as UTF-8 text.
+
+    Raises:
+        MissionError: a byte sequence is not UTF-8, reported at its line and column (1-based;
+            the column counts bytes).
+    """
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise MissionError([f"{source}:{line}: (file): byte 0x{raw[exc.start]:02x} at column "
+                            f"{column} is not UTF-8 ({exc.reason}); save the file as UTF-8"]
+                           ) from None
 
 
 def loads_mission(

@@ -110,6 +110,12 @@ class EvaluationSpec(BaseModel):
     )
 
 
+def _exact(v: float) -> str:
+    """A number as written (every digit it needs): 180.0003, not ``:g``'s 180."""
+    text = repr(float(v))
+    return text.removesuffix(".0")
+
+
 class MissionBase(BaseModel):
     """Fields every mission has; :func:`mission_model` adds the behaviour list's schema.
 
@@ -143,7 +149,13 @@ class MissionBase(BaseModel):
         "'source' (the simulator's)",
     )
     speed_mps: float = Field(default=1.5, gt=0, le=20, description="Cruise speed command, m/s")
-    cycle_hz: float = Field(default=1.0, gt=0, le=100, description="Planner cycle rate, Hz")
+    cycle_hz: float = Field(
+        default=1.0, ge=0.01, le=100,
+        description="Planner cycle rate, Hz. At least 0.01 Hz (a 100 s cycle): the planner "
+        "reacts, and the time limit and OpArea are judged, once a cycle, and the behaviours' "
+        "timings (contact loss λ, turn and leg times) are seconds; a slower rate is a slip "
+        "such as 0.0001 for 1. The cycle period must not exceed time_limit_s",
+    )
     turn_guard_radius_m: float | None = Field(
         default=None, gt=0, le=1000,
         description="The vehicle's tightest turn, m. When given, a command needing more than "
@@ -212,6 +224,7 @@ class MissionBase(BaseModel):
                 out.append(((key,), f"{outside:.1f} m outside the OpArea "
                              f"(list '{key}' in allow_outside if that is intended)"))
         out += self._limit_problems()
+        out += self._rate_problems()
         out += self._study_problems(area)
         out += self._behaviour_problems()
         return out
@@ -229,8 +242,8 @@ class MissionBase(BaseModel):
                    (("op_area", "geodetic_centre_deg"), self.op_area.geodetic_centre_deg)]
         for loc, c in places:
             if c is not None and not (-90 < c[0] < 90 and -180 <= c[1] <= 180):
-                out.append((loc, f"[{c[0]:g}, {c[1]:g}] is not [latitude, longitude]: latitude "
-                                 "must lie in (-90, 90) and longitude in [-180, 180]"))
+                out.append((loc, f"[{_exact(c[0])}, {_exact(c[1])}] is not [latitude, longitude]: "
+                                 "latitude must lie in (-90, 90) and longitude in [-180, 180]"))
         if not out and len({tuple(c) for c in self.op_area.corners}) != 4:
             out.append((("op_area", "corners"), "the four corners must be distinct"))
         return out
@@ -282,6 +295,19 @@ class MissionBase(BaseModel):
                 out.append((("mission_a", key), f"{depth:g} m is deeper than the vehicle's limit "
                                                  f"{lim.max_depth_m:g} m (mission_a.limits)"))
         return out
+
+    def _rate_problems(self) -> list[Problem]:
+        """A cycle period longer than a time limit: the run would end before a second tick."""
+        period = 1.0 / self.cycle_hz
+        limits = [("time_limit_s", self.time_limit_s)]
+        if self.study is not None and self.study.time_limit_s is not None:
+            limits.append(("study.time_limit_s", self.study.time_limit_s))
+        for name, limit in limits:
+            if period > limit:
+                return [(("cycle_hz",), f"{self.cycle_hz:g} Hz is a cycle of {period:g} s, "
+                                        f"longer than {name} ({limit:g} s): the planner would "
+                                        "tick once before the time limit")]
+        return []
 
     def _study_problems(self, area: OpArea) -> list[Problem]:
         if self.study is None or not self.study.starts or "start" in self.allow_outside:

@@ -59,7 +59,9 @@ class MissionASpec(BaseModel):
         default=5.0, gt=0, description="A waypoint (or the break-off point) is reached within this"
     )
     amp_enable_s: float | None = Field(
-        default=None, ge=0, description="The AMP takes over this long after launch, s"
+        default=None, ge=0, le=7 * 86400,
+        description="The AMP takes over this long after launch, s (at most a week, as the "
+        "mission's time limit)",
     )
     amp_enable_waypoint: int | None = Field(
         default=None, ge=0, description="The AMP takes over on reaching this waypoint (0-based)"
@@ -74,7 +76,10 @@ class MissionASpec(BaseModel):
         "long, s",
     )
     duration_limit_s: float = Field(
-        default=7200.0, gt=0, description="The whole pre-programmed mission ends at this time, s"
+        default=7200.0, gt=0, le=7 * 86400,
+        description="The whole pre-programmed mission ends at this time, s; at most a week (as "
+        "the AMP's time limit): a looping mission A flies until then, and a simulated run's "
+        "rows are kept for all of it",
     )
     limits: VehicleLimits = Field(default_factory=VehicleLimits, description="Vehicle limits")
 

@@ -14,6 +14,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 Coord = tuple[float, float]
 
+MAX_STARTS = 100_000
+"""Most starts a study may have (``cptbt.batch.study.MAX_STARTS``, the command line's bound)."""
+
 
 class LineSpec(BaseModel):
     """Starts along the planning x axis at one y (AB Fig. 10: x from 0 to 100 m, y = 0)."""
@@ -29,8 +32,8 @@ class LineSpec(BaseModel):
     def _ordered(self) -> LineSpec:
         if self.x_to_m < self.x_from_m:
             raise ValueError("x_to_m must not be less than x_from_m")
-        if (self.x_to_m - self.x_from_m) / self.step_m >= 100_000:
-            raise ValueError("more than 100000 starts")
+        if (self.x_to_m - self.x_from_m) / self.step_m >= MAX_STARTS:
+            raise ValueError(f"more than {MAX_STARTS} starts")
         return self
 
 
@@ -45,7 +48,7 @@ class StudySpec(BaseModel):
     )
     line: LineSpec | None = Field(default=None, description="Starts along x at one y")
     starts: list[Coord] | None = Field(
-        default=None, min_length=1, max_length=100_000,
+        default=None, min_length=1, max_length=MAX_STARTS,
         description="Start points in the mission's frame (N-E, lat/lon or planning)"
     )
     runs_per_start: int = Field(
@@ -73,6 +76,10 @@ class StudySpec(BaseModel):
             raise ValueError(f"give one of grid, line and starts, not {' and '.join(given)}")
         if self.grid is not None and not (1 <= self.grid[0] <= 1000 and 1 <= self.grid[1] <= 1000):
             raise ValueError("grid: each of nx, ny must be between 1 and 1000")
+        if self.grid is not None and self.grid[0] * self.grid[1] > MAX_STARTS:
+            # as --grid: every start of a group flies in one world, with its own sensors' noise
+            raise ValueError(f"grid: {self.grid[0]} x {self.grid[1]} is more than {MAX_STARTS} "
+                             "starts")
         for path, values in self.sweeps.items():
             if not values:
                 raise ValueError(f"sweeps.{path}: no values")

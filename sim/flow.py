@@ -92,6 +92,15 @@ _PRESETS: dict[str, dict[str, Any]] = {
 }
 
 
+MAX_FLOW_SPEED_MPS = 10.0
+"""Fastest mean flow (and noise std) a mission may set, m/s."""
+
+MIN_SUBSTEP_S = 0.01
+"""Shortest internal PDE step of a meandering flow, s: the step the grid's stability needs
+shrinks with the flow's speed and diffusivity and with the grid spacing, and below this a run
+would take hours (a 1e300 m/s current needed steps of 1e-300 s and hung)."""
+
+
 class FlowParams(BaseModel):
     """Flow-model settings; unset fields take the values of ``preset`` (defaults: ``"ocean"``).
 
@@ -102,14 +111,20 @@ class FlowParams(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     preset: FlowPreset = "ocean"
-    mean_speed_mps: float = Field(default=0.1, ge=0.0, description="Mean flow speed, m/s.")
+    mean_speed_mps: float = Field(
+        default=0.1, ge=0.0, le=MAX_FLOW_SPEED_MPS,
+        description=f"Mean flow speed, m/s; at most {MAX_FLOW_SPEED_MPS:g} (the fastest tidal "
+        "races run at about 5 m/s; AB: 1 m/s): the flow grid's step shrinks as the speed grows.",
+    )
     mean_dir_deg: float = Field(
         default=2.0, description="Mean direction the water moves toward, deg from +x."
     )
     noise_std_mps: float = Field(
         default=0.03,
         ge=0.0,
-        description="Stationary std of each boundary-corner velocity component, m/s.",
+        le=MAX_FLOW_SPEED_MPS,
+        description="Stationary std of each boundary-corner velocity component, m/s (at most "
+        "the fastest mean flow).",
     )
     noise_corr_time_s: float = Field(
         default=300.0,
@@ -136,12 +151,18 @@ class FlowParams(BaseModel):
     common_noise_std_mps: float = Field(
         default=0.015,
         ge=0.0,
-        description="Std of a spatially uniform noise velocity per axis, m/s.",
+        le=MAX_FLOW_SPEED_MPS,
+        description="Std of a spatially uniform noise velocity per axis, m/s (at most the "
+        "fastest mean flow).",
     )
     common_corr_time_s: float = Field(
         default=300.0, gt=0.0, description="Correlation time of the uniform noise velocity, s."
     )
-    max_substep_s: float = Field(default=1.0, gt=0.0, description="Longest internal PDE step, s.")
+    max_substep_s: float = Field(
+        default=1.0, ge=MIN_SUBSTEP_S,
+        description=f"Longest internal PDE step, s; at least {MIN_SUBSTEP_S:g} (a shorter step "
+        "makes a run take hours).",
+    )
 
     @model_validator(mode="before")
     @classmethod
@@ -221,14 +242,9 @@ class MeanderingFlow:
         self._domain = domain
         self._rng = rng
         xmin, xmax, ymin, ymax = domain
-        lx, ly = xmax - xmin, ymax - ymin
-        if lx <= 0 or ly <= 0:
+        if xmax - xmin <= 0 or ymax - ymin <= 0:
             raise ValueError(f"empty flow domain {domain}")
-        step = max(lx, ly) / (params.grid_n - 1)
-        self.nx = max(3, round(lx / step) + 1)
-        self.ny = max(3, round(ly / step) + 1)
-        self.dx = lx / (self.nx - 1)
-        self.dy = ly / (self.ny - 1)
+        self.nx, self.ny, self.dx, self.dy = _grid(params, domain)
         self.xs = np.linspace(xmin, xmax, self.nx)
         self.ys = np.linspace(ymin, ymax, self.ny)
         self._mean = params.mean_speed_mps * unit(params.mean_dir_deg)
@@ -240,10 +256,7 @@ class MeanderingFlow:
         # started in its stationary distribution so no spin-up of the noise itself is needed.
         sigma = params.noise_std_mps
         self._noise = sigma * rng.standard_normal((2, 4))
-        k = params.diffusivity_m2ps
-        vmax = params.mean_speed_mps + 4.0 * sigma
-        rate = vmax / self.dx + vmax / self.dy + 2 * k / self.dx**2 + 2 * k / self.dy**2
-        self.substep_s = min(params.max_substep_s, 0.8 / rate)
+        self.substep_s = _substep_s(params, self.dx, self.dy)
         h = self.substep_s
         self._order2: _SecondOrderNoise | None = None
         if params.noise_order == 2:
@@ -418,6 +431,35 @@ def _expm(m: NDArray[np.float64]) -> NDArray[np.float64]:
     for _ in range(k):
         out = out @ out
     return out
+
+
+def _grid(params: FlowParams, domain: Domain) -> tuple[int, int, float, float]:
+    """Nodes (nx, ny) and spacing (dx, dy) of a meandering flow's grid over ``domain``."""
+    xmin, xmax, ymin, ymax = domain
+    lx, ly = xmax - xmin, ymax - ymin
+    step = max(lx, ly) / (params.grid_n - 1)
+    nx = max(3, round(lx / step) + 1)
+    ny = max(3, round(ly / step) + 1)
+    return nx, ny, lx / (nx - 1), ly / (ny - 1)
+
+
+def _substep_s(params: FlowParams, dx: float, dy: float) -> float:
+    """The internal PDE step: ``max_substep_s``, or shorter as the explicit scheme's stability
+    (advection at the fastest likely speed, diffusion) needs on a grid of spacing dx, dy."""
+    sigma = params.noise_std_mps
+    k = params.diffusivity_m2ps
+    vmax = params.mean_speed_mps + 4.0 * sigma
+    rate = vmax / dx + vmax / dy + 2 * k / dx**2 + 2 * k / dy**2
+    return min(params.max_substep_s, 0.8 / rate)
+
+
+def flow_substep_s(params: FlowParams, area: Domain) -> float | None:
+    """The internal step the flow over ``area`` (grown by ``margin_m``) will take, s; None for a
+    uniform flow (no noise: no grid, no steps)."""
+    if params.noise_std_mps == 0.0 and params.common_noise_std_mps == 0.0:
+        return None
+    _, _, dx, dy = _grid(params, expand(area, params.margin_m))
+    return _substep_s(params, dx, dy)
 
 
 def expand(area: Domain, margin_m: float) -> Domain:

@@ -46,6 +46,7 @@ from .flow import Domain, FlowField
 PlumePreset = Literal["ab", "ocean"]
 
 _HASH_MIN_POINTS = 16  # from this many query points on, bucket puffs into cells
+_HASH_MAX_CELLS_PER_SIDE = 1024  # cells no smaller than this fraction of the domain's side
 _NEIGHBOUR_DX = np.array([-1, 0, 1, -1, 0, 1, -1, 0, 1])
 _NEIGHBOUR_DY = np.array([-1, -1, -1, 0, 0, 0, 1, 1, 1])
 
@@ -79,20 +80,26 @@ class PlumeParams(BaseModel):
 
     preset: PlumePreset = "ocean"
     release_rate_hz: float = Field(
-        default=0.5, gt=0.0, description="Mean puff release rate (Poisson), 1/s."
+        default=0.5, gt=0.0, le=1000.0,
+        description="Mean puff release rate (Poisson), 1/s; at most 1000 (AB's filaments: 3/s): "
+        "each plume step draws its releases at once."
     )
     puff_mass: float = Field(
         default=0.8, gt=0.0, description="Mass per puff, concentration units × m²."
     )
     initial_radius_m: float = Field(
-        default=0.2, gt=0.0, description="Puff radius r0 at release, m."
+        default=0.2, ge=0.001,
+        description="Puff radius r0 at release, m; at least 1 mm (a puff's peak, mass / 2πr², "
+        "overflows as r0 goes to 0).",
     )
     spread_rate_m2ps: float = Field(default=0.0003, ge=0.0, description="Growth rate of r², m²/s.")
     centre_rel_diffusivity_m2ps: float = Field(
         default=0.03, ge=0.0, description="Centre-relative random-walk diffusivity K_c, m²/s."
     )
     max_puffs: int = Field(
-        default=8000, gt=0, description="Capacity; releases are skipped when full."
+        default=8000, gt=0, le=200_000,
+        description="Capacity; releases are skipped when full. At most 200,000 (the presets: "
+        "2,000 and 8,000): the puffs' arrays are allocated at this size, per source."
     )
     cutoff_sigmas: float = Field(
         default=4.0, gt=0.0, description="Puffs beyond this many r are ignored."
@@ -275,6 +282,10 @@ class PuffPlume:
         """
         n = self.n
         xmin, xmax, ymin, ymax = self.domain
+        # A cell at least ``reach`` wide keeps every puff within reach of a point in its 3 × 3
+        # neighbourhood; a wider one only gathers more pairs. Tiny puffs (a small r0 or
+        # cutoff) would otherwise ask for billions of cells.
+        reach = max(reach, max(xmax - xmin, ymax - ymin) / _HASH_MAX_CELLS_PER_SIDE)
         ncx = int((xmax - xmin) / reach) + 1
         ncy = int((ymax - ymin) / reach) + 1
         pxy = self._xy[:n]

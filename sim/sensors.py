@@ -89,7 +89,9 @@ class FluorometerParams(BaseModel):
         default=0.0, ge=0.0, le=1.0, description="Chance per sample that the output freezes."
     )
     stuck_duration_s: float = Field(
-        default=5.0, ge=0.0, description="How long a frozen output lasts, s."
+        default=5.0, ge=0.0, le=86_400.0,
+        description="How long a frozen output lasts, s; at most a day (counted in samples, an "
+        "integer that must fit 64 bits)."
     )
 
 
@@ -152,7 +154,9 @@ class ADCPParams(BaseModel):
         "(AB §5; AB gives no size); 0 = off.",
     )
     direction_error_period_s: float = Field(
-        default=1.0, gt=0.0, description="phi is redrawn this often, s (AB §5: at 1 Hz)."
+        default=1.0, gt=0.0, le=86_400.0,
+        description="phi is redrawn this often, s (AB §5: at 1 Hz); at most a day (counted in "
+        "samples)."
     )
 
 

@@ -19,6 +19,7 @@ sensor samples happen at ``dt_s`` in between.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -28,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from .flow import Domain, FlowParams, make_flow
+from .flow import MIN_SUBSTEP_S, Domain, FlowParams, flow_substep_s, make_flow
 from .plume import PlumeParams, PuffPlume
 from .sensors import (
     ADCP,
@@ -41,6 +42,29 @@ from .sensors import (
 from .vehicle import VehicleParams, Vehicles
 
 EnvPreset = Literal["tro_ocean", "ab_small_meander", "ab_large_meander"]
+
+log = logging.getLogger(__name__)
+
+MIN_DT_S = 0.005
+"""Shortest vehicle step, s (see ``EnvironmentParams.dt_s``)."""
+
+MAX_WARM_UP_S = 86_400.0
+"""Longest spin-up a mission may ask for, s (see ``EnvironmentParams.warm_up_s``)."""
+
+MAX_EXTRA_SOURCES = 20
+"""Most extra sources a world may have (see ``EnvironmentParams.extra_sources_xy_m``)."""
+
+MAX_PLUME_DT_S = 60.0
+"""Longest flow and plume step, s (the presets: 1 s and 0.05 s)."""
+
+MAX_WARM_UP_STEP_S = 600.0
+"""Longest spin-up step, s (the warm-up tests use 10 s and 0.5 s)."""
+
+DEFAULT_WARM_UP_CAP_S = 7_200.0
+"""Longest *default* spin-up, s: the domain crossing time grows without bound as the mean flow
+slows (a still sea: 10^6 s at the 1 mm/s floor); two hours is past every shipped mission's
+crossing time (the longest, MSN010's, 5,386 s) and spins a slow plume up as far as the time a
+mission flies in it."""
 
 
 class EnvironmentParams(BaseModel):
@@ -60,8 +84,10 @@ class EnvironmentParams(BaseModel):
     source_xy_m: tuple[float, float] = (-70.0, 6.0)
     extra_sources_xy_m: tuple[tuple[float, float], ...] = Field(
         default=(),
+        max_length=MAX_EXTRA_SOURCES,
         description="More sources (x, y), m, each with a plume of its own in the same flow; "
-        "the concentration is the sum of the plumes.",
+        f"the concentration is the sum of the plumes. At most {MAX_EXTRA_SOURCES}: each plume "
+        "allocates its puffs and is stepped and summed on every sample.",
     )
     flow: FlowParams = FlowParams(preset="ocean")
     plume: PlumeParams = PlumeParams(preset="ocean")
@@ -69,19 +95,34 @@ class EnvironmentParams(BaseModel):
     fluorometer: FluorometerParams = FluorometerParams()
     adcp: ADCPParams = ADCPParams()
     navigation: NavigationParams = NavigationParams()
-    dt_s: float = Field(default=1.0 / 9.0, gt=0.0, description="Vehicle step, s.")
-    plume_dt_s: float = Field(default=1.0, gt=0.0, description="Flow and plume step, s (≥ dt_s).")
+    dt_s: float = Field(
+        default=1.0 / 9.0, ge=MIN_DT_S,
+        description=f"Vehicle step, s; at least {MIN_DT_S} s (200 Hz, ten times AB's 20 Hz "
+        "sampling): every step moves every vehicle and samples its sensors, so a 1800 s run of "
+        "1e-6 s steps would be 1.8e9 steps (days of computing).",
+    )
+    plume_dt_s: float = Field(
+        default=1.0, gt=0.0, le=MAX_PLUME_DT_S,
+        description=f"Flow and plume step, s (≥ dt_s); at most {MAX_PLUME_DT_S:g} s: a step's "
+        "puff releases are drawn at once, and puffs move U·plume_dt_s per step.",
+    )
     warm_up_s: float | None = Field(
         default=None,
         ge=0.0,
-        description="Plume spin-up before t = 0, s; None = time to cross the domain.",
+        le=MAX_WARM_UP_S,
+        description=f"Plume spin-up before t = 0, s; None = time for the mean flow to cross the "
+        f"domain, at most {DEFAULT_WARM_UP_CAP_S:g} s. At most {MAX_WARM_UP_S:g} s (a day): a "
+        "puff released earlier has long left any domain, and a spin-up of 1e8 s would run for "
+        "hours before the mission starts.",
     )
     warm_up_step_s: float | None = Field(
         default=None,
         gt=0.0,
+        le=MAX_WARM_UP_STEP_S,
         description=(
             "Flow and plume step during the spin-up, s; None = the plume step. A longer step "
-            "spins the plume up in fewer steps with the same statistics (another realisation)."
+            "spins the plume up in fewer steps with the same statistics (another realisation). "
+            f"At most {MAX_WARM_UP_STEP_S:g} s: a step's puff releases are drawn at once."
         ),
     )
     seed: int | None = Field(
@@ -97,6 +138,13 @@ class EnvironmentParams(BaseModel):
             raise ValueError("plume_dt_s must be at least dt_s")
         if self.dt_s > 1.0 / self.fluorometer.rate_hz + 1e-12:
             raise ValueError("dt_s must not exceed the fluorometer sample period")
+        substep = flow_substep_s(self.flow, self.area_m)
+        if substep is not None and substep < MIN_SUBSTEP_S:
+            raise ValueError(
+                f"the flow model would step every {substep:.3g} s (at least {MIN_SUBSTEP_S:g} s "
+                "is needed to finish in reasonable time): its grid is too fine for its speed, "
+                "noise and diffusivity; lower flow.diffusivity_m2ps or the flow speeds, or "
+                "coarsen the grid (flow.grid_n)")
         return self
 
     @classmethod
@@ -248,10 +296,18 @@ class World:
         return self.flow.domain
 
     def default_warm_up_s(self) -> float:
-        """Time for the mean flow to carry a puff across the simulated domain."""
+        """Time for the mean flow to carry a puff across the simulated domain, at most
+        :data:`DEFAULT_WARM_UP_CAP_S` (a slow or still mean flow is logged when capped)."""
         xmin, xmax, ymin, ymax = self.domain
-        speed = max(float(np.hypot(*self.flow.mean_velocity)), 1e-3)
-        return math.hypot(xmax - xmin, ymax - ymin) / speed
+        mean = float(np.hypot(*self.flow.mean_velocity))
+        diagonal = math.hypot(xmax - xmin, ymax - ymin)
+        crossing = diagonal / max(mean, 1e-3)
+        if crossing > DEFAULT_WARM_UP_CAP_S:
+            log.warning("plume spin-up capped at %g s: a mean flow of %.3g m/s would take %.3g s "
+                        "to cross the %.0f m domain (set environment.warm_up_s to choose)",
+                        DEFAULT_WARM_UP_CAP_S, mean, crossing, diagonal)
+            return DEFAULT_WARM_UP_CAP_S
+        return crossing
 
     def warm_up(self, seconds: float | None = None) -> None:
         """Spin the flow and plume up (vehicles and sensors frozen, mission time unchanged).

@@ -15,11 +15,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSche
 from cptbt.mission import Coord, Loc, MissionBase, Problem
 from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.schema import partial_schema
-from cptbt.sim.flow import FlowParams
+from cptbt.sim.flow import MAX_FLOW_SPEED_MPS, FlowParams
 from cptbt.sim.plume import PlumeParams
 from cptbt.sim.sensors import ADCPParams, FluorometerParams, NavigationParams
 from cptbt.sim.vehicle import VehicleParams
-from cptbt.sim.world import EnvironmentParams, EnvPreset
+from cptbt.sim.world import MAX_EXTRA_SOURCES, EnvironmentParams, EnvPreset
 from cptbt.types import Point
 
 Overrides = dict[str, Any]
@@ -50,9 +50,10 @@ class Environment(BaseModel):
         "the mission lists 'source' in allow_outside"
     )
     extra_sources: list[Coord] = Field(
-        default_factory=list, description="More true sources, in the mission frame, each with "
-        "a plume of its own in the same flow (multi-source missions); inside the OpArea unless "
-        "the mission lists 'source' in allow_outside"
+        default_factory=list, max_length=MAX_EXTRA_SOURCES,
+        description=f"At most {MAX_EXTRA_SOURCES} more true sources, in the mission frame, "
+        "each with a plume of its own in the same flow (multi-source missions); inside the "
+        "OpArea unless the mission lists 'source' in allow_outside"
     )
     flow_toward_deg: float | None = Field(
         default=None,
@@ -60,7 +61,11 @@ class Environment(BaseModel):
         "'geodetic', planning "
         "degrees for frame 'planning' (default: preset's)",
     )
-    flow_speed_mps: float | None = Field(default=None, ge=0, description="Mean flow speed, m/s")
+    flow_speed_mps: float | None = Field(
+        default=None, ge=0, le=MAX_FLOW_SPEED_MPS,
+        description=f"Mean flow speed, m/s (at most {MAX_FLOW_SPEED_MPS:g}; the fastest tidal "
+        "races run at about 5 m/s)",
+    )
     launch: Coord | None = Field(
         default=None, description="Vehicle position at t = 0 (default: mission start, else home)"
     )

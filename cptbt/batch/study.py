@@ -20,12 +20,13 @@ from typing import Any
 import numpy as np
 import yaml
 
+from cptbt import study_spec
 from cptbt.batch.integrity import digest
-from cptbt.loader import dump_mission, loads_mission
-from cptbt.mission import MissionBase, mission_to_data
+from cptbt.loader import MissionError, dump_mission, load_scalar, loads_mission, located_errors
+from cptbt.mission import Loc, MissionBase, dotted, mission_to_data
 from cptbt.registry import RegistryError, default_registry
 
-MAX_STARTS = 100_000
+MAX_STARTS = study_spec.MAX_STARTS
 """Most starts a study may have: a bound on typos such as ``--starts-x 0:100:0.0001``."""
 
 
@@ -45,11 +46,20 @@ class Sweep:
 
     @classmethod
     def parse(cls, text: str) -> Sweep:
-        """From ``path[+path...]=v1,v2,...`` (values read as YAML scalars)."""
+        """From ``path[+path...]=v1,v2,...`` (values read as YAML scalars, as a mission file's
+        are: ``1e-3`` is a number).
+
+        Raises:
+            ValueError: no ``=``, no values, or a value YAML cannot read.
+        """
         if "=" not in text:
             raise ValueError(f"{text!r}: expected PATH=V1,V2,...")
         left, right = text.split("=", 1)
-        values = tuple(yaml.safe_load(v) for v in right.split(",") if v.strip())
+        try:
+            values = tuple(load_scalar(v) for v in right.split(",") if v.strip())
+        except yaml.YAMLError as exc:
+            raise ValueError(f"{text!r}: a value is not YAML: {' '.join(str(exc).split())}"
+                             ) from None
         if not values:
             raise ValueError(f"{text!r}: no values")
         return cls(tuple(p.strip() for p in left.split("+")), values)
@@ -139,8 +149,19 @@ class Config:
     mission_yaml: str
 
 
-def configurations(mission: MissionBase, sweeps: list[Sweep], source: str) -> list[Config]:
-    """Every sweep combination, validated now so a bad value fails before any run."""
+def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
+                   lines: dict[Loc, int] | None = None) -> list[Config]:
+    """Every sweep combination, validated now so a bad value fails before any run.
+
+    A swept mission is the mission's data with the sweep's values set, so its problems have no
+    line of their own: each is reported at its key's line in the mission file (``lines``, the
+    file's key paths) with the sweep named, or, for a key the file does not have, as
+    ``FILE [sweep ...]: path: message`` without a line.
+
+    Raises:
+        MissionError: a combination is not a valid mission.
+        ValueError: a sweep path names nothing in the mission.
+    """
     out = []
     combos = itertools.product(*(s.values for s in sweeps)) if sweeps else [()]
     for i, combo in enumerate(combos):
@@ -157,10 +178,39 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str) -> li
         text = yaml.safe_dump(data, sort_keys=False)
         env = type(mission.environment) if mission.environment is not None else None
         swept = ", ".join(f"{k}={v}" for k, v in coords.items())
-        validated = loads_mission(text, f"{source} [sweep {swept}]" if swept else source,
-                                  default_registry(), env)
+        try:
+            validated = loads_mission(text, f"{source} [sweep {swept}]" if swept else source,
+                                      default_registry(), env)
+        except MissionError as exc:
+            if not swept or exc.located is None:
+                raise
+            raise _swept_error(exc.located, source, lines, swept) from None
+        if swept and validated.environment is not None:
+            # The simulator's own limits (environment.dt_s, flow overrides...), as `load` checks
+            # them for the mission file: a swept value must not first fail in a worker. (Imported
+            # here: studies are planned, and the CLI inspects missions, without the simulator.)
+            from cptbt.batch.scenario import check
+            from cptbt.sim.world import EnvironmentParams
+
+            error = check(validated)
+            if error is not None:
+                located = located_errors(error, data.get("environment") or {}, ("environment",),
+                                         EnvironmentParams)
+                raise _swept_error(located, source, lines, swept)
         out.append(Config(i, coords, dump_mission(validated)))
     return out
+
+
+def _swept_error(located: list[tuple[Loc, str]], source: str, lines: dict[Loc, int] | None,
+                 swept: str) -> MissionError:
+    """A swept mission's problems: at the key's line in the file with the sweep named, or
+    without a line for a key the file does not have."""
+    return MissionError([
+        f"{source}:{lines[loc]}: {dotted(loc)}: {msg} (with sweep {swept})"
+        if lines is not None and loc in lines
+        else f"{source} [sweep {swept}]: {dotted(loc)}: {msg}"
+        for loc, msg in located
+    ])
 
 
 def grid_starts(mission: MissionBase, nx: int, ny: int) -> list[tuple[float, float]]:

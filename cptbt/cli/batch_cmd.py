@@ -29,6 +29,7 @@ from cptbt.batch.study import (
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
+from cptbt.loader import parse_yaml
 from cptbt.mission import MissionBase
 from cptbt.study_spec import StudySpec
 
@@ -238,7 +239,9 @@ def cmd_batch(args: argparse.Namespace) -> int:
         for path, values in (spec.sweeps.items() if spec is not None else [])
     ]
     try:
-        configs = configurations(mission, sweeps, args.mission)
+        lines = parse_yaml(Path(args.mission).read_text(encoding="utf-8"), args.mission)[1] \
+            if sweeps else None
+        configs = configurations(mission, sweeps, args.mission, lines)
     except ValueError as exc:
         raise UsageError(f"batch: {exc}") from None
     for note in variant_sweep_notes(mission, sweeps):

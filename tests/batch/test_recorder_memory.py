@@ -17,7 +17,13 @@ import numpy as np
 import pytest
 
 from cptbt.batch.engine import simulate
-from cptbt.batch.recorder import PATH_COLUMNS, TRACE_COLUMNS, Recorder, lazy_zeros
+from cptbt.batch.recorder import (
+    MAX_PREALLOCATED_ROWS,
+    PATH_COLUMNS,
+    TRACE_COLUMNS,
+    Recorder,
+    lazy_zeros,
+)
 from cptbt.batch.scenario import to_sim_params
 from cptbt.cli.inspect_cmds import load
 
@@ -114,6 +120,14 @@ def test_shared_and_aliased_views_are_read_only() -> None:
         with pytest.raises(ValueError):
             view[0] = 5.0
     assert rec.column("x", 0).flags.writeable
+
+
+def test_a_week_long_run_does_not_preallocate_a_week_of_rows() -> None:
+    # A 7-day limit at 100 Hz asked for 6e7 rows up front (480 MB of shared times alone); the
+    # preallocation is capped and the arrays grow as rows come.
+    rec = Recorder(3, capacity=60_480_004)
+    assert rec.capacity == MAX_PREALLOCATED_ROWS
+    assert rec.allocated_bytes() < 64 * MAX_PREALLOCATED_ROWS * 8
 
 
 def test_lazy_zeros_are_zero_and_writable() -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from cptbt.batch.study import Sweep, apply_setting
@@ -54,6 +56,17 @@ def test_sweep_parses_joined_paths_and_yaml_values() -> None:
     assert Sweep.parse("perception.lambda_s=1,2.5").values == (1, 2.5)
 
 
+def test_sweep_values_read_exponent_floats_as_a_mission_file_does() -> None:
+    # YAML 1.1 (PyYAML's) reads 1e-3 as a string; a mission reads it as a number (YAML 1.2).
+    assert Sweep.parse("declare_source.false_alarm_prob=1e-3,2E-2").values == (0.001, 0.02)
+    assert Sweep.parse("x='1e-3'").values == ("1e-3",)  # quoted: a string, refused later
+
+
+def test_a_sweep_value_yaml_cannot_read_is_a_value_error() -> None:
+    with pytest.raises(ValueError, match="not YAML"):
+        Sweep.parse("speed_mps=[")
+
+
 
 AB1 = "missions/ab2001_strategy1.yaml"
 
@@ -90,3 +103,29 @@ def test_a_variant_sweep_says_which_mission_settings_it_drops() -> None:
     # A sweep of the mission's own variant alone drops nothing.
     same = Sweep.parse("maintain_plume.variant+reacquire_plume.variant=strategy_1")
     assert variant_sweep_notes(mission, [same]) == []
+
+
+OBLIQUE = Path(__file__).resolve().parents[2] / "missions/oblique_flow.yaml"
+
+
+@pytest.mark.parametrize(("sweep", "where"), [
+    # a key the file has: its line, the sweep named
+    ("maintain_plume.beta_deg=5,500", ":43: behaviours[2].maintain_plume.beta_deg: Input should "
+     "be less than 90 (with sweep maintain_plume.beta_deg=500)"),
+    # a key the file lacks: no line (the swept mission's own text is no file the user has)
+    ("reacquire_plume.arrive_radius_m=-1", " [sweep reacquire_plume.arrive_radius_m=-1]: "
+     "behaviours[3].reacquire_plume.arrive_radius_m: Input should be greater than 0"),
+    # the simulator's limits are checked before any run, as for the file itself
+    ("environment.dt_s=1e-7", " [sweep environment.dt_s=1e-07]: environment.dt_s: Input should "
+     "be greater than or equal to 0.005"),
+])
+def test_a_bad_swept_value_is_reported_at_the_files_key_or_without_a_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], sweep: str, where: str
+) -> None:
+    from cptbt.cli import main
+
+    status = main(["batch", str(OBLIQUE), "--grid", "1x1", "--sweep", sweep,
+                   "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and err == [f"{OBLIQUE}{where}"], err
+    assert not (tmp_path / "out").exists()

@@ -82,6 +82,40 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("zero success radius", sub("time_limit_s: 1800", "time_limit_s: 1800\nevaluation: "
                                 "{success_radius_m: 0}"), 10, "evaluation.success_radius_m",
      "greater than 0"),
+    # -- a mission that validates flies in bounded time ---------------------------------------
+    ("cycle too slow", sub("cycle_hz: 1", "cycle_hz: 1e-7"), 8, "cycle_hz",
+     "greater than or equal to 0.01"),
+    ("cycle longer than the limit", sub("cycle_hz: 1\ntime_limit_s: 1800",
+                                        "cycle_hz: 0.01\ntime_limit_s: 60"), 8, "cycle_hz",
+     "cycle of 100 s, longer than time_limit_s (60 s)"),
+    ("cycle longer than the study's limit",
+     sub("cycle_hz: 1\ntime_limit_s: 1800",
+         "cycle_hz: 0.1\ntime_limit_s: 1800\nstudy: {grid: [2, 2], time_limit_s: 5}"), 8,
+     "cycle_hz", "longer than study.time_limit_s (5 s)"),
+    ("tiny vehicle step", sub("  seed: 3", "  seed: 3\n  dt_s: 0.000001"), 32,
+     "environment.dt_s", "greater than or equal to 0.005"),
+    ("day-long spin-up", sub("  seed: 3", "  seed: 3\n  warm_up_s: 1e8"), 32,
+     "environment.warm_up_s", "less than or equal to 86400"),
+    ("a billion cloverleaves", sub("{variant: cloverleaf}",
+                                   "{variant: cloverleaf, repeats: 1000000000}"), 18,
+     "behaviours[3].reacquire_plume.repeats", "less than or equal to 100"),
+    ("three-point visits", sub("{variant: cloverleaf}", "{variant: three_point, visits: 100000}"),
+     18, "behaviours[3].reacquire_plume.visits", "less than or equal to 1000"),
+    ("a 1e300 m/s current", sub("flow_speed_mps: 0.1", "flow_speed_mps: 1e300"), 30,
+     "environment.flow_speed_mps", "less than or equal to 10"),
+    ("a flow grid too fine to step", sub("  seed: 3", "  seed: 3\n  flow: {diffusivity_m2ps: 1e6}"),
+     26, "environment", "the flow model would step every"),
+    ("a billion puffs", sub("  seed: 3", "  seed: 3\n  plume: {max_puffs: 1000000000}"), 32,
+     "environment.plume.max_puffs", "less than or equal to 200000"),
+    ("too many sources", sub("  seed: 3", "  seed: 3\n  extra_sources: [" +
+                             ", ".join(["[50, 0]"] * 21) + "]"), 32,
+     "environment.extra_sources", "at most 20 items"),
+    ("a mission A of 3e4 years", sub("  amp_depth_m: 3", "  amp_depth_m: 3\n"
+                                     "  duration_limit_s: 1e12"), 25,
+     "mission_a.duration_limit_s", "less than or equal to 604800"),
+    ("a million starts", sub("time_limit_s: 1800", "time_limit_s: 1800\n"
+                             "study: {grid: [1000, 1000]}"), 10, "study",
+     "more than 100000 starts"),
     # -- numbers are YAML numbers: no booleans or quoted strings converted --------------------
     ("boolean cycle", sub("cycle_hz: 1", "cycle_hz: yes"), 8, "cycle_hz",
      "expected a number, got True (a YAML boolean)"),
@@ -93,6 +127,8 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      "environment.flow_speed_mps", "a YAML boolean"),
     ("quoted corner", sub("[100, -50], [100, 50]", "[100, -50], ['100', 50]"), 4,
      "op_area.corners[1][0]", "a quoted string"),
+    ("quoted exponent float", sub("speed_mps: 1.5", "speed_mps: '15e-1'"), 7, "speed_mps",
+     "expected a number, got '15e-1' (a quoted string)"),
     ("fractional seed", sub("seed: 3", "seed: 3.5"), 31, "environment.seed", "integer"),
     # -- the OpArea is a rectangle consistent with its bearing -------------------------------
     ("kite", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
@@ -129,6 +165,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("longitude out of range", lambda s: geodetic(s).replace("home: [32.9802, -118.5368]",
                                                              "home: [32.9805, 218.5]"),
      6, "home", "not [latitude, longitude]"),
+    ("longitude just past 180", lambda s: geodetic(s).replace("home: [32.9802, -118.5368]",
+                                                              "home: [32.9805, 180.0003]"),
+     6, "home", "[32.9805, 180.0003] is not [latitude, longitude]"),  # not rounded to 180
     # -- behaviours --------------------------------------------------------------------------
     ("behaviour twice", sub("  - find_plume: {variant: billiard}",
                             "  - find_plume: {variant: billiard}\n  - safety: {}"), 20,
@@ -214,6 +253,18 @@ def test_bad_mission_gives_one_precise_line(  # type: ignore[no-untyped-def]
     assert fragment in match[3], lines[0]
 
 
+def test_a_file_not_in_utf8_is_reported_at_the_bad_bytes_line_and_column(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Latin-1 'é' in a description (line 2): was ':0: (file): ... in position 41'.
+    text = BASE.replace("frame: ne", "description: café\nframe: ne")
+    path = tmp_path / "latin1.yaml"
+    path.write_bytes(text.encode("latin-1"))
+    assert main(["validate", str(path)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"{path}:2: (file): byte 0xe9 at column 17 is not UTF-8"), line
+
+
 def test_whole_floats_for_counts_and_integers_for_floats_stay_valid(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -222,6 +273,20 @@ def test_whole_floats_for_counts_and_integers_for_floats_stay_valid(
     path = tmp_path / "fine.yaml"
     path.write_text(text, encoding="utf-8")
     assert main(["validate", str(path)]) == 0, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("spelling", ["15e-1", "1.5E0", "+.15e+1", "150e-2"])
+def test_exponent_floats_without_a_dot_are_numbers(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], spelling: str
+) -> None:
+    # YAML 1.2 reads 1e-3 as a number; PyYAML (YAML 1.1) would read it as a string that the
+    # strict-number rule then refuses as quoted. The mission loader resolves YAML 1.2 floats.
+    path = tmp_path / "sci.yaml"
+    path.write_text(BASE.replace("speed_mps: 1.5", f"speed_mps: {spelling}")
+                    .replace("time_limit_s: 1800", "time_limit_s: 18e2"), encoding="utf-8")
+    assert main(["validate", "--dump", str(path)]) == 0, capsys.readouterr().err
+    out = capsys.readouterr().out
+    assert "speed_mps: 1.5" in out and "time_limit_s: 1800.0" in out, out
 
 
 def test_an_unknown_simulator_override_gets_suggestions(

@@ -92,6 +92,20 @@ def test_culled_concentration_matches_the_brute_force_sum() -> None:
     assert np.allclose(plume.snapshot_grid(xs, ys).ravel(), plume.concentration(pts), atol=2e-3)
 
 
+def test_tiny_puffs_bucket_into_a_bounded_number_of_cells() -> None:
+    # Cells of the puffs' reach (4 r of 1 mm puffs over a 400 m domain) were 1e11 cells: a
+    # MemoryError. Cells are at least 1/1024 of the domain's side, with the same values.
+    plume = _uniform_plume(initial_radius_m=0.001, spread_rate_m2ps=0.0, cutoff_sigmas=4.0,
+                           centre_rel_diffusivity_m2ps=0.0, release_rate_hz=10.0)
+    for _ in range(100):
+        plume.step(0.1)
+    p = plume.positions
+    q = np.vstack([p[:20], p[:20] + 0.002])  # on puffs and 2 r beside them: 40 points, hashed
+    alone = np.concatenate([plume.concentration(q[i : i + 1]) for i in range(len(q))])
+    assert np.allclose(plume.concentration(q), alone, rtol=1e-12, atol=0.0)
+    assert alone.min() > 0.0
+
+
 def test_radius_squared_grows_linearly_with_age() -> None:
     # Without diffusion a puff at distance d from the source in a 1 m/s flow is d s old.
     plume = _uniform_plume(centre_rel_diffusivity_m2ps=0.0)

@@ -12,6 +12,7 @@ from pydantic import ValidationError
 
 import cptbt.sim
 from cptbt.sim import EnvironmentParams, FluorometerParams, NavigationParams, World
+from cptbt.sim.world import DEFAULT_WARM_UP_CAP_S
 
 
 def _run(world: World, seconds: float) -> list:
@@ -98,6 +99,30 @@ def test_warm_up_fills_the_domain_without_advancing_mission_time() -> None:
     reach = world.plume.positions[:, 0].max() - world.params.source_xy_m[0]
     assert reach > 0.9 * (world.domain[1] - world.params.source_xy_m[0])
     assert world.plume.skipped == 0
+
+
+def test_the_default_spin_up_of_a_still_sea_is_capped_and_logged(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # No mean current: the crossing time at the 1 mm/s floor was ~4e5 s of spin-up (75 s wall
+    # for a 200 x 120 m box). It is capped, and the cap is logged.
+    still = EnvironmentParams.model_validate({"flow": {"preset": "ocean", "mean_speed_mps": 0.0}})
+    world = World(still, xy=np.zeros((1, 2)))
+    with caplog.at_level("WARNING", logger="cptbt.sim.world"):
+        assert world.default_warm_up_s() == DEFAULT_WARM_UP_CAP_S
+    assert any("spin-up capped" in r.getMessage() for r in caplog.records), caplog.records
+    caplog.clear()
+    ocean = World(EnvironmentParams(), xy=np.zeros((1, 2)))  # 0.1 m/s: the crossing time
+    with caplog.at_level("WARNING", logger="cptbt.sim.world"):
+        assert 1000.0 < ocean.default_warm_up_s() < DEFAULT_WARM_UP_CAP_S
+    assert not caplog.records
+
+
+def test_step_and_spin_up_are_bounded() -> None:
+    with pytest.raises(ValidationError, match=r"greater than or equal to 0\.005"):
+        EnvironmentParams(dt_s=1e-6)
+    with pytest.raises(ValidationError, match="less than or equal to 86400"):
+        EnvironmentParams(warm_up_s=1e8)
 
 
 def test_nan_commands_are_held_by_the_world() -> None:
