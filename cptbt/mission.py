@@ -116,6 +116,14 @@ def _exact(v: float) -> str:
     return text.removesuffix(".0")
 
 
+def latlon_problem(c: Coord) -> str | None:
+    """Why ``c`` is not ``[latitude, longitude]`` (with its values, every digit), or None."""
+    if -90 < c[0] < 90 and -180 <= c[1] <= 180:
+        return None
+    return (f"[{_exact(c[0])}, {_exact(c[1])}] is not [latitude, longitude]: latitude must lie "
+            "in (-90, 90) and longitude in [-180, 180]")
+
+
 class MissionBase(BaseModel):
     """Fields every mission has; :func:`mission_model` adds the behaviour list's schema.
 
@@ -241,9 +249,9 @@ class MissionBase(BaseModel):
         places += [(("home",), self.home), (("start",), self.start),
                    (("op_area", "geodetic_centre_deg"), self.op_area.geodetic_centre_deg)]
         for loc, c in places:
-            if c is not None and not (-90 < c[0] < 90 and -180 <= c[1] <= 180):
-                out.append((loc, f"[{_exact(c[0])}, {_exact(c[1])}] is not [latitude, longitude]: "
-                                 "latitude must lie in (-90, 90) and longitude in [-180, 180]"))
+            why = latlon_problem(c) if c is not None else None
+            if why:
+                out.append((loc, why))
         if not out and len({tuple(c) for c in self.op_area.corners}) != 4:
             out.append((("op_area", "corners"), "the four corners must be distinct"))
         return out

@@ -12,7 +12,7 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema
 
-from cptbt.mission import Coord, Loc, MissionBase, Problem
+from cptbt.mission import Coord, Loc, MissionBase, Problem, latlon_problem
 from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.schema import partial_schema
 from cptbt.sim.flow import MAX_FLOW_SPEED_MPS, FlowParams
@@ -136,15 +136,13 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
     if env.source is None:
         return [(("environment", "source"), "required: the true source in the mission frame "
                                             "(cptbt does not guess one for your OpArea)")]
-    if mission.frame == "geodetic" and not (-90 < env.source[0] < 90
-                                            and -180 <= env.source[1] <= 180):
-        return [(("environment", "source"), "not [latitude, longitude]")]
+    if mission.frame == "geodetic" and (why := latlon_problem(env.source)):
+        return [(("environment", "source"), why)]
     area = mission.op_area_geometry()
     out: list[Problem] = []
     if env.launch is not None and mission.mission_a is None:
-        if mission.frame == "geodetic" and not (-90 < env.launch[0] < 90
-                                                and -180 <= env.launch[1] <= 180):
-            out.append((("environment", "launch"), "not [latitude, longitude]"))
+        if mission.frame == "geodetic" and (why := latlon_problem(env.launch)):
+            out.append((("environment", "launch"), why))
         else:
             at = mission.to_xy(env.launch)
             outside = area.distance_outside(at.x, at.y)
@@ -157,8 +155,8 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
     places: list[tuple[Loc, Coord]] = [(("environment", "source"), env.source)]
     places += [(("environment", "extra_sources", i), c) for i, c in enumerate(env.extra_sources)]
     for loc, coord in places:
-        if mission.frame == "geodetic" and not (-90 < coord[0] < 90 and -180 <= coord[1] <= 180):
-            out.append((loc, "not [latitude, longitude]"))
+        if mission.frame == "geodetic" and (why := latlon_problem(coord)):
+            out.append((loc, why))
             continue
         src = mission.to_xy(coord)
         if "source" not in mission.allow_outside and not area.contains(src.x, src.y):

@@ -168,6 +168,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("longitude just past 180", lambda s: geodetic(s).replace("home: [32.9802, -118.5368]",
                                                               "home: [32.9805, 180.0003]"),
      6, "home", "[32.9805, 180.0003] is not [latitude, longitude]"),  # not rounded to 180
+    ("source not lat/lon", lambda s: geodetic(s).replace("source: [32.9805, -118.5365]",
+                                                         "source: [-118.5365, 32.9805]"),
+     28, "environment.source", "[-118.5365, 32.9805] is not [latitude, longitude]"),
     # -- behaviours --------------------------------------------------------------------------
     ("behaviour twice", sub("  - find_plume: {variant: billiard}",
                             "  - find_plume: {variant: billiard}\n  - safety: {}"), 20,
