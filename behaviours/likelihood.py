@@ -81,8 +81,22 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "observer (measured: class docstring), m"
     )
     detection_weight: float = Field(
-        default=0.3, gt=0, le=1, description="Tempering exponent of a detection's likelihood "
-        "(0.3 rather than the map's 0.5: class docstring)"
+        default=0.6, gt=0, le=1, description="Tempering exponent of a detection's likelihood "
+        "(0.6 rather than the map's 0.5: class docstring)"
+    )
+    nondetection_weight: float = Field(
+        default=1.0, gt=0, le=1, description="Tempering exponent of a non-detection's "
+        "likelihood (1, none: the meander state models the misses' correlation; class "
+        "docstring)"
+    )
+    meander_memory_s: float | None = Field(
+        default=150.0, gt=0, description="τ: correlation time of the plume's meander, with "
+        "which each cell carries a meander state (measured: class docstring; None: the "
+        "independent-cycle model), s"
+    )
+    instant_near_spread_m: float | None = Field(
+        default=1.0, gt=0, description="σi(0): the plume's width about its instantaneous axis "
+        "at the source; the rest of σ0 persists (measured: class docstring), m"
     )
     mask_radius_m: float = Field(
         default=15.0, gt=0, description="Cells within this of a declared source are ruled out "

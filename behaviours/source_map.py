@@ -155,6 +155,86 @@ class MapModelParams(BehaviourParams):
     trajectory_points: int = Field(
         default=200, ge=2, le=10_000, description="Back-trajectory samples per observation"
     )
+    meander_memory_s: float | None = Field(
+        default=None, gt=0, description="τ: correlation time of the plume's meander; with it "
+        "each cell carries a meander state and cycles are correlated through it (module "
+        "docstring, 'Correlated meander'); None: cycles are independent given the source, s"
+    )
+    instant_spread_m: float = Field(
+        default=0.55, ge=0, description="With meander_memory_s: the plume's width about its "
+        "instantaneous axis grows as σi(a)² = σ0² + this · a (relative dispersion, 2 K_c / U), m"
+    )
+    instant_near_spread_m: float | None = Field(
+        default=None, gt=0, description="With meander_memory_s: σi(0), the plume's width about "
+        "its instantaneous axis at the source; the rest of σ0 persists like the meander (None: "
+        "σ0, all of it instantaneous), m"
+    )
+    meander_bins: int = Field(
+        default=9, ge=3, le=41, description="With meander_memory_s: discrete meander states "
+        "per cell"
+    )
+
+
+IN_PLUME_MAX = 0.95
+"""With a meander state, the chance of a detection on the plume's instantaneous axis is capped
+at this (a miss there is never certain proof: see :meth:`SourceMap._kernel_given_meander`)."""
+
+
+class MeanderChain:
+    """The meander state ``z`` as a discrete Markov chain: an Ornstein–Uhlenbeck process.
+
+    ``bins`` equally spaced states with weights ∝ the standard normal density, the nodes scaled
+    so that the weighted variance is exactly 1; a birth–death chain between neighbouring states
+    whose rates satisfy detailed balance with those weights (so they are its stationary
+    distribution) and are scaled so that the autocorrelation of ``z`` falls to 1/e after
+    ``tau_s``. The transition matrix over ``dt`` is ``expm(Q dt)``, from the eigenvectors of the
+    chain's symmetrised generator; matrices are cached by ``dt`` (to the millisecond).
+    """
+
+    def __init__(self, bins: int, tau_s: float) -> None:
+        z = np.linspace(-2.4, 2.4, bins)
+        w = np.exp(-0.5 * z * z)
+        w /= w.sum()
+        z = z / math.sqrt(float(w @ (z * z)))
+        self.z: Array = z
+        self.weights: Array = w
+        root = np.sqrt(w)
+        sym = np.zeros((bins, bins))  # S = D^½ Q D^-½ with unit rate scale
+        for i in range(bins - 1):
+            sym[i, i + 1] = sym[i + 1, i] = 1.0
+            sym[i, i] -= math.sqrt(w[i + 1] / w[i])
+            sym[i + 1, i + 1] -= math.sqrt(w[i] / w[i + 1])
+        lam, vec = np.linalg.eigh(sym)
+        self._lam, self._vec, self._root = lam, vec, root
+        # the autocorrelation after u units of the unit-rate chain; find u where it is 1/e
+        lo, hi = 1e-6, 1e3
+        for _ in range(80):
+            mid = math.sqrt(lo * hi)
+            if self._corr(mid) > math.exp(-1.0):
+                lo = mid
+            else:
+                hi = mid
+        self._rate = math.sqrt(lo * hi) / tau_s
+        self._cache: dict[int, Array] = {}
+
+    def _unit(self, u: float) -> Array:
+        t = (self._vec * np.exp(self._lam * u)) @ self._vec.T
+        out = np.asarray(t / self._root[:, None] * self._root[None, :], dtype=float)
+        out = np.maximum(out, 0.0)
+        return np.asarray(out / out.sum(axis=1, keepdims=True), dtype=float)
+
+    def _corr(self, u: float) -> float:
+        return float(self.weights * self.z @ self._unit(u) @ self.z)
+
+    def transition(self, dt: float) -> Array:
+        """``P(z' | z)`` after ``dt`` seconds, rows ``z`` and columns ``z'``."""
+        key = round(max(dt, 0.0) * 1000)
+        got = self._cache.get(key)
+        if got is None:
+            if len(self._cache) > 256:
+                self._cache.clear()
+            got = self._cache[key] = self._unit(self._rate * key / 1000.0)
+        return got
 
 
 class SourceMap:
@@ -192,6 +272,11 @@ class SourceMap:
         self.explored = np.zeros(self._cx.size, dtype=bool)
         self._log = np.zeros(self._cx.size)
         self._excluded = np.zeros(self._cx.size, dtype=bool)
+        self.chain = (MeanderChain(model.meander_bins, model.meander_memory_s)
+                      if model.meander_memory_s is not None else None)
+        self._alpha: Array | None = None  # P(z | history, cell), (bins, cells), columns sum to 1
+        self._last_k = -1  # cycle of the last observation folded in
+        self._reset_meander()
 
     # -- updating ------------------------------------------------------------------------
     def observe(self, p: Percept) -> bool:
@@ -214,9 +299,38 @@ class SourceMap:
         self.detections += int(p.detected)
         if p.detected and not self.explained_by_known(self._n - 1, x, y):
             self.unexplained += 1
-        self._log += self._log_likelihood(*obs)
+        self._fold(obs)
         self._log -= self._log[~self._excluded].max()
         return True
+
+    def _reset_meander(self) -> None:
+        self._last_k = -1
+        if self.chain is not None:
+            self._alpha = np.repeat(self.chain.weights[:, None], self._cx.size, axis=1)
+
+    def _fold(self, obs: tuple[int, float, float, int]) -> None:
+        """Multiply the map by one observation's likelihood (through the meander states when
+        the map has them)."""
+        if self.chain is None or self._alpha is None:
+            self._log += self._log_likelihood(*obs)
+            return
+        k = obs[0]
+        dt = float(self._t[k] - self._t[self._last_k]) if self._last_k >= 0 else 0.0
+        self._last_k = k
+        if dt > 0:  # einsum, not BLAS: a (9, n) product is slow with threads on a busy host
+            self._alpha = np.einsum("ij,in->jn", self.chain.transition(dt), self._alpha)
+        got = self._likelihood_given_meander(*obs)
+        if got is None:
+            return
+        idx, like, rest = got
+        if rest != 0.0:
+            self._log += rest
+        if idx.size:
+            alpha = self._alpha[:, idx] * like
+            total = alpha.sum(axis=0)
+            self._alpha[:, idx] = alpha / total
+            self._log[idx] += np.log(total) - rest
+        self._log[self._excluded] = -np.inf
 
     def _record_flow(self, p: Percept) -> None:
         if self._n == len(self._t):  # grow the history (amortised doubling)
@@ -246,8 +360,10 @@ class SourceMap:
         for s in self.known:
             self._excluded |= (self._cx - s.x) ** 2 + (self._cy - s.y) ** 2 <= r2
         self._log = np.zeros(self._cx.size)
+        self._reset_meander()
         for obs in self._obs:
-            self._log += self._log_likelihood(*obs)
+            self._fold(obs)
+        self._log[self._excluded] = -np.inf
         if (~self._excluded).any():
             self._log -= self._log[~self._excluded].max()
 
@@ -274,20 +390,32 @@ class SourceMap:
                          sy: Array) -> tuple[Array, Array]:
         """The kernel's shape without the decay with range, and the range ``max(a, 0)``."""
         m = self.model
-        ux, uy, along, disp = self.back_trajectory(k)
-        a = (x - sx) * ux + (y - sy) * uy  # how far up-flow of the detection each source is
-        dx = np.interp(a, along, disp[:, 0])
-        dy = np.interp(a, along, disp[:, 1])
-        c = (sx - (x - dx)) * -uy + (sy - (y - dy)) * ux  # cross-flow offset from B(τ)
+        a, c = self._geometry(k, x, y, sx, sy)
         ap = np.maximum(a, 0.0)
-        meander = self._tan * ap
-        if m.max_spread_m is not None:
-            meander = np.minimum(meander, m.max_spread_m)
+        meander = self._meander(ap)
         var = m.near_spread_m**2 + meander**2
         expo = -c * c / (2.0 * var)
         behind = m.behind_spread_m if m.behind_spread_m is not None else m.near_spread_m
         expo -= np.where(a < 0, a * a / (2.0 * behind**2), 0.0)
         return np.where(a <= m.max_range_m, np.exp(expo), 0.0), ap
+
+    def _geometry(self, k: int, x: float | Array, y: float | Array, sx: Array,
+                  sy: Array) -> tuple[Array, Array]:
+        """``(a, c)``: each source's range up-flow of ``(x, y)`` along the back-trajectory of
+        cycle ``k`` and its cross-flow offset from the back-trajectory at that range."""
+        ux, uy, along, disp = self.back_trajectory(k)
+        a = (x - sx) * ux + (y - sy) * uy  # how far up-flow of the detection each source is
+        dx = np.interp(a, along, disp[:, 0])
+        dy = np.interp(a, along, disp[:, 1])
+        c = (sx - (x - dx)) * -uy + (sy - (y - dy)) * ux  # cross-flow offset from B(τ)
+        return np.asarray(a, dtype=float), np.asarray(c, dtype=float)
+
+    def _meander(self, ap: Array) -> Array:
+        """The meander part of the kernel's spread, ``min(a tan φ, σmax)``, at range ``ap``."""
+        meander = self._tan * ap
+        if self.model.max_spread_m is not None:
+            meander = np.minimum(meander, self.model.max_spread_m)
+        return meander
 
     def back_trajectory(self, k: int) -> tuple[float, float, Array, Array]:
         """The water's back-trajectory from cycle ``k``: ``(ux, uy, along, disp)``.
@@ -345,6 +473,84 @@ class SourceMap:
                     * miss_known
             out = m.detection_weight * np.log(like)
         return np.where(self._excluded, -np.inf, out)
+
+    def _kernel_given_meander(self, k: int, x: float, y: float,
+                              strong: bool) -> tuple[NDArray[np.intp], Array, Array | None]:
+        """``K(s; x | z)`` for every meander state and the cells it can reach: ``(idx, K)``,
+        ``K`` of shape ``(bins, len(idx))``; with ``strong`` also the strong level's
+        ``K3(s; x | z)``. Cells not in ``idx`` have ``K`` below ``exp(-18)`` in every state.
+
+        The plume's axis at range ``a`` up-flow lies ``z · σm(a)`` across the flow from the
+        back-trajectory, and the plume about that axis is ``σi(a)`` wide:
+
+            K(s; x | z) = p_in(a) · exp(-(c - z σm(a))² / (2 σi(a)²)),
+            σi(a)² = σ0² + w · a,   σm(a)² = max(σ(a)² - σi(a)², 0),
+            p_in(a) = min(p0 exp(-a / L) · σ(a) / σi(a), IN_PLUME_MAX),
+
+        with ``σ(a)² = σ0² + min(a tan φ, σmax)²`` the independent-cycle kernel's spread and
+        ``w`` ``instant_spread_m``: over ``z ~ N(0, 1)`` the kernel averages to the
+        independent-cycle one (up to the cap on ``p_in`` and the quadrature), so the model keeps
+        the measured detection chances and widths and adds only their persistence.
+        """
+        m = self.model
+        assert self.chain is not None
+        a, c = self._geometry(k, x, y, self._cx, self._cy)
+        ap = np.maximum(a, 0.0)
+        behind = m.behind_spread_m if m.behind_spread_m is not None else m.near_spread_m
+        gate = np.where(a <= m.max_range_m, np.exp(-np.minimum(a, 0.0) ** 2 / (2.0 * behind**2)),
+                        0.0)
+        meander = self._meander(ap)
+        var_total = m.near_spread_m**2 + meander**2
+        near_i = m.instant_near_spread_m if m.instant_near_spread_m is not None \
+            else m.near_spread_m
+        var_i = np.minimum(near_i**2 + m.instant_spread_m * ap, var_total)
+        sig_m = np.sqrt(var_total - var_i)
+        reach = np.maximum(np.abs(c) - float(self.chain.z[-1]) * sig_m, 0.0)
+        idx = np.flatnonzero((gate > 1e-8) & (reach * reach < 36.0 * var_i))
+        ap, c, var_i, var_total, sig_m, gate = (
+            v[idx] for v in (ap, c, var_i, var_total, sig_m, gate))
+        ratio = np.sqrt(var_total / var_i)
+        p_in = np.minimum(m.detection_prob * np.exp(-ap / m.detection_decay_m) * ratio,
+                          IN_PLUME_MAX) * gate
+        d = c - self.chain.z[:, None] * sig_m
+        shape = np.exp(np.maximum(d * d * (-0.5 / var_i), -60.0))  # no subnormals: they are slow
+        k_cells = p_in * shape
+        if not strong:
+            return idx, k_cells, None
+        p3 = np.minimum(m.strong_prob * np.exp(-ap / m.strong_decay_m) * ratio,
+                        IN_PLUME_MAX) * gate
+        return idx, k_cells, np.minimum(p3 * shape, k_cells)
+
+    def _likelihood_given_meander(self, k: int, x: float, y: float, level: int
+                                  ) -> tuple[NDArray[np.intp], Array, float] | None:
+        """The tempered likelihood of one observation: ``(idx, like, rest)``, ``like`` per
+        meander state for the cells ``idx`` the plume can reach from ``(x, y)``, ``rest`` the
+        log-likelihood of every other cell (the same in each state); None when a declared
+        source explains it (no observation)."""
+        m = self.model
+        if not level:
+            idx, k_cells, _ = self._kernel_given_meander(k, x, y, False)
+            return idx, np.exp(m.nondetection_weight * np.log1p(-k_cells)), 0.0
+        miss_known = 1.0
+        if self.known:
+            kx = np.array([s.x for s in self.known])
+            ky = np.array([s.y for s in self.known])
+            miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
+            if miss_known <= 1.0 - m.explained_prob:
+                return None
+        idx, k_cells, strong_cells = self._kernel_given_meander(
+            k, x, y, self.strong_concentration is not None)
+        if strong_cells is None:
+            eps = self.false_alarm(k)
+            like = 1.0 - (1.0 - eps) * (1.0 - k_cells) * miss_known
+        elif level >= 2:
+            eps = m.strong_false_alarm_prob
+            like = 1.0 - (1.0 - eps) * (1.0 - strong_cells) * miss_known
+        else:
+            eps = self.false_alarm(k)
+            like = 1.0 - (1.0 - eps) * (1.0 - (k_cells - strong_cells)) * miss_known
+        rest = m.detection_weight * math.log(1.0 - (1.0 - eps) * miss_known)
+        return idx, np.exp(m.detection_weight * np.log(like)), rest
 
     def explained_by_known(self, k: int, x: float, y: float) -> bool:
         """Whether the declared sources' plumes would cause a detection at ``(x, y)`` on cycle

@@ -223,15 +223,39 @@ def main() -> int:
                     help="only tabulate the rows already in the .jsonl next to --out (a study "
                     "stopped early, or several studies' rows put together; each rule's N is its "
                     "own, paired changes use the replicates both rules have)")
+    ap.add_argument("--extra", action="append", default=[], metavar="LABEL|KEY=VALUE,...",
+                    help="fly another rule as well (repeatable; for tuning), e.g. "
+                    "'lm tau 60|declare_source.variant=likelihood_map,"
+                    "declare_source.meander_memory_s=60'; values are read as YAML")
+    ap.add_argument("--two-set", default="", metavar="KEY=VALUE,...",
+                    help="settings for the two-source runs (for tuning; values read as YAML)")
     args = ap.parse_args()
     names = [c for c in args.configs.split(",") if c]
+    for extra in args.extra:
+        label, _, body = extra.partition("|")
+        if not label or not body:
+            ap.error(f"--extra {extra!r}: expected LABEL|KEY=VALUE,...")
+        settings: dict[str, Any] = {}
+        for item in body.split(","):
+            key, eq, value = item.partition("=")
+            if not eq:
+                ap.error(f"--extra {extra!r}: {item!r} is not KEY=VALUE")
+            settings[key.strip()] = yaml.safe_load(value)
+        CONFIGS[label] = settings
+        names.append(label)
+    two_settings: dict[str, Any] = {}
+    for item in filter(None, args.two_set.split(",")):
+        key, eq, value = item.partition("=")
+        if not eq:
+            ap.error(f"--two-set: {item!r} is not KEY=VALUE")
+        two_settings[key.strip()] = yaml.safe_load(value)
     # Replicate by replicate, so the rows written so far always hold whole paired replicates.
     jobs = []
     for r in range(max(args.runs, args.two_runs)):
         if r < args.runs:
             jobs += [(name, str(MSN007), CONFIGS[name], r, args.seed) for name in names]
         if r < args.two_runs:
-            jobs.append(("two_sources", str(TWO), {}, r, args.seed))
+            jobs.append(("two_sources", str(TWO), two_settings, r, args.seed))
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     rows_path = out.with_suffix(".jsonl")
