@@ -49,16 +49,61 @@ constant width around it rather than a cone.
   Without it the along-flow position comes only from misses up-flow of the source, since a
   detection says "up-flow of here" but hardly how far.
 
+Correlated meander (optional: a map made with ``meander_memory_s``)
+-------------------------------------------------------------------
+The plume's axis does not follow the back-trajectory of the planner's ~100-s flow estimate: it
+meanders about it, slowly, and near the source the filament is much narrower than the spread of
+the hits over time. The cycles are therefore not independent given the source: after the plume
+swings away the vehicle collects a *run* of misses, each of which the independent-cycle model
+counts against the true source up-flow. With ``meander_memory_s`` (τ) each cell hypothesis
+carries a persistent meander state, the normalised cross-flow offset ``z`` of the plume's axis
+(``z ~ N(0, 1)`` stationary, an Ornstein–Uhlenbeck process with correlation time τ, discretised
+as a :class:`MeanderChain` of ``meander_bins`` states). The axis at range ``a`` up-flow lies
+``z · σm(a)`` across the flow from the back-trajectory, and the plume about it is ``σi(a)``
+wide, ``σi(a)² = σi(0)² + w · a`` (``instant_near_spread_m``, ``instant_spread_m``: relative
+dispersion widens it), with the rest of the kernel's spread the meander's:
+``σm(a)² = σ(a)² - σi(a)²``, ``σ(a)² = σ0² + min(a tan φ, σmax)²``. The chance of a detection
+given the state is
+
+    K(s; x | z) = p_in(a) · exp(-(c - z σm(a))² / (2 σi(a)²)),
+    p_in(a) = min(p0 · exp(-a / L) · σ(a) / σi(a), IN_PLUME_MAX),
+
+(the strong level likewise, with ``p3 · exp(-a / L3)``), so that averaged over ``z`` it is the
+independent-cycle ``K(s; x)`` wherever ``p_in`` is not capped. Each cell is then an HMM filtered
+forward: every observation propagates the cell's ``P(z)`` with the chain's transition over the
+time since the last one, multiplies it by the observation's likelihood in each state (the same
+detection and non-detection likelihoods as above, ``K(s; x | z)`` for ``K(s; x)``, each raised to
+its tempering exponent) and renormalises; the cell's log-posterior gains the log of the
+normaliser (the predictive probability of the observation). A run of misses is then explained by
+one offset of the plume (its evidence is capped at about "the plume was elsewhere for a while",
+the weight of the states far to the side), and a run of detections concentrates ``z`` instead of
+only multiplying location evidence. Readings chosen: one ``z`` per cell for all ranges (the
+meander swings the whole plume; a bend within it is not modelled); the part of ``σ0`` that is not
+``σi(0)`` persists as well (near the source the hits' spread over time comes from the axis's
+slow wander and the vehicle's navigation drift, not from a wide filament); ``p_in`` is capped, so
+within ~10 m of the source (and where the measured chance over ``σ(a)/σi(a)`` exceeds the cap)
+the ``z``-average is *below* the measured independent-cycle chance (0.32 against 0.72 at the
+source with the TRO settings): a pass beside a thin filament says little. A version that widened
+``σi`` instead, to keep the average exact, declared farther from the source on tuning runs
+(:class:`~cptbt.behaviours.likelihood.LikelihoodMapParams`). Cells the plume cannot reach in any
+state (``K < exp(-18)``) skip the per-state arithmetic: a non-detection leaves them as they are
+and a detection multiplies them by the false-alarm term. The transition matrices are products
+with ``numpy.einsum``: a ``(bins, cells)`` product through BLAS was 7 times slower with
+threads on a busy two-core host.
+
 Assumptions, stated because the model is only as good as they are:
 
 - one source per hypothesis; a declared source's plume is known exactly (multi-source search
   explains it away rather than estimating the sources jointly);
 - the flow is uniform in space over the plume (the vehicle's estimate stands for the water's
   motion along the whole back-trajectory) and its history is the planner's own estimate;
-- cycles are conditionally independent given the source. They are not (a plume contact gives a
-  run of correlated detections, intermittency a run of misses), so each log-likelihood is
-  tempered by ``detection_weight`` / ``nondetection_weight`` (< 1 keeps the map from growing
-  over-confident on correlated evidence);
+- without a meander state, cycles are conditionally independent given the source. They are
+  not (a plume contact gives a run of correlated detections, intermittency a run of misses), so
+  each log-likelihood is tempered by ``detection_weight`` / ``nondetection_weight`` (< 1 keeps
+  the map from growing over-confident on correlated evidence). With one, cycles are
+  independent given the source *and* the meander state; what the state does not carry (a
+  patch of filaments gives several strong detections in a row whatever the meander) is still
+  tempered;
 - the source lies inside the OpArea (the prior is uniform over it); cycles without a valid
   sample (NaN), without a flow estimate or outside the OpArea are not observations.
 
@@ -271,6 +316,7 @@ class SourceMap:
         self.unexplained = 0  # detections no declared source explains (at the time)
         self.explored = np.zeros(self._cx.size, dtype=bool)
         self._log = np.zeros(self._cx.size)
+        self.null_log = 0.0  # "no source any observation could have seen", on _log's scale
         self._excluded = np.zeros(self._cx.size, dtype=bool)
         self.chain = (MeanderChain(model.meander_bins, model.meander_memory_s)
                       if model.meander_memory_s is not None else None)
@@ -300,7 +346,9 @@ class SourceMap:
         if p.detected and not self.explained_by_known(self._n - 1, x, y):
             self.unexplained += 1
         self._fold(obs)
-        self._log -= self._log[~self._excluded].max()
+        top = self._log[~self._excluded].max()
+        self._log -= top
+        self.null_log -= top
         return True
 
     def _reset_meander(self) -> None:
@@ -310,7 +358,8 @@ class SourceMap:
 
     def _fold(self, obs: tuple[int, float, float, int]) -> None:
         """Multiply the map by one observation's likelihood (through the meander states when
-        the map has them)."""
+        the map has them), and the no-source hypothesis by its own."""
+        self.null_log += self._null_term(*obs)
         if self.chain is None or self._alpha is None:
             self._log += self._log_likelihood(*obs)
             return
@@ -360,12 +409,47 @@ class SourceMap:
         for s in self.known:
             self._excluded |= (self._cx - s.x) ** 2 + (self._cy - s.y) ** 2 <= r2
         self._log = np.zeros(self._cx.size)
+        self.null_log = 0.0
         self._reset_meander()
         for obs in self._obs:
             self._fold(obs)
         self._log[self._excluded] = -np.inf
         if (~self._excluded).any():
-            self._log -= self._log[~self._excluded].max()
+            top = self._log[~self._excluded].max()
+            self._log -= top
+            self.null_log -= top
+
+    def _null_term(self, k: int, x: float, y: float, level: int) -> float:
+        """The tempered log-likelihood of one observation if no source the observations could
+        reach were there (only false alarms and the declared sources' plumes): what a cell
+        far from every observation gets."""
+        if not level:
+            return 0.0
+        m = self.model
+        miss_known = 1.0
+        if self.known:
+            kx = np.array([s.x for s in self.known])
+            ky = np.array([s.y for s in self.known])
+            miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
+            if miss_known <= 1.0 - m.explained_prob:
+                return 0.0
+        strong = level >= 2 and self.strong_concentration is not None
+        eps = m.strong_false_alarm_prob if strong else self.false_alarm(k)
+        return m.detection_weight * math.log(1.0 - (1.0 - eps) * miss_known)
+
+    def evidence(self, centre: Point, radius_m: float) -> float:
+        """How much the observations favour a source within ``radius_m`` of ``centre`` (uniform
+        over its cells) over none they could have seen: the log Bayes factor, nats.
+
+        About 0 for a region no observation reached (the posterior may still pile up there once
+        misses have ruled out everything else), large where detections point.
+        """
+        sel = self.within(centre, radius_m) & ~self._excluded
+        if not sel.any():
+            return -math.inf
+        rel = self._log[sel] - self.null_log
+        top = float(rel.max())
+        return top + math.log(float(np.exp(rel - top).mean()))
 
     # -- the model -----------------------------------------------------------------------
     def kernel(self, k: int, x: float | Array, y: float | Array, sx: Array, sy: Array) -> Array:

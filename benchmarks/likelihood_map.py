@@ -58,13 +58,23 @@ TWO = ROOT / "missions/two_sources.yaml"
 FALSE_M = 15.0
 SEED = 2024
 
+INDEPENDENT: dict[str, Any] = {"declare_source.variant": "likelihood_map",
+                               "declare_source.meander_memory_s": None,
+                               "declare_source.nondetection_weight": 0.3,
+                               "declare_source.min_evidence": None}
+"""The map and rule before the meander state: cycles independent given the source, tempered;
+no evidence test."""
+
 CONFIGS: dict[str, dict[str, Any]] = {
     "upflow_cluster": {},
     "recent_box": {"declare_source.variant": "recent_box"},
     "upflow_spread": {"declare_source.variant": "upflow_spread"},
     "likelihood_map": {"declare_source.variant": "likelihood_map"},
-    "likelihood_map (detection_weight 0.5)": {"declare_source.variant": "likelihood_map",
-                                              "declare_source.detection_weight": 0.5},
+    "likelihood_map (detection_weight 0.7)": {"declare_source.variant": "likelihood_map",
+                                              "declare_source.detection_weight": 0.7},
+    "likelihood_map (independent cycles)": {**INDEPENDENT, "declare_source.detection_weight": 0.3},
+    "likelihood_map (independent cycles, detection_weight 0.5)": {
+        **INDEPENDENT, "declare_source.detection_weight": 0.5},
     "likelihood_map+flyby": {"declare_source.variant": "likelihood_map",
                              "declare_source.flyby": True},
     "likelihood_map+map_guided": {"declare_source.variant": "likelihood_map",
