@@ -6,8 +6,12 @@
 
     - ``upflow_cluster`` (TRO IV-D, the mission as shipped), ``recent_box`` and
       ``upflow_spread`` (OMAE v1/v2), each with the TRO cloverleaf reacquire;
-    - ``likelihood_map`` (cloverleaf reacquire), ``likelihood_map+flyby``, and
-      ``likelihood_map+map_guided`` (map-guided reacquire instead of the cloverleaf).
+    - ``likelihood_map`` (cloverleaf reacquire; the map with its meander state, the default),
+      ``likelihood_map (detection_weight 0.7)``, ``likelihood_map+flyby``, and
+      ``likelihood_map+map_guided`` (map-guided reacquire instead of the cloverleaf);
+    - ``likelihood_map (independent cycles)`` and ``(independent cycles, detection_weight
+      0.5)``: the map and rule before the meander state (``meander_memory_s`` None,
+      non-detections tempered by 0.3, no evidence test), for comparison.
 
     Per configuration: declared %, false declarations (error > 15 m), error median / 95th /
     max, mean T_D share of the mission time to declaration (T_D / t3, TRO Table III), mean D3
@@ -21,6 +25,9 @@ Usage::
 
     python benchmarks/likelihood_map.py --runs 40 --two-runs 20        # a few minutes, 2 cores
     python benchmarks/likelihood_map.py --runs 1000 --two-runs 200     # the N
+    python benchmarks/likelihood_map.py --runs 40 --two-runs 20 --seed 77 --configs "" \
+        --extra "tau 60|declare_source.variant=likelihood_map,declare_source.meander_memory_s=60" \
+        --two-set "declare_source.meander_memory_s=60"                 # tuning a setting
 
 The table is printed and written as Markdown to ``--out`` (default
 ``benchmarks/results/likelihood_map.md``); per-run rows go next to it as JSON lines.
