@@ -87,20 +87,6 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     (``benchmarks/likelihood_map.py``) flies the independent-cycle model (weights 0.3 / 0.3, the
     previous default, and 0.5 / 0.3) and ``detection_weight`` 0.7 as rows of their own.
 
-    ``min_evidence`` 4.6 nats (a Bayes factor of 100, Jeffreys' "decisive", chosen by that
-    scale rather than fitted): with untempered misses, once the search for a further source has
-    ruled out most of the OpArea the posterior can pile up in a pocket no observation reached,
-    whose likelihood is that of "no source seen at all", and be declared there as soon as
-    enough detections no declared source explains have come in. The test asks the data, not
-    the renormalised posterior: the mean likelihood of the disc against that of no source the
-    observations could have seen (:meth:`SourceMap.evidence
-    <cptbt.behaviours.source_map.SourceMap.evidence>`). Measured on tuning replicates: true
-    first declarations had 38 nats or more (MSN007, seed 77), true second declarations of the
-    two-source mission 6.3 nats or more (seed 77). It was added after the study's first
-    two-source pass on the reporting seed (2024) made 14 false declarations in 200 runs, most
-    of them 74-126 m from both sources (read from the rows' errors only; no run of that seed
-    was inspected).
-
     The independent-cycle model's own tuning (``meander_memory_s`` None): with the sharper
     model a run of correlated detections made the map confident on the first approach, some
     15-50 m short of the source when the meander then carried the plume off the axis the
@@ -162,12 +148,6 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=10, ge=0, description="Detections no declared source explains needed (since "
         "the last declaration or withdrawal) before declaring"
     )
-    min_evidence: float | None = Field(
-        default=4.6, description="Declare only where the observations favour a source within "
-        "radius_m over none they could have seen by at least this log Bayes factor (4.6 nats: "
-        "a factor of 100, 'decisive' on Jeffreys' scale; class docstring; None: no such test), "
-        "nats"
-    )
     min_lost_contacts: int = Field(
         default=0, ge=0, description="Lost contacts (SPEC §2) needed before declaring"
     )
@@ -221,8 +201,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     map (see :mod:`cptbt.behaviours.source_map` for the likelihood model and its assumptions) and
     the posterior is published on ``source_map``. The rule: once ``min_detections`` detections have
     been folded in, take the map's most probable cell; when the posterior mass within ``radius_m``
-    of it exceeds ``confidence`` and the observations favour a source in that disc over none they
-    could have seen by ``min_evidence`` nats, the source is declared at the posterior mean of that
+    of it exceeds ``confidence``, the source is declared at the posterior mean of that
     disc. After a declaration only detections no declared source explains count towards the next
     one's ``min_detections``: a posterior renormalised over what is left once every plume seen is
     explained piles up where no evidence reaches (the OpArea's edge) and would otherwise be declared
@@ -257,7 +236,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     persistent_state: ClassVar[tuple[str, ...]] = (
         "declared", "heading_home", "map", "sources", "candidate", "route", "route_index",
         "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn", "withdrawn_at",
-        "detections_used", "at_declaration", "search_target", "search_t", "evidence_blocked",
+        "detections_used", "at_declaration", "search_target", "search_t",
     )
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
@@ -277,7 +256,6 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.withdrawn = 0
         self.withdrawn_at: tuple[Point, ...] = ()
         self.detections_used = 0
-        self.evidence_blocked = 0  # cycles the rule held but the evidence did not
         self.at_declaration: SourceBelief | None = None
         self.search_target: Point | None = None
         self.search_t = -math.inf
@@ -318,10 +296,6 @@ class LikelihoodMapDeclare(SourceDeclaration):
         peak = self.map.peak(post)
         mass, mean = self.map.mass_and_mean(peak, self.params.radius_m, post)
         if mass < self.params.confidence or not (math.isfinite(mean.x) and math.isfinite(mean.y)):
-            return
-        if self.params.min_evidence is not None \
-                and self.map.evidence(peak, self.params.radius_m) < self.params.min_evidence:
-            self.evidence_blocked += 1
             return
         if self.params.flyby and p.flow is not None:
             self._start_flyby(p, mean)

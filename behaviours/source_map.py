@@ -316,7 +316,6 @@ class SourceMap:
         self.unexplained = 0  # detections no declared source explains (at the time)
         self.explored = np.zeros(self._cx.size, dtype=bool)
         self._log = np.zeros(self._cx.size)
-        self.null_log = 0.0  # "no source any observation could have seen", on _log's scale
         self._excluded = np.zeros(self._cx.size, dtype=bool)
         self.chain = (MeanderChain(model.meander_bins, model.meander_memory_s)
                       if model.meander_memory_s is not None else None)
@@ -346,9 +345,7 @@ class SourceMap:
         if p.detected and not self.explained_by_known(self._n - 1, x, y):
             self.unexplained += 1
         self._fold(obs)
-        top = self._log[~self._excluded].max()
-        self._log -= top
-        self.null_log -= top
+        self._log -= self._log[~self._excluded].max()
         return True
 
     def _reset_meander(self) -> None:
@@ -358,8 +355,7 @@ class SourceMap:
 
     def _fold(self, obs: tuple[int, float, float, int]) -> None:
         """Multiply the map by one observation's likelihood (through the meander states when
-        the map has them), and the no-source hypothesis by its own."""
-        self.null_log += self._null_term(*obs)
+        the map has them)."""
         if self.chain is None or self._alpha is None:
             self._log += self._log_likelihood(*obs)
             return
@@ -409,47 +405,12 @@ class SourceMap:
         for s in self.known:
             self._excluded |= (self._cx - s.x) ** 2 + (self._cy - s.y) ** 2 <= r2
         self._log = np.zeros(self._cx.size)
-        self.null_log = 0.0
         self._reset_meander()
         for obs in self._obs:
             self._fold(obs)
         self._log[self._excluded] = -np.inf
         if (~self._excluded).any():
-            top = self._log[~self._excluded].max()
-            self._log -= top
-            self.null_log -= top
-
-    def _null_term(self, k: int, x: float, y: float, level: int) -> float:
-        """The tempered log-likelihood of one observation if no source the observations could
-        reach were there (only false alarms and the declared sources' plumes): what a cell
-        far from every observation gets."""
-        if not level:
-            return 0.0
-        m = self.model
-        miss_known = 1.0
-        if self.known:
-            kx = np.array([s.x for s in self.known])
-            ky = np.array([s.y for s in self.known])
-            miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
-            if miss_known <= 1.0 - m.explained_prob:
-                return 0.0
-        strong = level >= 2 and self.strong_concentration is not None
-        eps = m.strong_false_alarm_prob if strong else self.false_alarm(k)
-        return m.detection_weight * math.log(1.0 - (1.0 - eps) * miss_known)
-
-    def evidence(self, centre: Point, radius_m: float) -> float:
-        """How much the observations favour a source within ``radius_m`` of ``centre`` (uniform
-        over its cells) over none they could have seen: the log Bayes factor, nats.
-
-        About 0 for a region no observation reached (the posterior may still pile up there once
-        misses have ruled out everything else), large where detections point.
-        """
-        sel = self.within(centre, radius_m) & ~self._excluded
-        if not sel.any():
-            return -math.inf
-        rel = self._log[sel] - self.null_log
-        top = float(rel.max())
-        return top + math.log(float(np.exp(rel - top).mean()))
+            self._log -= self._log[~self._excluded].max()
 
     # -- the model -----------------------------------------------------------------------
     def kernel(self, k: int, x: float | Array, y: float | Array, sx: Array, sy: Array) -> Array:

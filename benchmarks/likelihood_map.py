@@ -11,7 +11,7 @@
       ``likelihood_map+map_guided`` (map-guided reacquire instead of the cloverleaf);
     - ``likelihood_map (independent cycles)`` and ``(independent cycles, detection_weight
       0.5)``: the map and rule before the meander state (``meander_memory_s`` None,
-      non-detections tempered by 0.3, no evidence test), for comparison.
+      non-detections tempered by 0.3), for comparison.
 
     Per configuration: declared %, false declarations (error > 15 m), error median / 95th /
     max, mean T_D share of the mission time to declaration (T_D / t3, TRO Table III), mean D3
@@ -67,10 +67,8 @@ SEED = 2024
 
 INDEPENDENT: dict[str, Any] = {"declare_source.variant": "likelihood_map",
                                "declare_source.meander_memory_s": None,
-                               "declare_source.nondetection_weight": 0.3,
-                               "declare_source.min_evidence": None}
-"""The map and rule before the meander state: cycles independent given the source, tempered;
-no evidence test."""
+                               "declare_source.nondetection_weight": 0.3}
+"""The map before the meander state: cycles independent given the source, tempered."""
 
 CONFIGS: dict[str, dict[str, Any]] = {
     "upflow_cluster": {},

@@ -596,26 +596,3 @@ def test_no_declaration_on_false_alarms_alone_with_a_meander() -> None:
         sweep(node, lambda x, y, rng=rng: float(rng.random() < 0.03), path)
         assert node.declared is None and node.candidate is None, seed
 
-
-def test_evidence_is_large_up_flow_of_detections_and_nil_where_nothing_was_seen() -> None:
-    for independent in (False, True):
-        m, script = meander_map(independent)
-        for t in range(30, 70):  # 27 detections in 40 cycles, 15 m down-flow of (45, 0)
-            m.observe(script.step(t, 60.0, 0.0, conc=0.3 if t % 3 else 0.0))
-        assert m.evidence(Point(45.0, 0.0), 8.0) > 4.6
-        # down-flow of every observation: no plume from there could have been seen
-        assert abs(m.evidence(Point(85.0, -40.0), 8.0)) < 1e-6
-        m.explain((Point(45.0, 0.0),))
-        assert m.evidence(Point(45.0, 0.0), 8.0) == -math.inf  # ruled out entirely
-
-
-def test_no_declaration_where_the_evidence_is_below_min_evidence() -> None:
-    made = []
-    for min_evidence in (None, 1e6):
-        node = LikelihoodMapDeclare(LikelihoodMapParams(**MEANDER, min_evidence=min_evidence),
-                                    namespace=fresh_namespace())
-        plume = meander_plume((30.0, 5.0), np.random.default_rng(1))
-        sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20, 12]))
-        made.append(node.declared is not None)
-        assert node.evidence_blocked == 0 or min_evidence is not None
-    assert made == [True, False]
