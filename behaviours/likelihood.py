@@ -236,6 +236,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     persistent_state: ClassVar[tuple[str, ...]] = (
         "declared", "heading_home", "map", "sources", "candidate", "route", "route_index",
         "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn", "withdrawn_at",
+        "superseded",
         "detections_used", "at_declaration", "search_target", "search_t",
     )
 
@@ -255,6 +256,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.flybys = 0
         self.withdrawn = 0
         self.withdrawn_at: tuple[Point, ...] = ()
+        self.superseded = 0
         self.detections_used = 0
         self.at_declaration: SourceBelief | None = None
         self.search_target: Point | None = None
@@ -274,6 +276,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.bb.declaration_report = {
             "flybys": self.flybys, "withdrawn": self.withdrawn,
             "withdrawn_at": [(q.x, q.y) for q in self.withdrawn_at],
+            "superseded": self.superseded,
         }
 
     def watch(self, p: Percept) -> None:
@@ -305,7 +308,16 @@ class LikelihoodMapDeclare(SourceDeclaration):
     def _accept(self, source: Point) -> None:
         assert self.map is not None
         self.candidate, self.route = None, ()
-        self.sources = (*self.sources, source)
+        same = [i for i, known in enumerate(self.sources)
+                if self.map.expected_detection(source, known.x, known.y)
+                >= self.params.explained_prob]
+        if same:  # a declared source in this one's plume: the same source, declared short
+            i = same[0]
+            self.sources = (*self.sources[:i], source, *self.sources[i + 1:])
+            self.superseded += 1
+            self._report()
+        else:
+            self.sources = (*self.sources, source)
         self.detections_used = self.map.unexplained
         self.at_declaration = self.map.belief()
         self.bb.set("source_map_at_declaration", self.at_declaration)
