@@ -9,7 +9,7 @@
     - ``likelihood_map`` (cloverleaf reacquire; the map with its meander state, the default),
       ``likelihood_map (detection_weight 0.7)``, ``likelihood_map+flyby``, and
       ``likelihood_map+map_guided`` (map-guided reacquire instead of the cloverleaf);
-    - ``likelihood_map (independent cycles)`` and ``(independent cycles, detection_weight
+    - ``likelihood_map (independent cycles)`` and ``(independent cycles; detection_weight
       0.5)``: the map and rule before the meander state (``meander_memory_s`` None,
       non-detections tempered by 0.3), for comparison.
 
@@ -78,7 +78,7 @@ CONFIGS: dict[str, dict[str, Any]] = {
     "likelihood_map (detection_weight 0.7)": {"declare_source.variant": "likelihood_map",
                                               "declare_source.detection_weight": 0.7},
     "likelihood_map (independent cycles)": {**INDEPENDENT, "declare_source.detection_weight": 0.3},
-    "likelihood_map (independent cycles, detection_weight 0.5)": {
+    "likelihood_map (independent cycles; detection_weight 0.5)": {
         **INDEPENDENT, "declare_source.detection_weight": 0.5},
     "likelihood_map+flyby": {"declare_source.variant": "likelihood_map",
                              "declare_source.flyby": True},

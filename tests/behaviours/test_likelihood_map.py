@@ -267,6 +267,22 @@ def test_declares_two_sources_one_after_the_other() -> None:
     assert harness.get("declared_sources") == node.sources
 
 
+def test_a_declaration_up_the_plume_of_a_declared_source_replaces_it() -> None:
+    # The same source declared short on the approach, then again at the source: one source.
+    node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=3), namespace=fresh_namespace())
+    harness = TreeHarness(node, make_context(AREA))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    for t in range(30):
+        harness.tick(script.step(t, 99.0, 49.0))
+    node._accept(Point(45.0, 0.0))
+    node._accept(Point(30.0, 2.0))  # 15 m up-flow: the first lies in its plume
+    assert node.sources == (Point(30.0, 2.0),) and node.superseded == 1
+    node._accept(Point(30.0, -40.0))  # 42 m to the side: another source
+    assert node.sources == (Point(30.0, 2.0), Point(30.0, -40.0))
+    assert harness.get("declared_sources") == node.sources
+    assert harness.get("declaration_report")["superseded"] == 1
+
+
 # -- map-guided reacquire -----------------------------------------------------------------
 def belief_peaked_at(x: float, y: float) -> SourceBelief:
     xs = np.arange(1.0, 100.0, 2.0)
