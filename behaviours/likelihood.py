@@ -53,15 +53,46 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     cannot tell a detection next to the source from one 150 m down-flow, which a strong one
     nearly does.
 
-    ``detection_weight`` 0.3: with the sharper model a run of correlated detections (a filament
-    patch gives several strong cycles in a row) made the map confident on the first approach,
-    some 15-50 m short of the source when the meander then carried the plume off the axis the
-    100-s flow gives and the misses of the reacquire pattern ruled out the true source. On
-    tuning replicates (root seeds 77 and 78, 40 MSN007 runs each, 24 two-source runs) 0.3
-    against 0.5 gave 0 against 0 and 0 against 1 declarations beyond 15 m, median error 2.6 and
-    3.0 m against 3.1 and 4.0 m, both sources found in 24/24 two-source runs against 21/24 with
-    0 against 3 false declarations, at the price of a T_D share of 36% and 33% against 30% and
-    25%. The study (``benchmarks/likelihood_map.py``) flies 0.5 as a row of its own.
+    The meander state (``meander_memory_s``; :mod:`cptbt.behaviours.source_map`, "Correlated
+    meander"), measured on the same plume and seeds by ``benchmarks/likelihood_map_meander.py``
+    (every 3 s of 1200 s, the puffs within 3 m of a range ``a`` placed across the flow from the
+    back-trajectory of the 100-s flow estimate, true positions, no vehicle): their mean, the
+    axis's offset, has an rms of 0.9, 1.5, 1.8, 6.0, 16 and 27 m at 10, 25, 50, 100, 150 and
+    200 m, and their rms spread about it (the plume's instantaneous width) 2.7, 4.2, 5.5, 7.5,
+    9.1 and 10.9 m, i.e. ``σi(a)² ≈ 1 m² + 0.55 m · a`` (``instant_near_spread_m`` 1,
+    ``instant_spread_m`` 0.55; 2 K_c / U of the puff model is 0.6 m). The lag at which the
+    axis offset's autocorrelation falls to 1/e is 70–220 s within 50 m of the source and
+    120–260 s beyond (nine values each; ``meander_memory_s`` 150). The meander's share of the
+    spread is small near the source; the kernel's σ0 of 3 m there is kept, and what of it is
+    not ``σi(0)`` is made persistent too (the vehicle's navigation drift, absent from the
+    measurement, is of that size and persists for minutes between fixes).
+
+    Weights, chosen on tuning replicates (root seeds 77 and 78, 40 MSN007 runs each, 20 two-source
+    runs each) with the meander state: ``nondetection_weight`` 1 (no tempering; the previous 0.3 was
+    the independent-cycle model's stand-in for the misses' correlation) and ``detection_weight``
+    0.6. Seed 77 / 78: T_D share 25.7% / 25.5% against the independent-cycle model's 36.2% / 32.5%
+    (weights 0.3 / 0.3), 0 / 0 declarations beyond 15 m (largest errors 10.4 / 8.2 m against 12.7 /
+    9.1 m), median error 3.8 / 4.1 m against 2.6 / 3.0 m (upflow_cluster on seed 78: 3.6 m); both
+    sources found in 40 of 40 two-source runs, none falsely. ``detection_weight`` 0.5: T_D 27.7% /
+    27.5%, the same two-source result; 0.7: 23.7% / 23.9%, one false declaration in the 40
+    two-source runs (a first declaration 15.6 m short of the down-flow source, on the strength of a
+    run of strong detections on the approach); 1: 23.3% / 24.1%, two false in 20 (seed 78). A run of
+    strong detections from one filament patch says "close" several times over and the state does not
+    carry that correlation, hence the remaining tempering. ``σi(0)`` 1 m against 1.5 m or all of σ0
+    (3 m, ``None``), with detection tempering 0.5 on seed 77: T_D 27.7% / 27.2% / 26.0%, largest
+    errors 10.9 / 12.9 / 16.4 m (the last one beyond 15 m); τ 60 s against 150 s: T_D 29.1% against
+    27.7%, τ 300 s: 25.6% against 25.7%. Widening σi near the source so that the average over the
+    meander reproduces the measured chance there exactly (instead of capping ``p_in``) gave largest
+    errors of 15.0 and 14.6 m on seed 77 (detection tempering 0.5 and 0.6). The study
+    (``benchmarks/likelihood_map.py``) flies the independent-cycle model (weights 0.3 / 0.3, the
+    previous default, and 0.5 / 0.3) and ``detection_weight`` 0.7 as rows of their own.
+
+    The independent-cycle model's own tuning (``meander_memory_s`` None): with the sharper
+    model a run of correlated detections made the map confident on the first approach, some
+    15-50 m short of the source when the meander then carried the plume off the axis the
+    100-s flow gives and the misses of the reacquire pattern ruled out the true source;
+    ``detection_weight`` 0.3 against 0.5 gave 0 against 0 and 0 against 1 declarations beyond
+    15 m on seeds 77 and 78, at the price of a T_D share of 36% and 33% against 30% and 25%.
     """
 
     detection_prob: float = Field(
@@ -81,8 +112,22 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "observer (measured: class docstring), m"
     )
     detection_weight: float = Field(
-        default=0.3, gt=0, le=1, description="Tempering exponent of a detection's likelihood "
-        "(0.3 rather than the map's 0.5: class docstring)"
+        default=0.6, gt=0, le=1, description="Tempering exponent of a detection's likelihood "
+        "(0.6 rather than the map's 0.5: class docstring)"
+    )
+    nondetection_weight: float = Field(
+        default=1.0, gt=0, le=1, description="Tempering exponent of a non-detection's "
+        "likelihood (1, none: the meander state models the misses' correlation; class "
+        "docstring)"
+    )
+    meander_memory_s: float | None = Field(
+        default=150.0, gt=0, description="τ: correlation time of the plume's meander, with "
+        "which each cell carries a meander state (measured: class docstring; None: the "
+        "independent-cycle model), s"
+    )
+    instant_near_spread_m: float | None = Field(
+        default=1.0, gt=0, description="σi(0): the plume's width about its instantaneous axis "
+        "at the source; the rest of σ0 persists (measured: class docstring), m"
     )
     mask_radius_m: float = Field(
         default=15.0, gt=0, description="Cells within this of a declared source are ruled out "
@@ -152,15 +197,15 @@ def _radius_fits_grid(params: BehaviourParams, perception: Any) -> str | None:
 class LikelihoodMapDeclare(SourceDeclaration):
     """Declare from a Bayesian source-likelihood map (Pang & Farrell, IEEE SMC-B 36(5), 2006).
 
-    Every cycle (in :meth:`watch`, so also while safety or the fly-by drive) the percept updates
-    the map (see :mod:`cptbt.behaviours.source_map` for the likelihood model and its
-    assumptions) and the posterior is published on ``source_map``. The rule: once
-    ``min_detections`` detections have been folded in, take the map's most probable cell; when
-    the posterior mass within ``radius_m`` of it exceeds ``confidence``, the source is declared
-    at the posterior mean of that disc. After a declaration only detections no declared source
-    explains count towards the next one's ``min_detections``: a posterior renormalised over what
-    is left once every plume seen is explained piles up where no evidence reaches (the OpArea's
-    edge) and would otherwise be declared there on the strength of the known plume's detections.
+    Every cycle (in :meth:`watch`, so also while safety or the fly-by drive) the percept updates the
+    map (see :mod:`cptbt.behaviours.source_map` for the likelihood model and its assumptions) and
+    the posterior is published on ``source_map``. The rule: once ``min_detections`` detections have
+    been folded in, take the map's most probable cell; when the posterior mass within ``radius_m``
+    of it exceeds ``confidence``, the source is declared at the posterior mean of that
+    disc. After a declaration only detections no declared source explains count towards the next
+    one's ``min_detections``: a posterior renormalised over what is left once every plume seen is
+    explained piles up where no evidence reaches (the OpArea's edge) and would otherwise be declared
+    there on the strength of the known plume's detections.
 
     With ``flyby``, a declaration is first a *candidate*: the vehicle flies ``flyby_passes``
     straight passes across the flow, ``flyby_offset_m`` down-flow of it (TRO VI: "drive the AUV
@@ -178,10 +223,18 @@ class LikelihoodMapDeclare(SourceDeclaration):
     With ``max_sources > 1`` each confirmed source is added to ``declared_sources``, its
     neighbourhood ruled out and its plume explained away in the map (rebuilt from the history),
     and the search resumes; after the last, the vehicle goes to it and home (TRO IV-D).
-    ``declared_source`` is written once, at the last declaration.
+    ``declared_source`` is written once, at the last declaration. A declaration whose plume
+    would reach an already declared source (the model's chance of a detection there is at
+    least ``explained_prob``) *replaces* that source instead of adding one, and the search goes
+    on (``superseded`` in ``declaration_report``): the earlier point lies down-flow in this
+    one's plume, so it was the same source declared short on the approach, whose detections
+    farther up-flow it could not explain. On tuning replicates (two-source mission, root seeds
+    77 and 78, 200 runs) this was the mode of 5 of the 6 false declarations, each a second
+    declaration 15-18 m up-flow of the first, just outside the 15-m mask.
 
     Readings chosen: the declaration time is the confirmation's (the fly-by is part of
-    declaring); the map, the fly-by and the declarations persist across pre-emption.
+    declaring); the map, the fly-by and the declarations persist across pre-emption; two
+    sources one in the other's plume (within reach of ``explained_prob``) are one source.
     """
 
     variant: ClassVar[str] = "likelihood_map"
@@ -191,6 +244,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     persistent_state: ClassVar[tuple[str, ...]] = (
         "declared", "heading_home", "map", "sources", "candidate", "route", "route_index",
         "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn", "withdrawn_at",
+        "superseded",
         "detections_used", "at_declaration", "search_target", "search_t",
     )
 
@@ -210,6 +264,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.flybys = 0
         self.withdrawn = 0
         self.withdrawn_at: tuple[Point, ...] = ()
+        self.superseded = 0
         self.detections_used = 0
         self.at_declaration: SourceBelief | None = None
         self.search_target: Point | None = None
@@ -229,6 +284,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.bb.declaration_report = {
             "flybys": self.flybys, "withdrawn": self.withdrawn,
             "withdrawn_at": [(q.x, q.y) for q in self.withdrawn_at],
+            "superseded": self.superseded,
         }
 
     def watch(self, p: Percept) -> None:
@@ -260,7 +316,16 @@ class LikelihoodMapDeclare(SourceDeclaration):
     def _accept(self, source: Point) -> None:
         assert self.map is not None
         self.candidate, self.route = None, ()
-        self.sources = (*self.sources, source)
+        same = [i for i, known in enumerate(self.sources)
+                if self.map.expected_detection(source, known.x, known.y)
+                >= self.params.explained_prob]
+        if same:  # a declared source in this one's plume: the same source, declared short
+            i = same[0]
+            self.sources = (*self.sources[:i], source, *self.sources[i + 1:])
+            self.superseded += 1
+            self._report()
+        else:
+            self.sources = (*self.sources, source)
         self.detections_used = self.map.unexplained
         self.at_declaration = self.map.belief()
         self.bb.set("source_map_at_declaration", self.at_declaration)

@@ -49,16 +49,61 @@ constant width around it rather than a cone.
   Without it the along-flow position comes only from misses up-flow of the source, since a
   detection says "up-flow of here" but hardly how far.
 
+Correlated meander (optional: a map made with ``meander_memory_s``)
+-------------------------------------------------------------------
+The plume's axis does not follow the back-trajectory of the planner's ~100-s flow estimate: it
+meanders about it, slowly, and near the source the filament is much narrower than the spread of
+the hits over time. The cycles are therefore not independent given the source: after the plume
+swings away the vehicle collects a *run* of misses, each of which the independent-cycle model
+counts against the true source up-flow. With ``meander_memory_s`` (τ) each cell hypothesis
+carries a persistent meander state, the normalised cross-flow offset ``z`` of the plume's axis
+(``z ~ N(0, 1)`` stationary, an Ornstein–Uhlenbeck process with correlation time τ, discretised
+as a :class:`MeanderChain` of ``meander_bins`` states). The axis at range ``a`` up-flow lies
+``z · σm(a)`` across the flow from the back-trajectory, and the plume about it is ``σi(a)``
+wide, ``σi(a)² = σi(0)² + w · a`` (``instant_near_spread_m``, ``instant_spread_m``: relative
+dispersion widens it), with the rest of the kernel's spread the meander's:
+``σm(a)² = σ(a)² - σi(a)²``, ``σ(a)² = σ0² + min(a tan φ, σmax)²``. The chance of a detection
+given the state is
+
+    K(s; x | z) = p_in(a) · exp(-(c - z σm(a))² / (2 σi(a)²)),
+    p_in(a) = min(p0 · exp(-a / L) · σ(a) / σi(a), IN_PLUME_MAX),
+
+(the strong level likewise, with ``p3 · exp(-a / L3)``), so that averaged over ``z`` it is the
+independent-cycle ``K(s; x)`` wherever ``p_in`` is not capped. Each cell is then an HMM filtered
+forward: every observation propagates the cell's ``P(z)`` with the chain's transition over the
+time since the last one, multiplies it by the observation's likelihood in each state (the same
+detection and non-detection likelihoods as above, ``K(s; x | z)`` for ``K(s; x)``, each raised to
+its tempering exponent) and renormalises; the cell's log-posterior gains the log of the
+normaliser (the predictive probability of the observation). A run of misses is then explained by
+one offset of the plume (its evidence is capped at about "the plume was elsewhere for a while",
+the weight of the states far to the side), and a run of detections concentrates ``z`` instead of
+only multiplying location evidence. Readings chosen: one ``z`` per cell for all ranges (the
+meander swings the whole plume; a bend within it is not modelled); the part of ``σ0`` that is not
+``σi(0)`` persists as well (near the source the hits' spread over time comes from the axis's
+slow wander and the vehicle's navigation drift, not from a wide filament); ``p_in`` is capped, so
+within ~10 m of the source (and where the measured chance over ``σ(a)/σi(a)`` exceeds the cap)
+the ``z``-average is *below* the measured independent-cycle chance (0.32 against 0.72 at the
+source with the TRO settings): a pass beside a thin filament says little. A version that widened
+``σi`` instead, to keep the average exact, declared farther from the source on tuning runs
+(:class:`~cptbt.behaviours.likelihood.LikelihoodMapParams`). Cells the plume cannot reach in any
+state (``K < exp(-18)``) skip the per-state arithmetic: a non-detection leaves them as they are
+and a detection multiplies them by the false-alarm term. The transition matrices are products
+with ``numpy.einsum``: a ``(bins, cells)`` product through BLAS was 7 times slower with
+threads on a busy two-core host.
+
 Assumptions, stated because the model is only as good as they are:
 
 - one source per hypothesis; a declared source's plume is known exactly (multi-source search
   explains it away rather than estimating the sources jointly);
 - the flow is uniform in space over the plume (the vehicle's estimate stands for the water's
   motion along the whole back-trajectory) and its history is the planner's own estimate;
-- cycles are conditionally independent given the source. They are not (a plume contact gives a
-  run of correlated detections, intermittency a run of misses), so each log-likelihood is
-  tempered by ``detection_weight`` / ``nondetection_weight`` (< 1 keeps the map from growing
-  over-confident on correlated evidence);
+- without a meander state, cycles are conditionally independent given the source. They are
+  not (a plume contact gives a run of correlated detections, intermittency a run of misses), so
+  each log-likelihood is tempered by ``detection_weight`` / ``nondetection_weight`` (< 1 keeps
+  the map from growing over-confident on correlated evidence). With one, cycles are
+  independent given the source *and* the meander state; what the state does not carry (a
+  patch of filaments gives several strong detections in a row whatever the meander) is still
+  tempered;
 - the source lies inside the OpArea (the prior is uniform over it); cycles without a valid
   sample (NaN), without a flow estimate or outside the OpArea are not observations.
 
@@ -155,6 +200,86 @@ class MapModelParams(BehaviourParams):
     trajectory_points: int = Field(
         default=200, ge=2, le=10_000, description="Back-trajectory samples per observation"
     )
+    meander_memory_s: float | None = Field(
+        default=None, gt=0, description="τ: correlation time of the plume's meander; with it "
+        "each cell carries a meander state and cycles are correlated through it (module "
+        "docstring, 'Correlated meander'); None: cycles are independent given the source, s"
+    )
+    instant_spread_m: float = Field(
+        default=0.55, ge=0, description="With meander_memory_s: the plume's width about its "
+        "instantaneous axis grows as σi(a)² = σ0² + this · a (relative dispersion, 2 K_c / U), m"
+    )
+    instant_near_spread_m: float | None = Field(
+        default=None, gt=0, description="With meander_memory_s: σi(0), the plume's width about "
+        "its instantaneous axis at the source; the rest of σ0 persists like the meander (None: "
+        "σ0, all of it instantaneous), m"
+    )
+    meander_bins: int = Field(
+        default=9, ge=3, le=41, description="With meander_memory_s: discrete meander states "
+        "per cell"
+    )
+
+
+IN_PLUME_MAX = 0.95
+"""With a meander state, the chance of a detection on the plume's instantaneous axis is capped
+at this (a miss there is never certain proof: see :meth:`SourceMap._kernel_given_meander`)."""
+
+
+class MeanderChain:
+    """The meander state ``z`` as a discrete Markov chain: an Ornstein–Uhlenbeck process.
+
+    ``bins`` equally spaced states with weights ∝ the standard normal density, the nodes scaled
+    so that the weighted variance is exactly 1; a birth–death chain between neighbouring states
+    whose rates satisfy detailed balance with those weights (so they are its stationary
+    distribution) and are scaled so that the autocorrelation of ``z`` falls to 1/e after
+    ``tau_s``. The transition matrix over ``dt`` is ``expm(Q dt)``, from the eigenvectors of the
+    chain's symmetrised generator; matrices are cached by ``dt`` (to the millisecond).
+    """
+
+    def __init__(self, bins: int, tau_s: float) -> None:
+        z = np.linspace(-2.4, 2.4, bins)
+        w = np.exp(-0.5 * z * z)
+        w /= w.sum()
+        z = z / math.sqrt(float(w @ (z * z)))
+        self.z: Array = z
+        self.weights: Array = w
+        root = np.sqrt(w)
+        sym = np.zeros((bins, bins))  # S = D^½ Q D^-½ with unit rate scale
+        for i in range(bins - 1):
+            sym[i, i + 1] = sym[i + 1, i] = 1.0
+            sym[i, i] -= math.sqrt(w[i + 1] / w[i])
+            sym[i + 1, i + 1] -= math.sqrt(w[i] / w[i + 1])
+        lam, vec = np.linalg.eigh(sym)
+        self._lam, self._vec, self._root = lam, vec, root
+        # the autocorrelation after u units of the unit-rate chain; find u where it is 1/e
+        lo, hi = 1e-6, 1e3
+        for _ in range(80):
+            mid = math.sqrt(lo * hi)
+            if self._corr(mid) > math.exp(-1.0):
+                lo = mid
+            else:
+                hi = mid
+        self._rate = math.sqrt(lo * hi) / tau_s
+        self._cache: dict[int, Array] = {}
+
+    def _unit(self, u: float) -> Array:
+        t = (self._vec * np.exp(self._lam * u)) @ self._vec.T
+        out = np.asarray(t / self._root[:, None] * self._root[None, :], dtype=float)
+        out = np.maximum(out, 0.0)
+        return np.asarray(out / out.sum(axis=1, keepdims=True), dtype=float)
+
+    def _corr(self, u: float) -> float:
+        return float(self.weights * self.z @ self._unit(u) @ self.z)
+
+    def transition(self, dt: float) -> Array:
+        """``P(z' | z)`` after ``dt`` seconds, rows ``z`` and columns ``z'``."""
+        key = round(max(dt, 0.0) * 1000)
+        got = self._cache.get(key)
+        if got is None:
+            if len(self._cache) > 256:
+                self._cache.clear()
+            got = self._cache[key] = self._unit(self._rate * key / 1000.0)
+        return got
 
 
 class SourceMap:
@@ -192,6 +317,11 @@ class SourceMap:
         self.explored = np.zeros(self._cx.size, dtype=bool)
         self._log = np.zeros(self._cx.size)
         self._excluded = np.zeros(self._cx.size, dtype=bool)
+        self.chain = (MeanderChain(model.meander_bins, model.meander_memory_s)
+                      if model.meander_memory_s is not None else None)
+        self._alpha: Array | None = None  # P(z | history, cell), (bins, cells), columns sum to 1
+        self._last_k = -1  # cycle of the last observation folded in
+        self._reset_meander()
 
     # -- updating ------------------------------------------------------------------------
     def observe(self, p: Percept) -> bool:
@@ -214,9 +344,38 @@ class SourceMap:
         self.detections += int(p.detected)
         if p.detected and not self.explained_by_known(self._n - 1, x, y):
             self.unexplained += 1
-        self._log += self._log_likelihood(*obs)
+        self._fold(obs)
         self._log -= self._log[~self._excluded].max()
         return True
+
+    def _reset_meander(self) -> None:
+        self._last_k = -1
+        if self.chain is not None:
+            self._alpha = np.repeat(self.chain.weights[:, None], self._cx.size, axis=1)
+
+    def _fold(self, obs: tuple[int, float, float, int]) -> None:
+        """Multiply the map by one observation's likelihood (through the meander states when
+        the map has them)."""
+        if self.chain is None or self._alpha is None:
+            self._log += self._log_likelihood(*obs)
+            return
+        k = obs[0]
+        dt = float(self._t[k] - self._t[self._last_k]) if self._last_k >= 0 else 0.0
+        self._last_k = k
+        if dt > 0:  # einsum, not BLAS: a (9, n) product is slow with threads on a busy host
+            self._alpha = np.einsum("ij,in->jn", self.chain.transition(dt), self._alpha)
+        got = self._likelihood_given_meander(*obs)
+        if got is None:
+            return
+        idx, like, rest = got
+        if rest != 0.0:
+            self._log += rest
+        if idx.size:
+            alpha = self._alpha[:, idx] * like
+            total = alpha.sum(axis=0)
+            self._alpha[:, idx] = alpha / total
+            self._log[idx] += np.log(total) - rest
+        self._log[self._excluded] = -np.inf
 
     def _record_flow(self, p: Percept) -> None:
         if self._n == len(self._t):  # grow the history (amortised doubling)
@@ -246,8 +405,10 @@ class SourceMap:
         for s in self.known:
             self._excluded |= (self._cx - s.x) ** 2 + (self._cy - s.y) ** 2 <= r2
         self._log = np.zeros(self._cx.size)
+        self._reset_meander()
         for obs in self._obs:
-            self._log += self._log_likelihood(*obs)
+            self._fold(obs)
+        self._log[self._excluded] = -np.inf
         if (~self._excluded).any():
             self._log -= self._log[~self._excluded].max()
 
@@ -274,20 +435,32 @@ class SourceMap:
                          sy: Array) -> tuple[Array, Array]:
         """The kernel's shape without the decay with range, and the range ``max(a, 0)``."""
         m = self.model
-        ux, uy, along, disp = self.back_trajectory(k)
-        a = (x - sx) * ux + (y - sy) * uy  # how far up-flow of the detection each source is
-        dx = np.interp(a, along, disp[:, 0])
-        dy = np.interp(a, along, disp[:, 1])
-        c = (sx - (x - dx)) * -uy + (sy - (y - dy)) * ux  # cross-flow offset from B(τ)
+        a, c = self._geometry(k, x, y, sx, sy)
         ap = np.maximum(a, 0.0)
-        meander = self._tan * ap
-        if m.max_spread_m is not None:
-            meander = np.minimum(meander, m.max_spread_m)
+        meander = self._meander(ap)
         var = m.near_spread_m**2 + meander**2
         expo = -c * c / (2.0 * var)
         behind = m.behind_spread_m if m.behind_spread_m is not None else m.near_spread_m
         expo -= np.where(a < 0, a * a / (2.0 * behind**2), 0.0)
         return np.where(a <= m.max_range_m, np.exp(expo), 0.0), ap
+
+    def _geometry(self, k: int, x: float | Array, y: float | Array, sx: Array,
+                  sy: Array) -> tuple[Array, Array]:
+        """``(a, c)``: each source's range up-flow of ``(x, y)`` along the back-trajectory of
+        cycle ``k`` and its cross-flow offset from the back-trajectory at that range."""
+        ux, uy, along, disp = self.back_trajectory(k)
+        a = (x - sx) * ux + (y - sy) * uy  # how far up-flow of the detection each source is
+        dx = np.interp(a, along, disp[:, 0])
+        dy = np.interp(a, along, disp[:, 1])
+        c = (sx - (x - dx)) * -uy + (sy - (y - dy)) * ux  # cross-flow offset from B(τ)
+        return np.asarray(a, dtype=float), np.asarray(c, dtype=float)
+
+    def _meander(self, ap: Array) -> Array:
+        """The meander part of the kernel's spread, ``min(a tan φ, σmax)``, at range ``ap``."""
+        meander = self._tan * ap
+        if self.model.max_spread_m is not None:
+            meander = np.minimum(meander, self.model.max_spread_m)
+        return meander
 
     def back_trajectory(self, k: int) -> tuple[float, float, Array, Array]:
         """The water's back-trajectory from cycle ``k``: ``(ux, uy, along, disp)``.
@@ -345,6 +518,84 @@ class SourceMap:
                     * miss_known
             out = m.detection_weight * np.log(like)
         return np.where(self._excluded, -np.inf, out)
+
+    def _kernel_given_meander(self, k: int, x: float, y: float,
+                              strong: bool) -> tuple[NDArray[np.intp], Array, Array | None]:
+        """``K(s; x | z)`` for every meander state and the cells it can reach: ``(idx, K)``,
+        ``K`` of shape ``(bins, len(idx))``; with ``strong`` also the strong level's
+        ``K3(s; x | z)``. Cells not in ``idx`` have ``K`` below ``exp(-18)`` in every state.
+
+        The plume's axis at range ``a`` up-flow lies ``z · σm(a)`` across the flow from the
+        back-trajectory, and the plume about that axis is ``σi(a)`` wide:
+
+            K(s; x | z) = p_in(a) · exp(-(c - z σm(a))² / (2 σi(a)²)),
+            σi(a)² = σ0² + w · a,   σm(a)² = max(σ(a)² - σi(a)², 0),
+            p_in(a) = min(p0 exp(-a / L) · σ(a) / σi(a), IN_PLUME_MAX),
+
+        with ``σ(a)² = σ0² + min(a tan φ, σmax)²`` the independent-cycle kernel's spread and
+        ``w`` ``instant_spread_m``: over ``z ~ N(0, 1)`` the kernel averages to the
+        independent-cycle one (up to the cap on ``p_in`` and the quadrature), so the model keeps
+        the measured detection chances and widths and adds only their persistence.
+        """
+        m = self.model
+        assert self.chain is not None
+        a, c = self._geometry(k, x, y, self._cx, self._cy)
+        ap = np.maximum(a, 0.0)
+        behind = m.behind_spread_m if m.behind_spread_m is not None else m.near_spread_m
+        gate = np.where(a <= m.max_range_m, np.exp(-np.minimum(a, 0.0) ** 2 / (2.0 * behind**2)),
+                        0.0)
+        meander = self._meander(ap)
+        var_total = m.near_spread_m**2 + meander**2
+        near_i = m.instant_near_spread_m if m.instant_near_spread_m is not None \
+            else m.near_spread_m
+        var_i = np.minimum(near_i**2 + m.instant_spread_m * ap, var_total)
+        sig_m = np.sqrt(var_total - var_i)
+        reach = np.maximum(np.abs(c) - float(self.chain.z[-1]) * sig_m, 0.0)
+        idx = np.flatnonzero((gate > 1e-8) & (reach * reach < 36.0 * var_i))
+        ap, c, var_i, var_total, sig_m, gate = (
+            v[idx] for v in (ap, c, var_i, var_total, sig_m, gate))
+        ratio = np.sqrt(var_total / var_i)
+        p_in = np.minimum(m.detection_prob * np.exp(-ap / m.detection_decay_m) * ratio,
+                          IN_PLUME_MAX) * gate
+        d = c - self.chain.z[:, None] * sig_m
+        shape = np.exp(np.maximum(d * d * (-0.5 / var_i), -60.0))  # no subnormals: they are slow
+        k_cells = p_in * shape
+        if not strong:
+            return idx, k_cells, None
+        p3 = np.minimum(m.strong_prob * np.exp(-ap / m.strong_decay_m) * ratio,
+                        IN_PLUME_MAX) * gate
+        return idx, k_cells, np.minimum(p3 * shape, k_cells)
+
+    def _likelihood_given_meander(self, k: int, x: float, y: float, level: int
+                                  ) -> tuple[NDArray[np.intp], Array, float] | None:
+        """The tempered likelihood of one observation: ``(idx, like, rest)``, ``like`` per
+        meander state for the cells ``idx`` the plume can reach from ``(x, y)``, ``rest`` the
+        log-likelihood of every other cell (the same in each state); None when a declared
+        source explains it (no observation)."""
+        m = self.model
+        if not level:
+            idx, k_cells, _ = self._kernel_given_meander(k, x, y, False)
+            return idx, np.exp(m.nondetection_weight * np.log1p(-k_cells)), 0.0
+        miss_known = 1.0
+        if self.known:
+            kx = np.array([s.x for s in self.known])
+            ky = np.array([s.y for s in self.known])
+            miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
+            if miss_known <= 1.0 - m.explained_prob:
+                return None
+        idx, k_cells, strong_cells = self._kernel_given_meander(
+            k, x, y, self.strong_concentration is not None)
+        if strong_cells is None:
+            eps = self.false_alarm(k)
+            like = 1.0 - (1.0 - eps) * (1.0 - k_cells) * miss_known
+        elif level >= 2:
+            eps = m.strong_false_alarm_prob
+            like = 1.0 - (1.0 - eps) * (1.0 - strong_cells) * miss_known
+        else:
+            eps = self.false_alarm(k)
+            like = 1.0 - (1.0 - eps) * (1.0 - (k_cells - strong_cells)) * miss_known
+        rest = m.detection_weight * math.log(1.0 - (1.0 - eps) * miss_known)
+        return idx, np.exp(m.detection_weight * np.log(like)), rest
 
     def explained_by_known(self, k: int, x: float, y: float) -> bool:
         """Whether the declared sources' plumes would cause a detection at ``(x, y)`` on cycle

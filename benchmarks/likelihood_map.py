@@ -6,8 +6,12 @@
 
     - ``upflow_cluster`` (TRO IV-D, the mission as shipped), ``recent_box`` and
       ``upflow_spread`` (OMAE v1/v2), each with the TRO cloverleaf reacquire;
-    - ``likelihood_map`` (cloverleaf reacquire), ``likelihood_map+flyby``, and
-      ``likelihood_map+map_guided`` (map-guided reacquire instead of the cloverleaf).
+    - ``likelihood_map`` (cloverleaf reacquire; the map with its meander state, the default),
+      ``likelihood_map (detection_weight 0.7)``, ``likelihood_map+flyby``, and
+      ``likelihood_map+map_guided`` (map-guided reacquire instead of the cloverleaf);
+    - ``likelihood_map (independent cycles)`` and ``(independent cycles; detection_weight
+      0.5)``: the map and rule before the meander state (``meander_memory_s`` None,
+      non-detections tempered by 0.3), for comparison.
 
     Per configuration: declared %, false declarations (error > 15 m), error median / 95th /
     max, mean T_D share of the mission time to declaration (T_D / t3, TRO Table III), mean D3
@@ -21,6 +25,9 @@ Usage::
 
     python benchmarks/likelihood_map.py --runs 40 --two-runs 20        # a few minutes, 2 cores
     python benchmarks/likelihood_map.py --runs 1000 --two-runs 200     # the issue's N
+    python benchmarks/likelihood_map.py --runs 40 --two-runs 20 --seed 77 --configs "" \
+        --extra "tau 60|declare_source.variant=likelihood_map,declare_source.meander_memory_s=60" \
+        --two-set "declare_source.meander_memory_s=60"                 # tuning a setting
 
 The table is printed and written as Markdown to ``--out`` (default
 ``benchmarks/results/likelihood_map.md``); per-run rows go next to it as JSON lines.
@@ -58,13 +65,21 @@ TWO = ROOT / "missions/two_sources.yaml"
 FALSE_M = 15.0
 SEED = 2024
 
+INDEPENDENT: dict[str, Any] = {"declare_source.variant": "likelihood_map",
+                               "declare_source.meander_memory_s": None,
+                               "declare_source.nondetection_weight": 0.3}
+"""The map before the meander state: cycles independent given the source, tempered."""
+
 CONFIGS: dict[str, dict[str, Any]] = {
     "upflow_cluster": {},
     "recent_box": {"declare_source.variant": "recent_box"},
     "upflow_spread": {"declare_source.variant": "upflow_spread"},
     "likelihood_map": {"declare_source.variant": "likelihood_map"},
-    "likelihood_map (detection_weight 0.5)": {"declare_source.variant": "likelihood_map",
-                                              "declare_source.detection_weight": 0.5},
+    "likelihood_map (detection_weight 0.7)": {"declare_source.variant": "likelihood_map",
+                                              "declare_source.detection_weight": 0.7},
+    "likelihood_map (independent cycles)": {**INDEPENDENT, "declare_source.detection_weight": 0.3},
+    "likelihood_map (independent cycles; detection_weight 0.5)": {
+        **INDEPENDENT, "declare_source.detection_weight": 0.5},
     "likelihood_map+flyby": {"declare_source.variant": "likelihood_map",
                              "declare_source.flyby": True},
     "likelihood_map+map_guided": {"declare_source.variant": "likelihood_map",
@@ -223,15 +238,39 @@ def main() -> int:
                     help="only tabulate the rows already in the .jsonl next to --out (a study "
                     "stopped early, or several studies' rows put together; each rule's N is its "
                     "own, paired changes use the replicates both rules have)")
+    ap.add_argument("--extra", action="append", default=[], metavar="LABEL|KEY=VALUE,...",
+                    help="fly another rule as well (repeatable; for tuning), e.g. "
+                    "'lm tau 60|declare_source.variant=likelihood_map,"
+                    "declare_source.meander_memory_s=60'; values are read as YAML")
+    ap.add_argument("--two-set", default="", metavar="KEY=VALUE,...",
+                    help="settings for the two-source runs (for tuning; values read as YAML)")
     args = ap.parse_args()
     names = [c for c in args.configs.split(",") if c]
+    for extra in args.extra:
+        label, _, body = extra.partition("|")
+        if not label or not body:
+            ap.error(f"--extra {extra!r}: expected LABEL|KEY=VALUE,...")
+        settings: dict[str, Any] = {}
+        for item in body.split(","):
+            key, eq, value = item.partition("=")
+            if not eq:
+                ap.error(f"--extra {extra!r}: {item!r} is not KEY=VALUE")
+            settings[key.strip()] = yaml.safe_load(value)
+        CONFIGS[label] = settings
+        names.append(label)
+    two_settings: dict[str, Any] = {}
+    for item in filter(None, args.two_set.split(",")):
+        key, eq, value = item.partition("=")
+        if not eq:
+            ap.error(f"--two-set: {item!r} is not KEY=VALUE")
+        two_settings[key.strip()] = yaml.safe_load(value)
     # Replicate by replicate, so the rows written so far always hold whole paired replicates.
     jobs = []
     for r in range(max(args.runs, args.two_runs)):
         if r < args.runs:
             jobs += [(name, str(MSN007), CONFIGS[name], r, args.seed) for name in names]
         if r < args.two_runs:
-            jobs.append(("two_sources", str(TWO), {}, r, args.seed))
+            jobs.append(("two_sources", str(TWO), two_settings, r, args.seed))
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     rows_path = out.with_suffix(".jsonl")

@@ -23,7 +23,7 @@ from cptbt.behaviours.likelihood import (
     MapGuidedParams,
     MapGuidedReacquire,
 )
-from cptbt.behaviours.source_map import MapModelParams, SourceMap, best_target
+from cptbt.behaviours.source_map import MapModelParams, MeanderChain, SourceMap, best_target
 from cptbt.cli import main
 from cptbt.frames import OpArea
 from cptbt.registry import BehaviourSpec
@@ -45,10 +45,11 @@ FLOW = (0.2, 0.0)  # toward +x: up-flow is -x
 Plume = Callable[[float, float], float]
 CONE: dict[str, float | None] = {
     "detection_prob": 0.6, "detection_decay_m": 1000.0, "max_spread_m": None,
-    "behind_spread_m": None, "detection_weight": 0.5}
+    "behind_spread_m": None, "detection_weight": 0.5, "nondetection_weight": 0.3,
+    "meander_memory_s": None}
 """The map's model matched to :func:`cone_plume` (a detection chance that does not fall with
-range, a cone that keeps widening, independent draws every cycle, so less tempering), not to
-the TRO ocean the defaults were measured on."""
+range, a cone that keeps widening, independent draws every cycle: no meander state, and the
+independent-cycle model's tempering), not to the TRO ocean the defaults were measured on."""
 
 
 def cone_params(**kw: object) -> LikelihoodMapParams:
@@ -266,6 +267,22 @@ def test_declares_two_sources_one_after_the_other() -> None:
     assert harness.get("declared_sources") == node.sources
 
 
+def test_a_declaration_up_the_plume_of_a_declared_source_replaces_it() -> None:
+    # The same source declared short on the approach, then again at the source: one source.
+    node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=3), namespace=fresh_namespace())
+    harness = TreeHarness(node, make_context(AREA))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    for t in range(30):
+        harness.tick(script.step(t, 99.0, 49.0))
+    node._accept(Point(45.0, 0.0))
+    node._accept(Point(30.0, 2.0))  # 15 m up-flow: the first lies in its plume
+    assert node.sources == (Point(30.0, 2.0),) and node.superseded == 1
+    node._accept(Point(30.0, -40.0))  # 42 m to the side: another source
+    assert node.sources == (Point(30.0, 2.0), Point(30.0, -40.0))
+    assert harness.get("declared_sources") == node.sources
+    assert harness.get("declaration_report")["superseded"] == 1
+
+
 # -- map-guided reacquire -----------------------------------------------------------------
 def belief_peaked_at(x: float, y: float) -> SourceBelief:
     xs = np.arange(1.0, 100.0, 2.0)
@@ -441,3 +458,157 @@ def test_only_detections_no_declared_source_explains_count_towards_the_next_one(
     assert (m.detections, m.unexplained) == (2, 1)
     # the known source's neighbourhood is ruled out to TRO's 15-m bound
     assert m.posterior()[cell(m, 40, 12)] == 0.0 and m.posterior()[cell(m, 40, 20)] > 0.0
+
+
+# -- the correlated meander (meander_memory_s) ---------------------------------------------
+MEANDER: dict[str, float | None] = {
+    "meander_memory_s": 150.0, "instant_near_spread_m": 1.0, "nondetection_weight": 1.0,
+    "detection_weight": 0.5}
+"""A meander state per cell (the TRO defaults' settings, spelled out so these tests do not
+follow a change of defaults)."""
+
+
+def meander_map(independent: bool = False, cycles: int = 30) -> tuple[SourceMap,
+                                                                       ScriptedPerception]:
+    """A warmed map of the TRO model with a meander state, or with independent cycles."""
+    kw = {**MEANDER, "meander_memory_s": None} if independent else MEANDER
+    m = SourceMap(AREA, LikelihoodMapParams(**kw), strong_concentration=0.6)
+    script = ScriptedPerception(AREA, flow=FLOW, threshold=0.2)
+    for t in range(cycles):
+        m.observe(script.step(t, 99.0, 49.0))
+    return m, script
+
+
+def test_the_meander_chain_keeps_its_weights_and_forgets_at_the_set_rate() -> None:
+    chain = MeanderChain(9, 150.0)
+    assert chain.weights.sum() == pytest.approx(1.0)
+    assert chain.weights @ chain.z**2 == pytest.approx(1.0)  # z ~ N(0, 1), discretised
+    for dt in (1.0, 30.0, 150.0, 600.0):
+        t = chain.transition(dt)
+        assert np.allclose(t.sum(axis=1), 1.0) and (t >= 0).all()
+        assert np.allclose(chain.weights @ t, chain.weights)  # stationary
+        corr = chain.weights * chain.z @ t @ chain.z
+        assert corr == pytest.approx(math.exp(-dt / 150.0), abs=0.01)  # Ornstein-Uhlenbeck
+
+
+def test_averaged_over_the_meander_the_kernel_is_the_independent_one() -> None:
+    # ... where the chance on the instantaneous axis is not capped (IN_PLUME_MAX): 10-30 m
+    # up-flow with the TRO settings; within 10 m of the source (a 1-m wide filament whose axis
+    # is uncertain by 2.8 m) and at some longer ranges the average is lower, never higher.
+    m, _ = meander_map()
+    k = m._n - 1
+    assert m.chain is not None
+    for x, y in ((60.0, 0.0), (90.0, 10.0), (70.0, -20.0)):
+        idx, k_z, _ = m._kernel_given_meander(k, x, y, False)
+        mean = np.zeros(m._cx.size)
+        mean[idx] = m.chain.weights @ k_z
+        plain = m.kernel(k, x, y, m._cx, m._cy)
+        a = x - m.cells()[0]
+        mid = (a >= 10.0) & (a <= 30.0)
+        assert np.abs(mean - plain)[mid].max() < 0.03  # the quadrature's error
+        assert (mean - plain).max() < 0.01
+        # cells the meander states cannot reach: only the Gaussian tail beyond the last state
+        assert plain[np.setdiff1d(np.arange(m._cx.size), idx)].max() < 1e-4
+
+
+def test_a_detection_raises_the_cells_straight_up_flow_with_a_meander() -> None:
+    m, script = meander_map()
+    before = m.posterior()
+    m.observe(script.step(30, 60.0, 0.0, conc=0.3))
+    gain = m.posterior() / before
+    up, down, side = cell(m, 40, 0), cell(m, 80, 0), cell(m, 40, 35)
+    assert gain[up] > 1.5 * gain[down] and gain[up] > 1.5 * gain[side]
+
+
+def test_a_non_detection_lowers_the_cells_it_rules_out_with_a_meander() -> None:
+    m, script = meander_map()
+    before = m.posterior()
+    m.observe(script.step(30, 60.0, 0.0, conc=0.0))
+    ratio = m.posterior() / before
+    up, down, side = cell(m, 45, 0), cell(m, 80, 0), cell(m, 40, 40)
+    assert ratio[up] < 0.8 * ratio[down] and ratio[up] < 0.8 * ratio[side]
+    assert ratio[down] == pytest.approx(ratio[side], rel=1e-3)
+
+
+def test_a_run_of_misses_after_contact_counts_as_one_meander_not_as_many() -> None:
+    # Contact straight down-flow of (40, 0), then 40 cycles of misses at the same spot (the
+    # plume meandered off): with independent cycles they multiply; with a meander state one
+    # offset of the plume's axis explains them all.
+    drops = {}
+    for independent in (False, True):
+        m, script = meander_map(independent)
+        for t in range(30, 36):
+            m.observe(script.step(t, 60.0, 0.0, conc=0.3))
+        src, far = cell(m, 40, 0), cell(m, 40, 40)
+        before = m._log[src] - m._log[far]
+        for t in range(36, 76):
+            m.observe(script.step(t, 60.0, 0.0, conc=0.0))
+        drops[independent] = before - (m._log[src] - m._log[far])
+    assert drops[True] > 15.0  # 40 misses with a chance of ~0.5 each: a factor e^-20 or so
+    assert 0.0 < drops[False] < 0.25 * drops[True]
+
+
+def test_explain_rebuilds_the_meander_map_from_its_history() -> None:
+    rng = np.random.default_rng(3)
+    percepts = []
+    script = ScriptedPerception(AREA, flow=FLOW, threshold=0.2)
+    for t in range(120):
+        x, y = 90.0 - 0.5 * t, 20.0 * math.sin(t / 7.0)
+        percepts.append(script.step(t, x, y, conc=float(rng.random() < 0.3) * 0.4))
+    known = (Point(20.0, -30.0),)
+    a = SourceMap(AREA, LikelihoodMapParams(**MEANDER), strong_concentration=0.6)
+    b = SourceMap(AREA, LikelihoodMapParams(**MEANDER), strong_concentration=0.6)
+    b.explain(known)
+    for p in percepts:
+        a.observe(p)
+        b.observe(p)
+    a.explain(known)
+    assert np.allclose(a.posterior(), b.posterior(), atol=1e-12)
+    a.explain(())  # and back: the same as never having declared
+    c = SourceMap(AREA, LikelihoodMapParams(**MEANDER), strong_concentration=0.6)
+    for p in percepts:
+        c.observe(p)
+    assert np.allclose(a.posterior(), c.posterior(), atol=1e-12)
+
+
+def meander_plume(source: tuple[float, float], rng: np.random.Generator) -> Plume:
+    """A synthetic plume drawn from the meander model itself (flow toward +x): a 1-m wide
+    filament near the source, widening with range, whose axis at range ``a`` lies
+    ``z · σm(a)`` to the side, ``z`` an Ornstein-Uhlenbeck process (τ 150 s) stepped per call
+    (one call a cycle, 1 s)."""
+    sx, sy = source
+    state = {"z": 0.0}
+    rho = math.exp(-1.0 / 150.0)
+    tan = math.tan(math.radians(12.0))
+
+    def conc(x: float, y: float) -> float:
+        state["z"] = rho * state["z"] + math.sqrt(1 - rho * rho) * float(rng.standard_normal())
+        a = x - sx
+        if a < 0:
+            return 0.0
+        var_total = 9.0 + min(a * tan, 20.0) ** 2
+        var_i = min(1.0 + 0.55 * a, var_total)
+        p_in = min(0.72 * math.exp(-a / 150.0) * math.sqrt(var_total / var_i), 0.95)
+        d = (y - sy) - state["z"] * math.sqrt(var_total - var_i)
+        return 0.3 if rng.random() < p_in * math.exp(-d * d / (2 * var_i)) else 0.0
+
+    return conc
+
+
+def test_declares_near_the_source_of_a_synthetic_plume_with_a_meander() -> None:
+    for seed in (1, 2):
+        node = LikelihoodMapDeclare(LikelihoodMapParams(**MEANDER), namespace=fresh_namespace())
+        plume = meander_plume((30.0, 5.0), np.random.default_rng(seed))
+        sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20, 12]))
+        assert node.declared is not None, seed
+        assert node.declared.distance_to(Point(30.0, 5.0)) < 8.0, seed
+
+
+def test_no_declaration_on_false_alarms_alone_with_a_meander() -> None:
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        node = LikelihoodMapDeclare(cone_params(**MEANDER), namespace=fresh_namespace())
+        path = lawnmower([95, 80, 65, 50, 35, 20, 5]) * 2
+        sweep(node, lambda x, y, rng=rng: float(rng.random() < 0.03), path)
+        assert node.declared is None and node.candidate is None, seed
+
