@@ -232,6 +232,10 @@ def env_rng_from_seed(seed: int | None) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[0])
 
 
+_CAP_WARNED: set[tuple[float, float]] = set()
+"""(mean flow, domain diagonal) pairs whose capped spin-up this process has warned about."""
+
+
 class World:
     """Flow, plume, N vehicles and their sensors.
 
@@ -303,6 +307,9 @@ class World:
         diagonal = math.hypot(xmax - xmin, ymax - ymin)
         crossing = diagonal / max(mean, 1e-3)
         if crossing > DEFAULT_WARM_UP_CAP_S:
+            if (mean, diagonal) in _CAP_WARNED:  # once per setting and process, not per group
+                return DEFAULT_WARM_UP_CAP_S
+            _CAP_WARNED.add((mean, diagonal))
             log.warning("plume spin-up capped at %g s: a mean flow of %.3g m/s would take %.3g s "
                         "to cross the %.0f m domain (set environment.warm_up_s to choose)",
                         DEFAULT_WARM_UP_CAP_S, mean, crossing, diagonal)

@@ -102,16 +102,21 @@ def test_warm_up_fills_the_domain_without_advancing_mission_time() -> None:
 
 
 def test_the_default_spin_up_of_a_still_sea_is_capped_and_logged(
-    caplog: pytest.LogCaptureFixture,
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     # No mean current: the crossing time at the 1 mm/s floor was ~4e5 s of spin-up (75 s wall
-    # for a 200 x 120 m box). It is capped, and the cap is logged.
+    # for a 200 x 120 m box). It is capped, and the cap is logged once per process (a batch
+    # said it again for every group).
+    monkeypatch.setattr("cptbt.sim.world._CAP_WARNED", set())
     still = EnvironmentParams.model_validate({"flow": {"preset": "ocean", "mean_speed_mps": 0.0}})
     world = World(still, xy=np.zeros((1, 2)))
     with caplog.at_level("WARNING", logger="cptbt.sim.world"):
         assert world.default_warm_up_s() == DEFAULT_WARM_UP_CAP_S
-    assert any("spin-up capped" in r.getMessage() for r in caplog.records), caplog.records
+    assert sum("spin-up capped" in r.getMessage() for r in caplog.records) == 1, caplog.records
     caplog.clear()
+    with caplog.at_level("WARNING", logger="cptbt.sim.world"):
+        assert World(still, xy=np.zeros((1, 2))).default_warm_up_s() == DEFAULT_WARM_UP_CAP_S
+    assert not caplog.records  # said already
     ocean = World(EnvironmentParams(), xy=np.zeros((1, 2)))  # 0.1 m/s: the crossing time
     with caplog.at_level("WARNING", logger="cptbt.sim.world"):
         assert 1000.0 < ocean.default_warm_up_s() < DEFAULT_WARM_UP_CAP_S
