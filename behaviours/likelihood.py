@@ -3,8 +3,9 @@
 - ``declare_source: {variant: likelihood_map}`` keeps the map, declares when its posterior is
   concentrated, optionally verifies the declaration with a fly-by (TRO VI's future work), and
   may declare several sources one after another;
-- ``reacquire_plume: {variant: map_guided}`` heads for the most likely unexplored source region
-  up-flow after losing contact, instead of flying a fixed pattern.
+- ``reacquire_plume: {variant: map_guided}`` (:mod:`cptbt.behaviours.map_guided`) heads for
+  the most likely unexplored source region up-flow after losing contact, instead of flying a
+  fixed pattern.
 
 Blackboard keys (STYLE 4): the declaration writes ``source_map`` (a
 :class:`~cptbt.types.SourceBelief`, every cycle), ``source_map_at_declaration`` (the belief at the
@@ -24,8 +25,9 @@ from pydantic import Field
 
 from cptbt.angles import unit
 from cptbt.behaviours.declare_source import DeclareParams, SourceDeclaration
-from cptbt.behaviours.source_map import SOURCE_MAP_KEY, MapModelParams, SourceMap, best_target
-from cptbt.node import BehaviourParams, Contract, PlanBehaviour
+from cptbt.behaviours.map_guided import MapGuidedReacquire, best_target
+from cptbt.behaviours.source_map import SOURCE_MAP_KEY, MapModelParams, SourceMap
+from cptbt.node import BehaviourParams, Contract
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept, Point, SourceBelief
 
@@ -409,89 +411,6 @@ class LikelihoodMapDeclare(SourceDeclaration):
         assert self.map is not None
         return any(self.map.expected_detection(s, at.x, at.y) >= self.params.explained_prob
                    for s in self.sources)
-
-
-class MapGuidedParams(BehaviourParams):
-    """Parameters of the map-guided reacquire."""
-
-    give_up_s: float = Field(
-        default=180.0, gt=0, description="Find-plume takes over after this long without a "
-        "detection (the cloverleaf's 3 repeats take about as long), s"
-    )
-    replan_s: float = Field(
-        default=15.0, gt=0, description="The target is re-chosen at least this often, s"
-    )
-    arrive_radius_m: float = Field(
-        default=4.0, gt=0, description="A target counts as reached within this distance, m"
-    )
-    explored_weight: float = Field(
-        default=0.1, ge=0, le=1, description="Weight of cells near the track flown (1: no "
-        "preference for unexplored cells)"
-    )
-    behind_m: float = Field(
-        default=5.0, ge=0, description="Cells more than this down-flow of the last detection "
-        "are not targets, m"
-    )
-
-
-class MapGuidedReacquire(PlanBehaviour):
-    """Reacquire by heading for the most likely unexplored source region up-flow.
-
-    While contact is lost (a detection was made, none within λ), the target is the cell of the
-    published ``source_map`` with the highest posterior × (``explored_weight`` for cells near the
-    track already flown, else 1), among cells no more than ``behind_m`` down-flow of the last
-    detection and outside ``arrive_radius_m`` of the vehicle. It is re-chosen on arrival and
-    every ``replan_s``; the non-detections on the way lower the cells it passes up-flow of, so
-    the target moves on. After ``give_up_s`` without a detection the behaviour has no output for
-    that lost contact and find-plume takes over (like the cloverleaf's last repeat). Without a
-    published map (no ``likelihood_map`` declaration in the mission) it has no output.
-    """
-
-    family: ClassVar[str] = "reacquire_plume"
-    variant: ClassVar[str] = "map_guided"
-    Params: ClassVar[type[BehaviourParams]] = MapGuidedParams
-    params: MapGuidedParams
-    contract: ClassVar[Contract] = Contract(pairs_with=(("declare_source", "likelihood_map"),))
-    persistent_state: ClassVar[tuple[str, ...]] = ("gave_up_for",)
-
-    def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
-        super().__init__(params, **kwargs)
-        self.bb.register_key(SOURCE_MAP_KEY, access=Access.READ)
-        self.gave_up_for: float | None = None
-        self.target: Point | None = None
-        self.planned_t = -math.inf
-
-    def initialise(self) -> None:
-        """A new activation chooses a new target."""
-        self.target = None
-        self.planned_t = -math.inf
-
-    def decide(self, p: Percept) -> Command | None:
-        """Steer for the target while contact is lost and the give-up time has not passed."""
-        last = p.last_detection
-        if p.in_plume or last is None or p.flow is None or last.t == self.gave_up_for:
-            return None
-        if p.since_detection() > self.params.give_up_s:
-            self.gave_up_for = last.t
-            return None
-        belief = self.bb.get(SOURCE_MAP_KEY) if self.bb.exists(SOURCE_MAP_KEY) else None
-        if not isinstance(belief, SourceBelief):
-            return None
-        here = p.pose.point
-        if (self.target is None or here.distance_to(self.target) <= self.params.arrive_radius_m
-                or p.t - self.planned_t >= self.params.replan_s):
-            self.target = self._choose(belief, p)
-            self.planned_t = p.t
-        if self.target is None:
-            return None
-        return self.command(here.bearing_to(self.target))
-
-    def _choose(self, belief: SourceBelief, p: Percept) -> Point | None:
-        assert p.last_detection is not None and p.flow is not None
-        return best_target(belief, p.pose.point, explored_weight=self.params.explored_weight,
-                           min_distance_m=self.params.arrive_radius_m,
-                           upflow_deg=p.flow.upflow_deg, behind=p.last_detection.point,
-                           behind_m=self.params.behind_m)
 
 
 BEHAVIOURS = [

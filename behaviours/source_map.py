@@ -120,6 +120,7 @@ from numpy.typing import NDArray
 from pydantic import Field
 
 from cptbt.angles import unit
+from cptbt.behaviours.meander import MeanderChain
 from cptbt.frames import OpArea
 from cptbt.node import BehaviourParams
 from cptbt.types import Percept, Point, SourceBelief
@@ -223,63 +224,6 @@ class MapModelParams(BehaviourParams):
 IN_PLUME_MAX = 0.95
 """With a meander state, the chance of a detection on the plume's instantaneous axis is capped
 at this (a miss there is never certain proof: see :meth:`SourceMap._kernel_given_meander`)."""
-
-
-class MeanderChain:
-    """The meander state ``z`` as a discrete Markov chain: an Ornstein–Uhlenbeck process.
-
-    ``bins`` equally spaced states with weights ∝ the standard normal density, the nodes scaled
-    so that the weighted variance is exactly 1; a birth–death chain between neighbouring states
-    whose rates satisfy detailed balance with those weights (so they are its stationary
-    distribution) and are scaled so that the autocorrelation of ``z`` falls to 1/e after
-    ``tau_s``. The transition matrix over ``dt`` is ``expm(Q dt)``, from the eigenvectors of the
-    chain's symmetrised generator; matrices are cached by ``dt`` (to the millisecond).
-    """
-
-    def __init__(self, bins: int, tau_s: float) -> None:
-        z = np.linspace(-2.4, 2.4, bins)
-        w = np.exp(-0.5 * z * z)
-        w /= w.sum()
-        z = z / math.sqrt(float(w @ (z * z)))
-        self.z: Array = z
-        self.weights: Array = w
-        root = np.sqrt(w)
-        sym = np.zeros((bins, bins))  # S = D^½ Q D^-½ with unit rate scale
-        for i in range(bins - 1):
-            sym[i, i + 1] = sym[i + 1, i] = 1.0
-            sym[i, i] -= math.sqrt(w[i + 1] / w[i])
-            sym[i + 1, i + 1] -= math.sqrt(w[i] / w[i + 1])
-        lam, vec = np.linalg.eigh(sym)
-        self._lam, self._vec, self._root = lam, vec, root
-        # the autocorrelation after u units of the unit-rate chain; find u where it is 1/e
-        lo, hi = 1e-6, 1e3
-        for _ in range(80):
-            mid = math.sqrt(lo * hi)
-            if self._corr(mid) > math.exp(-1.0):
-                lo = mid
-            else:
-                hi = mid
-        self._rate = math.sqrt(lo * hi) / tau_s
-        self._cache: dict[int, Array] = {}
-
-    def _unit(self, u: float) -> Array:
-        t = (self._vec * np.exp(self._lam * u)) @ self._vec.T
-        out = np.asarray(t / self._root[:, None] * self._root[None, :], dtype=float)
-        out = np.maximum(out, 0.0)
-        return np.asarray(out / out.sum(axis=1, keepdims=True), dtype=float)
-
-    def _corr(self, u: float) -> float:
-        return float(self.weights * self.z @ self._unit(u) @ self.z)
-
-    def transition(self, dt: float) -> Array:
-        """``P(z' | z)`` after ``dt`` seconds, rows ``z`` and columns ``z'``."""
-        key = round(max(dt, 0.0) * 1000)
-        got = self._cache.get(key)
-        if got is None:
-            if len(self._cache) > 256:
-                self._cache.clear()
-            got = self._cache[key] = self._unit(self._rate * key / 1000.0)
-        return got
 
 
 class SourceMap:
@@ -654,34 +598,3 @@ class SourceMap:
         explored = self.explored.reshape(self.shape).copy()
         explored.flags.writeable = False
         return SourceBelief(self.t, self.xs, self.ys, post, self.known, explored)
-
-
-def best_target(
-    belief: SourceBelief,
-    here: Point,
-    *,
-    explored_weight: float,
-    min_distance_m: float,
-    upflow_deg: float | None = None,
-    behind: Point | None = None,
-    behind_m: float = 0.0,
-) -> Point | None:
-    """The most promising cell to head for: posterior × (``explored_weight`` where explored).
-
-    Cells within ``min_distance_m`` of ``here`` are skipped (the vehicle is there already), and,
-    given ``upflow_deg`` and ``behind``, so are cells more than ``behind_m`` down-flow of
-    ``behind``. None when no cell qualifies.
-    """
-    gx, gy = np.meshgrid(belief.xs, belief.ys)
-    score = np.array(belief.posterior, dtype=float)
-    if belief.explored is not None:
-        score = np.where(belief.explored, score * explored_weight, score)
-    keep = (gx - here.x) ** 2 + (gy - here.y) ** 2 > min_distance_m**2
-    if upflow_deg is not None and behind is not None:
-        ux, uy = unit(upflow_deg)
-        keep &= (gx - behind.x) * ux + (gy - behind.y) * uy >= -behind_m
-    score = np.where(keep, score, 0.0)
-    i = int(np.argmax(score))
-    if not score.flat[i] > 0:
-        return None
-    return Point(float(gx.flat[i]), float(gy.flat[i]))

@@ -17,13 +17,10 @@ import py_trees
 import pytest
 from py_trees.common import Status
 
-from cptbt.behaviours.likelihood import (
-    LikelihoodMapDeclare,
-    LikelihoodMapParams,
-    MapGuidedParams,
-    MapGuidedReacquire,
-)
-from cptbt.behaviours.source_map import MapModelParams, MeanderChain, SourceMap, best_target
+from cptbt.behaviours.likelihood import LikelihoodMapDeclare, LikelihoodMapParams
+from cptbt.behaviours.map_guided import MapGuidedParams, MapGuidedReacquire, best_target
+from cptbt.behaviours.meander import MeanderChain
+from cptbt.behaviours.source_map import MapModelParams, SourceMap
 from cptbt.cli import main
 from cptbt.frames import OpArea
 from cptbt.registry import BehaviourSpec
