@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass
 from enum import StrEnum
 
-from cptbt.mission import EvaluationSpec
+from cptbt.evaluation import EvaluationSpec
 from cptbt.types import Point
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from cptbt.batch.outcome import Outcome, judge, outcome_of
 from cptbt.batch.recorder import Recorder
-from cptbt.mission import EvaluationSpec
+from cptbt.evaluation import EvaluationSpec
 from cptbt.policy import RELINQUISH_OUTSIDE_M, give_back_trigger
 from cptbt.types import Point
 

@@ -16,7 +16,7 @@ from cptbt.batch.outcome import Outcome, contact_ended, judge
 from cptbt.batch.scenario import to_sim_params
 from cptbt.batch.summary import summarise
 from cptbt.cli.inspect_cmds import load
-from cptbt.mission import EvaluationSpec
+from cptbt.evaluation import EvaluationSpec
 from cptbt.types import Point
 
 ROOT = Path(__file__).resolve().parents[2]
