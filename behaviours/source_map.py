@@ -51,45 +51,10 @@ constant width around it rather than a cone.
 
 Correlated meander (optional: a map made with ``meander_memory_s``)
 -------------------------------------------------------------------
-The plume's axis does not follow the back-trajectory of the planner's ~100-s flow estimate: it
-meanders about it, slowly, and near the source the filament is much narrower than the spread of
-the hits over time. The cycles are therefore not independent given the source: after the plume
-swings away the vehicle collects a *run* of misses, each of which the independent-cycle model
-counts against the true source up-flow. With ``meander_memory_s`` (τ) each cell hypothesis
-carries a persistent meander state, the normalised cross-flow offset ``z`` of the plume's axis
-(``z ~ N(0, 1)`` stationary, an Ornstein–Uhlenbeck process with correlation time τ, discretised
-as a :class:`MeanderChain` of ``meander_bins`` states). The axis at range ``a`` up-flow lies
-``z · σm(a)`` across the flow from the back-trajectory, and the plume about it is ``σi(a)``
-wide, ``σi(a)² = σi(0)² + w · a`` (``instant_near_spread_m``, ``instant_spread_m``: relative
-dispersion widens it), with the rest of the kernel's spread the meander's:
-``σm(a)² = σ(a)² - σi(a)²``, ``σ(a)² = σ0² + min(a tan φ, σmax)²``. The chance of a detection
-given the state is
-
-    K(s; x | z) = p_in(a) · exp(-(c - z σm(a))² / (2 σi(a)²)),
-    p_in(a) = min(p0 · exp(-a / L) · σ(a) / σi(a), IN_PLUME_MAX),
-
-(the strong level likewise, with ``p3 · exp(-a / L3)``), so that averaged over ``z`` it is the
-independent-cycle ``K(s; x)`` wherever ``p_in`` is not capped. Each cell is then an HMM filtered
-forward: every observation propagates the cell's ``P(z)`` with the chain's transition over the
-time since the last one, multiplies it by the observation's likelihood in each state (the same
-detection and non-detection likelihoods as above, ``K(s; x | z)`` for ``K(s; x)``, each raised to
-its tempering exponent) and renormalises; the cell's log-posterior gains the log of the
-normaliser (the predictive probability of the observation). A run of misses is then explained by
-one offset of the plume (its evidence is capped at about "the plume was elsewhere for a while",
-the weight of the states far to the side), and a run of detections concentrates ``z`` instead of
-only multiplying location evidence. Readings chosen: one ``z`` per cell for all ranges (the
-meander swings the whole plume; a bend within it is not modelled); the part of ``σ0`` that is not
-``σi(0)`` persists as well (near the source the hits' spread over time comes from the axis's
-slow wander and the vehicle's navigation drift, not from a wide filament); ``p_in`` is capped, so
-within ~10 m of the source (and where the measured chance over ``σ(a)/σi(a)`` exceeds the cap)
-the ``z``-average is *below* the measured independent-cycle chance (0.32 against 0.72 at the
-source with the TRO settings): a pass beside a thin filament says little. A version that widened
-``σi`` instead, to keep the average exact, declared farther from the source on tuning runs
-(:class:`~cptbt.behaviours.likelihood.LikelihoodMapParams`). Cells the plume cannot reach in any
-state (``K < exp(-18)``) skip the per-state arithmetic: a non-detection leaves them as they are
-and a detection multiplies them by the false-alarm term. The transition matrices are products
-with ``numpy.einsum``: a ``(bins, cells)`` product through BLAS was 7 times slower with
-threads on a busy two-core host.
+Each cell may carry a persistent meander state, the plume axis's cross-flow offset, and be
+filtered as a small hidden Markov model, so that a run of misses after the plume swings away
+counts as one meander, not many independent cycles: the model, its readings and its cost are in
+:mod:`cptbt.behaviours.meander`.
 
 Assumptions, stated because the model is only as good as they are:
 
@@ -117,12 +82,11 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field
 
 from cptbt.angles import unit
-from cptbt.behaviours.meander import MeanderChain
+from cptbt.behaviours.map_model import MapModelParams
+from cptbt.behaviours.meander import MeanderChain, meander_kernel
 from cptbt.frames import OpArea
-from cptbt.node import BehaviourParams
 from cptbt.types import Percept, Point, SourceBelief
 
 Array = NDArray[np.float64]
@@ -132,98 +96,6 @@ MAX_CELLS = 250_000
 
 SOURCE_MAP_KEY = "source_map"
 """Blackboard key of the published :class:`~cptbt.types.SourceBelief`."""
-
-
-class MapModelParams(BehaviourParams):
-    """The grid and the likelihood model of the source map (see the module docstring)."""
-
-    cell_m: float = Field(default=2.0, gt=0.1, le=100, description="Grid resolution, m")
-    detection_prob: float = Field(
-        default=0.6, gt=0, lt=1, description="p0: chance of a detection per cycle on the plume's "
-        "mean axis next to the source"
-    )
-    detection_decay_m: float = Field(
-        default=1000.0, gt=0, description="L: range over which that chance falls by a factor e, m "
-        "(long by default: see the module docstring)"
-    )
-    false_alarm_prob: float = Field(
-        default=0.02, gt=0, lt=1, description="ε: chance of a detection with no plume, per cycle"
-    )
-    near_spread_m: float = Field(
-        default=3.0, gt=0, description="σ0: cross-flow spread at the source (navigation error, "
-        "puff size), m"
-    )
-    behind_spread_m: float | None = Field(
-        default=None, gt=0, description="How fast K falls off for sources down-flow of the "
-        "observer (None: near_spread_m), m"
-    )
-    spread_deg: float = Field(
-        default=12.0, ge=0, lt=80, description="φ: half-angle of the meander; the cross-flow "
-        "spread grows by tan φ per metre of range, deg"
-    )
-    max_range_m: float = Field(
-        default=250.0, gt=0, description="Detections are not traced back farther than this, m"
-    )
-    max_spread_m: float | None = Field(
-        default=None, gt=0, description="σmax: the meander's cross-flow spread stops growing "
-        "at this (None: it grows with range without bound), m"
-    )
-    detection_weight: float = Field(
-        default=0.5, gt=0, le=1, description="Tempering exponent of a detection's likelihood"
-    )
-    nondetection_weight: float = Field(
-        default=0.3, gt=0, le=1, description="Tempering exponent of a non-detection's likelihood"
-    )
-    explored_radius_m: float = Field(
-        default=6.0, gt=0, description="Cells within this of the vehicle's track count as "
-        "explored (for map-guided reacquire), m"
-    )
-    mask_radius_m: float = Field(
-        default=6.0, gt=0, description="Cells within this of a declared source are ruled out "
-        "as another source, m"
-    )
-    explained_prob: float = Field(
-        default=0.05, gt=0, lt=1, description="A detection a declared source's plume would "
-        "cause with at least this chance is explained by it and says nothing about other sources"
-    )
-    strong_prob: float = Field(
-        default=0.68, gt=0, lt=1, description="p3: chance per cycle of a *strong* detection "
-        "(see the module docstring) on the plume's axis next to the source"
-    )
-    strong_decay_m: float = Field(
-        default=40.0, gt=0, description="L3: range over which the chance of a strong detection "
-        "falls by a factor e, m"
-    )
-    strong_false_alarm_prob: float = Field(
-        default=0.002, gt=0, lt=1, description="ε3: chance of a strong detection with no plume, "
-        "per cycle"
-    )
-    trajectory_points: int = Field(
-        default=200, ge=2, le=10_000, description="Back-trajectory samples per observation"
-    )
-    meander_memory_s: float | None = Field(
-        default=None, gt=0, description="τ: correlation time of the plume's meander; with it "
-        "each cell carries a meander state and cycles are correlated through it (module "
-        "docstring, 'Correlated meander'); None: cycles are independent given the source, s"
-    )
-    instant_spread_m: float = Field(
-        default=0.55, ge=0, description="With meander_memory_s: the plume's width about its "
-        "instantaneous axis grows as σi(a)² = σ0² + this · a (relative dispersion, 2 K_c / U), m"
-    )
-    instant_near_spread_m: float | None = Field(
-        default=None, gt=0, description="With meander_memory_s: σi(0), the plume's width about "
-        "its instantaneous axis at the source; the rest of σ0 persists like the meander (None: "
-        "σ0, all of it instantaneous), m"
-    )
-    meander_bins: int = Field(
-        default=9, ge=3, le=41, description="With meander_memory_s: discrete meander states "
-        "per cell"
-    )
-
-
-IN_PLUME_MAX = 0.95
-"""With a meander state, the chance of a detection on the plume's instantaneous axis is capped
-at this (a miss there is never certain proof: see :meth:`SourceMap._kernel_given_meander`)."""
 
 
 class SourceMap:
@@ -465,50 +337,12 @@ class SourceMap:
 
     def _kernel_given_meander(self, k: int, x: float, y: float,
                               strong: bool) -> tuple[NDArray[np.intp], Array, Array | None]:
-        """``K(s; x | z)`` for every meander state and the cells it can reach: ``(idx, K)``,
-        ``K`` of shape ``(bins, len(idx))``; with ``strong`` also the strong level's
-        ``K3(s; x | z)``. Cells not in ``idx`` have ``K`` below ``exp(-18)`` in every state.
-
-        The plume's axis at range ``a`` up-flow lies ``z · σm(a)`` across the flow from the
-        back-trajectory, and the plume about that axis is ``σi(a)`` wide:
-
-            K(s; x | z) = p_in(a) · exp(-(c - z σm(a))² / (2 σi(a)²)),
-            σi(a)² = σ0² + w · a,   σm(a)² = max(σ(a)² - σi(a)², 0),
-            p_in(a) = min(p0 exp(-a / L) · σ(a) / σi(a), IN_PLUME_MAX),
-
-        with ``σ(a)² = σ0² + min(a tan φ, σmax)²`` the independent-cycle kernel's spread and
-        ``w`` ``instant_spread_m``: over ``z ~ N(0, 1)`` the kernel averages to the
-        independent-cycle one (up to the cap on ``p_in`` and the quadrature), so the model keeps
-        the measured detection chances and widths and adds only their persistence.
-        """
-        m = self.model
+        """``K(s; x | z)`` per meander state for the cells the plume can reach from ``(x, y)``
+        on cycle ``k`` (:func:`~cptbt.behaviours.meander.meander_kernel`)."""
         assert self.chain is not None
         a, c = self._geometry(k, x, y, self._cx, self._cy)
-        ap = np.maximum(a, 0.0)
-        behind = m.behind_spread_m if m.behind_spread_m is not None else m.near_spread_m
-        gate = np.where(a <= m.max_range_m, np.exp(-np.minimum(a, 0.0) ** 2 / (2.0 * behind**2)),
-                        0.0)
-        meander = self._meander(ap)
-        var_total = m.near_spread_m**2 + meander**2
-        near_i = m.instant_near_spread_m if m.instant_near_spread_m is not None \
-            else m.near_spread_m
-        var_i = np.minimum(near_i**2 + m.instant_spread_m * ap, var_total)
-        sig_m = np.sqrt(var_total - var_i)
-        reach = np.maximum(np.abs(c) - float(self.chain.z[-1]) * sig_m, 0.0)
-        idx = np.flatnonzero((gate > 1e-8) & (reach * reach < 36.0 * var_i))
-        ap, c, var_i, var_total, sig_m, gate = (
-            v[idx] for v in (ap, c, var_i, var_total, sig_m, gate))
-        ratio = np.sqrt(var_total / var_i)
-        p_in = np.minimum(m.detection_prob * np.exp(-ap / m.detection_decay_m) * ratio,
-                          IN_PLUME_MAX) * gate
-        d = c - self.chain.z[:, None] * sig_m
-        shape = np.exp(np.maximum(d * d * (-0.5 / var_i), -60.0))  # no subnormals: they are slow
-        k_cells = p_in * shape
-        if not strong:
-            return idx, k_cells, None
-        p3 = np.minimum(m.strong_prob * np.exp(-ap / m.strong_decay_m) * ratio,
-                        IN_PLUME_MAX) * gate
-        return idx, k_cells, np.minimum(p3 * shape, k_cells)
+        return meander_kernel(self.model, self.chain.z, a, c, self._meander(np.maximum(a, 0.0)),
+                              strong)
 
     def _likelihood_given_meander(self, k: int, x: float, y: float, level: int
                                   ) -> tuple[NDArray[np.intp], Array, float] | None:
