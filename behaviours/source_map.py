@@ -318,20 +318,10 @@ class SourceMap:
                     m.strong_prob * shape * np.exp(-ap / m.strong_decay_m), k_cells)
             else:
                 k_cells = self.kernel(k, x, y, self._cx, self._cy)
-            miss_known = 1.0
-            if self.known:
-                kx = np.array([s.x for s in self.known])
-                ky = np.array([s.y for s in self.known])
-                miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
-                if miss_known <= 1.0 - m.explained_prob:
-                    return np.where(self._excluded, -np.inf, 0.0)
-            if strong_cells is None:
-                like = 1.0 - (1.0 - self.false_alarm(k)) * (1.0 - k_cells) * miss_known
-            elif level >= 2:
-                like = 1.0 - (1.0 - m.strong_false_alarm_prob) * (1.0 - strong_cells) * miss_known
-            else:
-                like = 1.0 - (1.0 - self.false_alarm(k)) * (1.0 - (k_cells - strong_cells)) \
-                    * miss_known
+            miss_known = self._miss_known(k, x, y)
+            if miss_known <= 1.0 - m.explained_prob:
+                return np.where(self._excluded, -np.inf, 0.0)
+            like, _ = self._detection_like(k, level, k_cells, strong_cells, miss_known)
             out = m.detection_weight * np.log(like)
         return np.where(self._excluded, -np.inf, out)
 
@@ -354,36 +344,42 @@ class SourceMap:
         if not level:
             idx, k_cells, _ = self._kernel_given_meander(k, x, y, False)
             return idx, np.exp(m.nondetection_weight * np.log1p(-k_cells)), 0.0
-        miss_known = 1.0
-        if self.known:
-            kx = np.array([s.x for s in self.known])
-            ky = np.array([s.y for s in self.known])
-            miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
-            if miss_known <= 1.0 - m.explained_prob:
-                return None
+        miss_known = self._miss_known(k, x, y)
+        if miss_known <= 1.0 - m.explained_prob:
+            return None
         idx, k_cells, strong_cells = self._kernel_given_meander(
             k, x, y, self.strong_concentration is not None)
-        if strong_cells is None:
-            eps = self.false_alarm(k)
-            like = 1.0 - (1.0 - eps) * (1.0 - k_cells) * miss_known
-        elif level >= 2:
-            eps = m.strong_false_alarm_prob
-            like = 1.0 - (1.0 - eps) * (1.0 - strong_cells) * miss_known
-        else:
-            eps = self.false_alarm(k)
-            like = 1.0 - (1.0 - eps) * (1.0 - (k_cells - strong_cells)) * miss_known
+        like, eps = self._detection_like(k, level, k_cells, strong_cells, miss_known)
         rest = m.detection_weight * math.log(1.0 - (1.0 - eps) * miss_known)
         return idx, np.exp(m.detection_weight * np.log(like)), rest
+
+    def _miss_known(self, k: int, x: float, y: float) -> float:
+        """``1 - q``: the chance that no declared source's plume causes a detection at
+        ``(x, y)`` on cycle ``k`` (1 with none declared)."""
+        if not self.known:
+            return 1.0
+        kx = np.array([s.x for s in self.known])
+        ky = np.array([s.y for s in self.known])
+        return float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
+
+    def _detection_like(self, k: int, level: int, k_cells: Array, strong_cells: Array | None,
+                        miss_known: float) -> tuple[Array, float]:
+        """A detection's likelihood per cell (or per state and cell) and its false-alarm
+        chance: one level, or a strong (``level`` 2) or weak one of the two-level model."""
+        if strong_cells is None:
+            eps = self.false_alarm(k)
+            return 1.0 - (1.0 - eps) * (1.0 - k_cells) * miss_known, eps
+        if level >= 2:
+            eps = self.model.strong_false_alarm_prob
+            return 1.0 - (1.0 - eps) * (1.0 - strong_cells) * miss_known, eps
+        eps = self.false_alarm(k)
+        return 1.0 - (1.0 - eps) * (1.0 - (k_cells - strong_cells)) * miss_known, eps
 
     def explained_by_known(self, k: int, x: float, y: float) -> bool:
         """Whether the declared sources' plumes would cause a detection at ``(x, y)`` on cycle
         ``k`` with at least ``explained_prob``."""
-        if not self.known:
-            return False
-        kx = np.array([s.x for s in self.known])
-        ky = np.array([s.y for s in self.known])
-        miss_known = float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
-        return miss_known <= 1.0 - self.model.explained_prob
+        return bool(self.known) and \
+            self._miss_known(k, x, y) <= 1.0 - self.model.explained_prob
 
     def expected_detection(self, source: Point, x: float, y: float) -> float:
         """``K(source; (x, y))`` on the latest cycle: how likely a detection there is now."""
