@@ -306,15 +306,14 @@ class World:
         mean = float(np.hypot(*self.flow.mean_velocity))
         diagonal = math.hypot(xmax - xmin, ymax - ymin)
         crossing = diagonal / max(mean, 1e-3)
-        if crossing > DEFAULT_WARM_UP_CAP_S:
-            if (mean, diagonal) in _CAP_WARNED:  # once per setting and process, not per group
-                return DEFAULT_WARM_UP_CAP_S
+        if crossing <= DEFAULT_WARM_UP_CAP_S:
+            return crossing
+        if (mean, diagonal) not in _CAP_WARNED:  # once per setting and process, not per group
             _CAP_WARNED.add((mean, diagonal))
             log.warning("plume spin-up capped at %g s: a mean flow of %.3g m/s would take %.3g s "
                         "to cross the %.0f m domain (set environment.warm_up_s to choose)",
                         DEFAULT_WARM_UP_CAP_S, mean, crossing, diagonal)
-            return DEFAULT_WARM_UP_CAP_S
-        return crossing
+        return DEFAULT_WARM_UP_CAP_S
 
     def warm_up(self, seconds: float | None = None) -> None:
         """Spin the flow and plume up (vehicles and sensors frozen, mission time unchanged).

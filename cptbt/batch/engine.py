@@ -255,7 +255,7 @@ def simulate(
         if out.adcp_flow is not None:
             for i in active:
                 planners[i].add_flow(t, float(out.adcp_flow[i, 0]), float(out.adcp_flow[i, 1]))
-        if t + 1e-9 < next_tick and t + TIME_EPS_S < limit:
+        if t + TIME_EPS_S < next_tick and t + TIME_EPS_S < limit:
             return True  # no cycle due; at the time limit one is, on the cycle grid or not
         next_tick += period
         m = len(active)
@@ -373,7 +373,7 @@ def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: 
             fleet.add_samples(active, out.fluorometer[active])
         if out.adcp_flow is not None:
             fleet.add_flows(t, active, out.adcp_flow[active, 0], out.adcp_flow[active, 1])
-        if t + 1e-9 < next_tick and t + TIME_EPS_S < limit:
+        if t + TIME_EPS_S < next_tick and t + TIME_EPS_S < limit:
             return True  # no cycle due; at the time limit one is, on the cycle grid or not
         next_tick += period
         ex, ey = out.nav_xy[active, 0], out.nav_xy[active, 1]
