@@ -318,11 +318,10 @@ class LikelihoodMapDeclare(SourceDeclaration):
     def _accept(self, source: Point) -> None:
         assert self.map is not None
         self.candidate, self.route = None, ()
-        same = [i for i, known in enumerate(self.sources)
-                if self.map.expected_detection(source, known.x, known.y)
-                >= self.params.explained_prob]
-        if same:  # a declared source in this one's plume: the same source, declared short
-            i = same[0]
+        i = next((j for j, known in enumerate(self.sources)
+                  if self.map.expected_detection(source, known.x, known.y)
+                  >= self.params.explained_prob), None)
+        if i is not None:  # a declared source in this one's plume: the same source, short
             self.sources = (*self.sources[:i], source, *self.sources[i + 1:])
             self.superseded += 1
             self._report()

@@ -149,16 +149,12 @@ class OpAreaSafetyFleet(FleetRule):
         """:meth:`OpAreaSafety.decide`, element by element."""
         a = self.context.op_area
         out = np.full(len(p), np.nan)
-        aside = self.homeward[p.ids] & self.home_outside  # the homeward leg leaves on purpose
-        if np.count_nonzero(aside):
-            k = p.ids[aside & running]
-            report = k[self.has_taken[k] & (self.walls[k] != 0)]
-            self.exit_t[report] = p.t
-            self.exit_x[report], self.exit_y[report] = self.taken_x[report], self.taken_y[report]
-            self.exit_walls[report] = self.walls[report]
-            self.has_taken[k] = False
-        running = running & ~aside
-        take = ~running & ~aside
+        take = ~running
+        if self.home_outside:  # the homeward leg leaves the OpArea on purpose: stand aside
+            aside = self.homeward[p.ids]
+            self._hand_back(p.ids[aside & running], p.t)
+            running = running & ~aside
+            take &= ~aside
         take[take] = a.distance_outside_array(p.x[take], p.y[take]) > self.params.trigger_m
         work = running | take
         if not np.count_nonzero(work):
@@ -172,12 +168,7 @@ class OpAreaSafetyFleet(FleetRule):
             self.walls[k] = 0
         release = a.depth_inside_array(x, y) >= self.release
         if np.count_nonzero(release):
-            k = ids[release]
-            report = k[self.has_taken[k] & (self.walls[k] != 0)]
-            self.exit_t[report] = p.t
-            self.exit_x[report], self.exit_y[report] = self.taken_x[report], self.taken_y[report]
-            self.exit_walls[report] = self.walls[report]
-            self.has_taken[k] = False
+            self._hand_back(ids[release], p.t)
         drive = ~release
         if np.count_nonzero(drive):
             k, xd, yd = ids[drive], x[drive], y[drive]
@@ -185,6 +176,15 @@ class OpAreaSafetyFleet(FleetRule):
             gx, gy = a.clamp_array(xd, yd, self.params.inset_m)
             out[pos[drive]] = bearing_deg_array(gx - xd, gy - yd)
         return out
+
+    def _hand_back(self, k: Index, t: float) -> None:
+        """Vehicles ``k`` end their excursion: its walls reported (``oparea_exit``), as
+        :meth:`OpAreaSafety._report`."""
+        report = k[self.has_taken[k] & (self.walls[k] != 0)]
+        self.exit_t[report] = t
+        self.exit_x[report], self.exit_y[report] = self.taken_x[report], self.taken_y[report]
+        self.exit_walls[report] = self.walls[report]
+        self.has_taken[k] = False
 
 
 OpAreaSafety.fleet_rule = OpAreaSafetyFleet
