@@ -27,6 +27,7 @@ from cptbt.angles import unit
 from cptbt.behaviours.declare_source import DeclareParams, SourceDeclaration
 from cptbt.behaviours.map_guided import MapGuidedReacquire, best_target
 from cptbt.behaviours.source_map import SOURCE_MAP_KEY, MapModelParams, SourceMap
+from cptbt.frames import OpArea
 from cptbt.node import BehaviourParams, Contract
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept, Point, SourceBelief
@@ -156,6 +157,22 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     max_sources: int = Field(
         default=1, ge=1, le=20, description="Sources to declare before heading home"
     )
+    upflow_check_m: float | None = Field(
+        default=10.0, gt=0, description="Declare only once the track has passed at least this "
+        "far up-flow of the candidate, within upflow_band_m of the flow line through it; until "
+        "then the vehicle flies there (the OpArea's wall permitting). None: off, m"
+    )
+    upflow_band_m: float = Field(
+        default=5.0, gt=0, description="Half-width across the flow of the up-flow check, m"
+    )
+    upflow_memory_s: float | None = Field(
+        default=None, gt=0, description="Plume seen up-flow of a candidate vetoes it if seen "
+        "within this long (None: since the search for this source began), s"
+    )
+    upflow_timeout_s: float = Field(
+        default=120.0, gt=0, description="A check leg that has not got there after this long "
+        "ends, and the candidate is declared unchecked (counted in declaration_report), s"
+    )
     flyby: bool = Field(
         default=False, description="Verify each declaration with a pass across the flow "
         "down-flow of it (TRO VI)"
@@ -246,7 +263,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
     persistent_state: ClassVar[tuple[str, ...]] = (
         "declared", "heading_home", "map", "sources", "candidate", "route", "route_index",
         "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn", "withdrawn_at",
-        "superseded",
+        "superseded", "check_target", "check_t0", "checks", "unchecked", "vetoed", "veto_t",
+        "search_t0", "track_t", "track_x", "track_y", "track_hit",
         "detections_used", "at_declaration", "search_target", "search_t",
     )
 
@@ -267,6 +285,17 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.withdrawn = 0
         self.withdrawn_at: tuple[Point, ...] = ()
         self.superseded = 0
+        self.check_target: Point | None = None
+        self.check_t0 = math.nan
+        self.checks = 0
+        self.unchecked = 0
+        self.vetoed = 0
+        self.veto_t = -math.inf
+        self.search_t0 = -math.inf
+        self.track_t: list[float] = []
+        self.track_x: list[float] = []
+        self.track_y: list[float] = []
+        self.track_hit: list[bool] = []
         self.detections_used = 0
         self.at_declaration: SourceBelief | None = None
         self.search_target: Point | None = None
@@ -286,13 +315,20 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.bb.declaration_report = {
             "flybys": self.flybys, "withdrawn": self.withdrawn,
             "withdrawn_at": [(q.x, q.y) for q in self.withdrawn_at],
-            "superseded": self.superseded,
+            "superseded": self.superseded, "upflow_checks": self.checks,
+            "unchecked": self.unchecked, "upflow_vetoes": self.vetoed,
         }
 
     def watch(self, p: Percept) -> None:
         """Update the map; run the fly-by's bookkeeping; test the rule; publish the map."""
         assert self.map is not None, "call setup()"
         self.map.observe(p)
+        here = p.pose.point
+        if self.map.detections and math.isfinite(here.x) and math.isfinite(here.y):
+            self.track_t.append(p.t)
+            self.track_x.append(here.x)
+            self.track_y.append(here.y)
+            self.track_hit.append(p.detected and not self._explained(here))
         post = self.map.posterior()
         if self.candidate is not None:
             self._flyby_step(p)
@@ -309,11 +345,73 @@ class LikelihoodMapDeclare(SourceDeclaration):
         peak = self.map.peak(post)
         mass, mean = self.map.mass_and_mean(peak, self.params.radius_m, post)
         if mass < self.params.confidence or not (math.isfinite(mean.x) and math.isfinite(mean.y)):
+            self.check_target = None
+            return
+        if not self._passed_upflow(p, mean):
             return
         if self.params.flyby and p.flow is not None:
             self._start_flyby(p, mean)
         else:
             self._accept(mean)
+
+    def _passed_upflow(self, p: Percept, candidate: Point) -> bool:
+        """The up-flow check (class docstring): True when the candidate may be declared; else
+        aim a check leg (:meth:`decide` flies it) and say no."""
+        u = self.params.upflow_check_m
+        if u is None or p.flow is None or self.context is None:
+            return True
+        fx, fy = unit(p.flow.toward_deg)
+        slack, w = self.params.arrive_radius_m, self.params.upflow_band_m
+        t = np.asarray(self.track_t)
+        dx = np.asarray(self.track_x) - candidate.x
+        dy = np.asarray(self.track_y) - candidate.y
+        upflow, across = -(dx * fx + dy * fy), dy * fx - dx * fy
+        # Plume seen up-flow of the candidate while searching for this source: the map put it
+        # down to a false alarm or another meander (it had ruled that water out), but the source
+        # cannot be down-flow of its own plume. No declaration, nor check leg: the tree searches
+        # on; a crossing made before the latest such detection no longer counts.
+        seen = np.asarray(self.track_hit) & (t > self.search_t0)
+        memory = self.params.upflow_memory_s
+        if memory is not None:
+            seen &= t >= p.t - memory
+        seen &= (upflow > self.params.radius_m) & (np.abs(across) <= w)
+        if bool(np.any(seen)):
+            self.check_target = None
+            newest = float(t[seen].max())
+            if newest > self.veto_t:
+                self.veto_t = newest
+                self.vetoed += 1
+                self._report()
+            return False
+        need = min(u, _room(self.context.op_area, candidate, -fx, -fy) - slack)
+        if need <= slack:  # against the up-flow wall: there is nothing up-flow to look at
+            self.check_target = None
+            return True
+        near = across[(upflow >= need - slack) & (upflow <= 2 * need + slack) & (t > self.veto_t)]
+        area = self.context.op_area
+        ends = [Point(candidate.x - need * fx - s * w * fy, candidate.y - need * fy + s * w * fx)
+                for s in (1.0, -1.0)]
+        # A side whose end lies outside the OpArea has nothing to show: it counts as reached.
+        left = bool(np.any(near >= w - slack)) or not area.contains(ends[0].x, ends[0].y)
+        right = bool(np.any(near <= slack - w)) or not area.contains(ends[1].x, ends[1].y)
+        if left and right:
+            self.check_target = None
+            return True
+        if self.check_target is None:
+            self.check_t0 = p.t
+            self.checks += 1
+            self._report()
+        elif p.t - self.check_t0 >= self.params.upflow_timeout_s:
+            self.check_target = None
+            self.unchecked += 1
+            self._report()
+            return True
+        side = 1 if left else 0
+        if not (left or right):  # neither side yet: the nearer one first
+            here = p.pose.point
+            side = int(here.distance_to(ends[1]) < here.distance_to(ends[0]))
+        self.check_target = ends[side]
+        return False
 
     def _accept(self, source: Point) -> None:
         assert self.map is not None
@@ -327,7 +425,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self._report()
         else:
             self.sources = (*self.sources, source)
-        self.detections_used = self.map.unexplained
+        self.detections_used, self.search_t0 = self.map.unexplained, self.map.t
         self.at_declaration = self.map.belief()
         self.bb.set("source_map_at_declaration", self.at_declaration)
         self.bb.declared_sources = self.sources
@@ -374,7 +472,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         else:
             self.withdrawn += 1
             self.withdrawn_at = (*self.withdrawn_at, self.candidate)
-            self.detections_used = self.map.unexplained
+            self.detections_used, self.search_t0 = self.map.unexplained, self.map.t
             self.candidate, self.route = None, ()
         self._report()
 
@@ -383,6 +481,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
         to the source, then home."""
         if self.candidate is not None and self.route_index < len(self.route):
             return self.command(p.pose.point.bearing_to(self.route[self.route_index]))
+        if self.check_target is not None and self.declared is None:
+            return self.command(p.pose.point.bearing_to(self.check_target))
         if self.sources and self.declared is None:
             return self._search_on(p)
         return super().decide(p)
@@ -410,6 +510,17 @@ class LikelihoodMapDeclare(SourceDeclaration):
         assert self.map is not None
         return any(self.map.expected_detection(s, at.x, at.y) >= self.params.explained_prob
                    for s in self.sources)
+
+
+def _room(area: OpArea, at: Point, dx: float, dy: float) -> float:
+    """How far from ``at`` (inside the OpArea) along the unit direction (dx, dy) the wall is."""
+    room = math.inf
+    for c, d, lo, hi in ((at.x, dx, area.xmin, area.xmax), (at.y, dy, area.ymin, area.ymax)):
+        if d > 1e-12:
+            room = min(room, (hi - c) / d)
+        elif d < -1e-12:
+            room = min(room, (lo - c) / d)
+    return max(room, 0.0)
 
 
 BEHAVIOURS = [

@@ -609,3 +609,106 @@ def test_no_declaration_on_false_alarms_alone_with_a_meander() -> None:
         sweep(node, lambda x, y, rng=rng: float(rng.random() < 0.03), path)
         assert node.declared is None and node.candidate is None, seed
 
+
+
+# -- the up-flow check ------------------------------------------------------------------------
+APPROACH = lawnmower([95, 80, 65, 50, 40, 35, 32])
+"""Rows across the flow that stop 2 m down-flow of the source at (30, 5): never up-flow of it."""
+
+
+def confident_short_of_the_crossing(
+        **kw: object) -> tuple[LikelihoodMapDeclare, TreeHarness, ScriptedPerception, int]:
+    # confidence 0.8: the rows alone make the map that sure, short of the source or not
+    node = LikelihoodMapDeclare(cone_params(**{"confidence": 0.8, **kw}),
+                                namespace=fresh_namespace())
+    plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
+    harness = TreeHarness(node, make_context(AREA))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    t = 0
+    for x, y in APPROACH:  # up to the moment the map is sure and asks for the check
+        harness.tick(script.step(t, x, y, conc=plume(x, y)))
+        t += 1
+        if node.check_target is not None or node.declared is not None:
+            break
+    return node, harness, script, t
+
+
+def fly_check(node: LikelihoodMapDeclare, harness: TreeHarness, script: ScriptedPerception,
+              t: int, plume: Plume, limit: int = 300) -> tuple[int, list[tuple[float, float]]]:
+    """Fly what the node commands (closed loop) until it declares or ``limit`` cycles pass."""
+    x, y = APPROACH[t - 1]
+    vehicle, path = FakeVehicle(x, y), []
+    for _ in range(limit):
+        path.append((vehicle.x, vehicle.y))
+        tk = harness.tick(script.step(t, vehicle.x, vehicle.y, conc=plume(vehicle.x, vehicle.y)))
+        t += 1
+        if node.declared is not None:
+            break
+        vehicle.apply(tk.command, 1.0)
+    return t, path
+
+
+def test_a_confident_map_is_not_declared_before_the_track_crossed_up_flow_of_it() -> None:
+    node, harness, script, t = confident_short_of_the_crossing()
+    assert node.declared is None and node.check_target is not None, "no check leg"
+    assert harness.get("declared_source") is None
+    # the leg's end lies up-flow (−x) of the candidate, off its flow line by the band
+    mass, cand = node.map.mass_and_mean(node.map.peak(), node.params.radius_m)
+    assert mass >= node.params.confidence
+    assert node.check_target.x == pytest.approx(cand.x - node.params.upflow_check_m, abs=0.5)
+    assert abs(node.check_target.y - cand.y) == pytest.approx(node.params.upflow_band_m, abs=0.5)
+    # nothing up-flow: the vehicle crosses the line there on both sides, then declares
+    t, path = fly_check(node, harness, script, t, lambda x, y: 0.0)
+    assert node.declared is not None and node.declared.distance_to(cand) < 2
+    up = [y - cand.y for x, y in path if x <= cand.x - 7]
+    assert min(up) <= -2 and max(up) >= 2
+    report = harness.get("declaration_report")
+    assert report["upflow_checks"] == 1 and report["unchecked"] == 0
+
+
+def test_plume_seen_up_flow_of_the_candidate_vetoes_it_while_it_is_remembered() -> None:
+    for memory in (None, 2.0):
+        node, harness, script, t = confident_short_of_the_crossing(upflow_memory_s=memory)
+        mass, cand = node.map.mass_and_mean(node.map.peak(), node.params.radius_m)
+        for x in np.arange(cand.x - 5, cand.x - 26, -1.5):  # up the flow line: nothing seen
+            harness.tick(script.step(t, float(x), cand.y))
+            t += 1
+        assert node.declared is None and node.vetoed == 0  # on the line, but not across it
+        # plume 15 m up-flow of a candidate the map is still sure of: vetoed, no check leg
+        harness.tick(script.step(t, cand.x - 15, cand.y, conc=1.0))
+        t += 1
+        assert node.vetoed == 1 and node.declared is None and node.check_target is None
+        assert harness.get("declaration_report")["upflow_vetoes"] == 1
+        mass, cand = node.map.mass_and_mean(node.map.peak(), node.params.radius_m)
+        assert mass >= node.params.confidence  # the map alone would have declared it
+        # a crossing with nothing seen: declared once the detection is no longer remembered
+        for y in (cand.y + 6, cand.y - 6, cand.y + 6, cand.y - 6):
+            harness.tick(script.step(t, cand.x - 12, y))
+            t += 1
+        if memory is None:
+            assert node.declared is None and node.vetoed == 1, "the veto was forgotten"
+        else:
+            assert node.declared is not None and node.declared.distance_to(cand) < 1
+
+
+def test_the_check_is_skipped_against_the_up_flow_wall_and_can_be_turned_off() -> None:
+    node = LikelihoodMapDeclare(cone_params(upflow_check_m=None, confidence=0.8),
+                                namespace=fresh_namespace())
+    sweep(node, cone_plume((30.0, 5.0), np.random.default_rng(1)), APPROACH)
+    assert node.declared is not None and node.checks == 0
+    node, _, script, t = confident_short_of_the_crossing()
+    p = script.step(t, 32.0, 40.0)
+    assert not node._passed_upflow(p, Point(30.0, 5.0))  # 30 m from the wall at x = 0
+    assert node._passed_upflow(p, Point(4.0, 5.0))  # 4 m: no room for a check up-flow
+    assert node.check_target is None
+
+
+def test_a_check_leg_that_cannot_get_there_ends_in_time_and_is_reported() -> None:
+    node, harness, script, t = confident_short_of_the_crossing(upflow_timeout_s=20.0)
+    x, y = APPROACH[t - 1]
+    for k in range(25):  # the vehicle is held where it is (a stuck actuator, a safety hold)
+        harness.tick(script.step(t + k, x, y))
+        if node.declared is not None:
+            break
+    assert node.declared is not None and node.unchecked == 1
+    assert harness.get("declaration_report")["unchecked"] == 1
