@@ -88,6 +88,9 @@ class RunSummary:
     declared_sources: list[dict[str, float] | None] = field(default_factory=list)
     flybys: int | None = None
     withdrawn: int | None = None
+    upflow_checks: int | None = None
+    upflow_vetoes: int | None = None
+    unchecked: int | None = None
     closest_approach_m: float | None = None
     T_M: float | None = None
     path_m: float | None = None
@@ -123,7 +126,10 @@ def summarise(
     nearest unmatched true source in ``sources`` (default: ``source`` alone): ``sources_found``
     counts true sources with a declared point within ``success_radius_m`` (default: the
     mission's), ``false_declarations`` the declared points matched to none; ``flybys`` and
-    ``withdrawn`` count a likelihood-map declaration's fly-bys and withdrawn declarations.
+    ``withdrawn`` count a likelihood-map declaration's fly-bys and withdrawn declarations;
+    ``upflow_checks``, ``upflow_vetoes`` and ``unchecked`` its up-flow check legs flown, the
+    candidates vetoed by plume seen up-flow of them, and the declarations made unchecked (a check
+    leg that timed out).
     ``closest_approach_m`` is the vehicle's closest true approach to the true source while the
     AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
     maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before
@@ -209,6 +215,9 @@ def summarise(
         declared_sources=[where(mission, p) for p in declared_all],
         flybys=report.get("flybys"),
         withdrawn=report.get("withdrawn"),
+        upflow_checks=report.get("upflow_checks"),
+        upflow_vetoes=report.get("upflow_vetoes"),
+        unchecked=report.get("unchecked"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
         T_M=_maintain_time(run) if mission.evaluation.criterion == "maintain" else None,
         path_m=path_m,

@@ -204,6 +204,11 @@ def cmd_run(args: argparse.Namespace) -> int:
                   f"{s['false_declarations']} false"
                   + (f"; fly-bys {s['flybys']}, withdrawn {s['withdrawn']}"
                      if s["flybys"] is not None else ""))
+        if s["upflow_checks"] or s["upflow_vetoes"] or s["unchecked"]:
+            print(f"  up-flow check: {s['upflow_checks']} check legs flown, "
+                  f"{s['upflow_vetoes']} candidates vetoed by plume seen up-flow of them"
+                  + (f", {s['unchecked']} declared unchecked (leg timed out)"
+                     if s["unchecked"] else ""))
         if s["criterion"] == "maintain":
             print(f"  first detection {fmt(s['t1'], ' s')}; maintain time T_M "
                   f"{fmt(s['T_M'], ' s')} (AB eq. 3); closest to the source "

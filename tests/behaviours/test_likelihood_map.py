@@ -618,8 +618,8 @@ APPROACH = lawnmower([95, 80, 65, 50, 40, 35, 32])
 
 def confident_short_of_the_crossing(
         **kw: object) -> tuple[LikelihoodMapDeclare, TreeHarness, ScriptedPerception, int]:
-    # confidence 0.8: the rows alone make the map that sure, short of the source or not
-    node = LikelihoodMapDeclare(cone_params(**{"confidence": 0.8, **kw}),
+    # confidence 0.8 within 8 m: the rows alone make the map that sure, short of the source
+    node = LikelihoodMapDeclare(cone_params(**{"confidence": 0.8, "radius_m": 8.0, **kw}),
                                 namespace=fresh_namespace())
     plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
     harness = TreeHarness(node, make_context(AREA))
