@@ -628,7 +628,7 @@ def confident_short_of_the_crossing(
     for x, y in APPROACH:  # up to the moment the map is sure and asks for the check
         harness.tick(script.step(t, x, y, conc=plume(x, y)))
         t += 1
-        if node.check_target is not None or node.declared is not None:
+        if node.upflow.target is not None or node.declared is not None:
             break
     return node, harness, script, t
 
@@ -650,13 +650,13 @@ def fly_check(node: LikelihoodMapDeclare, harness: TreeHarness, script: Scripted
 
 def test_a_confident_map_is_not_declared_before_the_track_crossed_up_flow_of_it() -> None:
     node, harness, script, t = confident_short_of_the_crossing()
-    assert node.declared is None and node.check_target is not None, "no check leg"
+    assert node.declared is None and node.upflow.target is not None, "no check leg"
     assert harness.get("declared_source") is None
     # the leg's end lies up-flow (−x) of the candidate, off its flow line by the band
     mass, cand = node.map.mass_and_mean(node.map.peak(), node.params.radius_m)
     assert mass >= node.params.confidence
-    assert node.check_target.x == pytest.approx(cand.x - node.params.upflow_check_m, abs=0.5)
-    assert abs(node.check_target.y - cand.y) == pytest.approx(node.params.upflow_band_m, abs=0.5)
+    assert node.upflow.target.x == pytest.approx(cand.x - node.params.upflow_check_m, abs=0.5)
+    assert abs(node.upflow.target.y - cand.y) == pytest.approx(node.params.upflow_band_m, abs=0.5)
     # nothing up-flow: the vehicle crosses the line there on both sides, then declares
     t, path = fly_check(node, harness, script, t, lambda x, y: 0.0)
     assert node.declared is not None and node.declared.distance_to(cand) < 2
@@ -673,11 +673,11 @@ def test_plume_seen_up_flow_of_the_candidate_vetoes_it_while_it_is_remembered() 
         for x in np.arange(cand.x - 5, cand.x - 26, -1.5):  # up the flow line: nothing seen
             harness.tick(script.step(t, float(x), cand.y))
             t += 1
-        assert node.declared is None and node.vetoed == 0  # on the line, but not across it
+        assert node.declared is None and node.upflow.vetoes == 0  # on the line, but not across it
         # plume 15 m up-flow of a candidate the map is still sure of: vetoed, no check leg
         harness.tick(script.step(t, cand.x - 15, cand.y, conc=1.0))
         t += 1
-        assert node.vetoed == 1 and node.declared is None and node.check_target is None
+        assert node.upflow.vetoes == 1 and node.declared is None and node.upflow.target is None
         assert harness.get("declaration_report")["upflow_vetoes"] == 1
         mass, cand = node.map.mass_and_mean(node.map.peak(), node.params.radius_m)
         assert mass >= node.params.confidence  # the map alone would have declared it
@@ -686,21 +686,26 @@ def test_plume_seen_up_flow_of_the_candidate_vetoes_it_while_it_is_remembered() 
             harness.tick(script.step(t, cand.x - 12, y))
             t += 1
         if memory is None:
-            assert node.declared is None and node.vetoed == 1, "the veto was forgotten"
+            assert node.declared is None and node.upflow.vetoes == 1, "the veto was forgotten"
         else:
             assert node.declared is not None and node.declared.distance_to(cand) < 1
 
 
-def test_the_check_is_skipped_against_the_up_flow_wall_and_can_be_turned_off() -> None:
+def test_against_the_up_flow_wall_the_crossing_is_sought_at_the_candidate() -> None:
     node = LikelihoodMapDeclare(cone_params(upflow_check_m=None, confidence=0.8),
                                 namespace=fresh_namespace())
     sweep(node, cone_plume((30.0, 5.0), np.random.default_rng(1)), APPROACH)
-    assert node.declared is not None and node.checks == 0
+    assert node.declared is not None and node.upflow.legs == 0  # the check turned off
     node, _, script, t = confident_short_of_the_crossing()
     p = script.step(t, 32.0, 40.0)
     assert not node._passed_upflow(p, Point(30.0, 5.0))  # 30 m from the wall at x = 0
-    assert node._passed_upflow(p, Point(4.0, 5.0))  # 4 m: no room for a check up-flow
-    assert node.check_target is None
+    assert node.upflow.target is not None and node.upflow.target.x == pytest.approx(20.0)
+    # 4 m from the wall: no room for 10 m, the crossing is looked for 1 m up-flow (4 m − slack)
+    assert not node._passed_upflow(p, Point(4.0, 5.0))
+    assert node.upflow.target is not None and node.upflow.target.x == pytest.approx(3.0)
+    for y in (10.0, 0.0):
+        node.upflow.record(t, Point(3.0, y), hit=False)
+    assert node._passed_upflow(p, Point(4.0, 5.0)) and node.upflow.target is None
 
 
 def test_a_check_leg_that_cannot_get_there_ends_in_time_and_is_reported() -> None:
@@ -710,5 +715,5 @@ def test_a_check_leg_that_cannot_get_there_ends_in_time_and_is_reported() -> Non
         harness.tick(script.step(t + k, x, y))
         if node.declared is not None:
             break
-    assert node.declared is not None and node.unchecked == 1
+    assert node.declared is not None and node.upflow.unchecked == 1
     assert harness.get("declaration_report")["unchecked"] == 1

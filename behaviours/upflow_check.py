@@ -1,0 +1,135 @@
+"""The up-flow check a likelihood-map candidate passes before it is declared.
+
+A source map can be sure of a point short of the source: the meander carried the plume off the
+flow estimate's axis while the vehicle's misses ruled out the water up-flow. :class:`UpflowCheck`
+keeps the track since the first detection and answers, for a candidate, whether it may be
+declared (the rule is set out in :class:`~cptbt.behaviours.likelihood.LikelihoodMapDeclare`'s
+docstring, "The up-flow check"); when it may not for want of a crossing, it names the point the
+vehicle should fly to (the *check leg*).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cptbt.angles import unit
+from cptbt.frames import OpArea
+from cptbt.types import Percept, Point
+
+
+def room(area: OpArea, at: Point, dx: float, dy: float) -> float:
+    """How far from ``at`` (inside the OpArea) along the unit direction (dx, dy) the wall is."""
+    out = math.inf
+    for c, d, lo, hi in ((at.x, dx, area.xmin, area.xmax), (at.y, dy, area.ymin, area.ymax)):
+        if d > 1e-12:
+            out = min(out, (hi - c) / d)
+        elif d < -1e-12:
+            out = min(out, (lo - c) / d)
+    return max(out, 0.0)
+
+
+class UpflowCheck:
+    """The track, the check leg under way, and the counts the declaration reports.
+
+    Args:
+        reach_m: how far up-flow of the candidate the crossing must be (and at most twice that).
+        band_m: how far to either side of the candidate's flow line the crossing must reach, and
+            the half-width of the band in which plume seen up-flow vetoes the candidate.
+        veto_beyond_m: plume seen more than this up-flow of the candidate vetoes it.
+        slack_m: how near a point counts as reached.
+        memory_s: plume seen longer ago than this no longer vetoes (None: since :meth:`restart`).
+        timeout_s: a check leg not done after this long ends; the candidate passes, unchecked.
+    """
+
+    def __init__(self, reach_m: float, band_m: float, veto_beyond_m: float, slack_m: float,
+                 memory_s: float | None, timeout_s: float) -> None:
+        self.reach_m, self.band_m, self.veto_beyond_m = reach_m, band_m, veto_beyond_m
+        self.slack_m, self.memory_s, self.timeout_s = slack_m, memory_s, timeout_s
+        self.target: Point | None = None  # the check leg's end, while one is under way
+        self.leg_t0 = math.nan
+        self.legs = 0  # check legs started
+        self.unchecked = 0  # candidates passed because a leg timed out
+        self.vetoes = 0  # vetoing detections met (each counted once)
+        self.veto_t = -math.inf  # time of the latest vetoing detection
+        self.search_t0 = -math.inf  # when the search for the present source began
+        self._t: list[float] = []
+        self._x: list[float] = []
+        self._y: list[float] = []
+        self._hit: list[bool] = []
+
+    def record(self, t: float, at: Point, hit: bool) -> None:
+        """One cycle of the track: where the vehicle was and whether it saw plume no declared
+        source explains."""
+        if math.isfinite(at.x) and math.isfinite(at.y):
+            self._t.append(t)
+            self._x.append(at.x)
+            self._y.append(at.y)
+            self._hit.append(hit)
+
+    def restart(self, t: float) -> None:
+        """A source was declared (or a candidate withdrawn) at ``t``: the search for the next
+        one begins, and only plume seen from now on can veto its candidates."""
+        self.search_t0, self.target = t, None
+
+    def drop(self) -> None:
+        """The map is no longer sure of a candidate: no leg."""
+        self.target = None
+
+    def passed(self, p: Percept, candidate: Point, area: OpArea) -> bool:
+        """True when ``candidate`` may be declared; else False, with :attr:`target` the check
+        leg's end when a crossing is what is missing (None after a veto)."""
+        if p.flow is None:
+            return True
+        fx, fy = unit(p.flow.toward_deg)
+        slack, w = self.slack_m, self.band_m
+        t = np.asarray(self._t)
+        dx = np.asarray(self._x) - candidate.x
+        dy = np.asarray(self._y) - candidate.y
+        upflow, across = -(dx * fx + dy * fy), dy * fx - dx * fy
+        # Plume seen up-flow of the candidate while searching for this source: the map put it
+        # down to a false alarm or another meander (it had ruled that water out), but the source
+        # cannot be down-flow of its own plume. No declaration, nor check leg: the tree searches
+        # on; a crossing made before the latest such detection no longer counts.
+        seen = np.asarray(self._hit, dtype=bool) & (t > self.search_t0)
+        if self.memory_s is not None:
+            seen &= t >= p.t - self.memory_s
+        seen &= (upflow > self.veto_beyond_m) & (np.abs(across) <= w)
+        if bool(np.any(seen)):
+            self.target = None
+            newest = float(t[seen].max())
+            if newest > self.veto_t:
+                self.veto_t = newest
+                self.vetoes += 1
+            return False
+        # Against the up-flow wall the crossing is looked for nearer, at the candidate itself
+        # when there is no room: a map's mass piles up at a wall no evidence reaches.
+        need = max(min(self.reach_m, room(area, candidate, -fx, -fy) - slack), 0.0)
+        near = across[(upflow >= need - slack) & (upflow <= 2 * need + slack) & (t > self.veto_t)]
+        ends = [Point(candidate.x - need * fx - s * w * fy, candidate.y - need * fy + s * w * fx)
+                for s in (1.0, -1.0)]
+        # A side whose end lies outside the OpArea has nothing to show: it counts as reached.
+        left = bool(np.any(near >= w - slack)) or not area.contains(ends[0].x, ends[0].y)
+        right = bool(np.any(near <= slack - w)) or not area.contains(ends[1].x, ends[1].y)
+        if left and right:
+            self.target = None
+            return True
+        if self.target is None:
+            self.leg_t0 = p.t
+            self.legs += 1
+        elif p.t - self.leg_t0 >= self.timeout_s:
+            self.target = None
+            self.unchecked += 1
+            return True
+        side = 1 if left else 0
+        if not (left or right):  # neither side yet: the nearer one first
+            here = p.pose.point
+            side = int(here.distance_to(ends[1]) < here.distance_to(ends[0]))
+        self.target = ends[side]
+        return False
+
+    def report(self) -> dict[str, int]:
+        """The counts for ``declaration_report``."""
+        return {"upflow_checks": self.legs, "unchecked": self.unchecked,
+                "upflow_vetoes": self.vetoes}
