@@ -12,8 +12,8 @@
 Blackboard keys (STYLE 4): the declaration writes ``source_map`` (a
 :class:`~cptbt.types.SourceBelief`, every cycle), ``source_map_at_declaration`` (the belief at the
 latest declaration), ``declared_sources`` (every source declared so far) and
-``declaration_report`` (fly-bys, withdrawals, up-flow checks and vetoes), besides the planner's ``declared_source``;
-map-guided reacquire reads ``source_map``.
+``declaration_report`` (fly-bys, withdrawals, up-flow checks and vetoes), besides the
+planner's ``declared_source``; map-guided reacquire reads ``source_map``.
 """
 
 from __future__ import annotations
