@@ -6,7 +6,9 @@
 
     - ``upflow_cluster`` (TRO IV-D, the mission as shipped), ``recent_box`` and
       ``upflow_spread`` (OMAE v1/v2), each with the TRO cloverleaf reacquire;
-    - ``likelihood_map`` (cloverleaf reacquire; the map with its meander state, the default),
+    - ``likelihood_map`` (cloverleaf reacquire; the map with its meander state and the up-flow
+      check, the default), ``likelihood_map (no up-flow check)`` (the previous default: no
+      check, ``radius_m`` 8),
       ``likelihood_map (detection_weight 0.7)``, ``likelihood_map+flyby``, and
       ``likelihood_map+map_guided`` (map-guided reacquire instead of the cloverleaf);
     - ``likelihood_map (independent cycles)`` and ``(independent cycles; detection_weight
@@ -75,6 +77,9 @@ CONFIGS: dict[str, dict[str, Any]] = {
     "recent_box": {"declare_source.variant": "recent_box"},
     "upflow_spread": {"declare_source.variant": "upflow_spread"},
     "likelihood_map": {"declare_source.variant": "likelihood_map"},
+    "likelihood_map (no up-flow check)": {"declare_source.variant": "likelihood_map",
+                                          "declare_source.upflow_check_m": None,
+                                          "declare_source.radius_m": 8.0},
     "likelihood_map (detection_weight 0.7)": {"declare_source.variant": "likelihood_map",
                                               "declare_source.detection_weight": 0.7},
     "likelihood_map (independent cycles)": {**INDEPENDENT, "declare_source.detection_weight": 0.3},
@@ -115,8 +120,8 @@ def fly(job: tuple[str, str, dict[str, Any], int, int]) -> dict[str, Any]:
     s = summarise(run, mission, sources[0], seed, wall, sources=sources,
                   success_radius_m=FALSE_M).to_dict()
     keep = ("outcome", "error_m", "t3", "T_D", "D3", "sources_true", "sources_declared",
-            "sources_found", "false_declarations", "flybys", "withdrawn", "sim_time_s",
-            "wall_time_s")
+            "sources_found", "false_declarations", "flybys", "withdrawn", "upflow_checks",
+            "upflow_vetoes", "unchecked", "sim_time_s", "wall_time_s")
     return {"study": study, "replicate": r, **{k: s[k] for k in keep}}
 
 
@@ -134,8 +139,8 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
     base = by["upflow_cluster"]
     out = [f"| rule (MSN007, up to N = {n} paired) | N | declared | false (> 15 m) | error "
            "median / p95 / max (m) | T_D share (mean) | D3 mean (m) | D3 paired change vs "
-           "upflow_cluster | fly-bys / withdrawn |",
-           "|---|---|---|---|---|---|---|---|---|"]
+           "upflow_cluster | fly-bys / withdrawn | up-flow check legs / vetoes / unchecked |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for name, runs in by.items():
         got = list(runs.values())
         if not got:
@@ -152,6 +157,10 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
                     / statistics.fmean([base[k]["D3"] for k in both]) - 1) if both else None
         fly = sum(r["flybys"] or 0 for r in got)
         wd = sum(r["withdrawn"] or 0 for r in got)
+        # rows flown before the up-flow check have no such keys: "—"
+        check = ([sum(r.get(k) or 0 for r in got) for k in ("upflow_checks", "upflow_vetoes",
+                                                           "unchecked")]
+                 if any("upflow_checks" in r for r in got) else None)
         out.append(
             f"| {name} | {len(got)} | {100 * len(dec) / len(got):.1f}% ({len(dec)}/{len(got)}) | "
             f"{false} | "
@@ -160,7 +169,8 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
             f"{_f(statistics.fmean(d3) if d3 else None, '.0f')} | "
             f"{_f(100 * of_means if of_means is not None else None, '+.0f')}% of means, "
             f"{_f(100 * statistics.median(paired) if paired else None, '+.0f')}% median ratio | "
-            f"{fly} / {wd} |"
+            f"{fly} / {wd} | "
+            + (" / ".join(map(str, check)) if check is not None else "—") + " |"
         )
     return out
 

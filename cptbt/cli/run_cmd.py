@@ -205,8 +205,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                   + (f"; fly-bys {s['flybys']}, withdrawn {s['withdrawn']}"
                      if s["flybys"] is not None else ""))
         if s["upflow_checks"] or s["upflow_vetoes"] or s["unchecked"]:
-            print(f"  up-flow check: {s['upflow_checks']} check legs flown, "
-                  f"{s['upflow_vetoes']} candidates vetoed by plume seen up-flow of them"
+            legs, vetoes = s["upflow_checks"] or 0, s["upflow_vetoes"] or 0
+            print(f"  up-flow check: {legs} check leg{'s' * (legs != 1)} flown, {vetoes} "
+                  f"candidate{'s' * (vetoes != 1)} vetoed by plume seen up-flow of them"
                   + (f", {s['unchecked']} declared unchecked (leg timed out)"
                      if s["unchecked"] else ""))
         if s["criterion"] == "maintain":
