@@ -7,13 +7,12 @@
     - ``upflow_cluster`` (TRO IV-D, the mission as shipped), ``recent_box`` and
       ``upflow_spread`` (OMAE v1/v2), each with the TRO cloverleaf reacquire;
     - ``likelihood_map`` (cloverleaf reacquire; the map with its meander state and the up-flow
-      check, the default), ``likelihood_map (no up-flow check)`` (the previous default: no
-      check, ``radius_m`` 8),
-      ``likelihood_map (detection_weight 0.7)``, ``likelihood_map+flyby``, and
-      ``likelihood_map+map_guided`` (map-guided reacquire instead of the cloverleaf);
-    - ``likelihood_map (independent cycles)`` and ``(independent cycles; detection_weight
-      0.5)``: the map and rule before the meander state (``meander_memory_s`` None,
-      non-detections tempered by 0.3), for comparison.
+      check, the default), ``likelihood_map+flyby`` and ``likelihood_map+map_guided``
+      (map-guided reacquire instead of the cloverleaf);
+    - without the up-flow check (``radius_m`` 8, the rule before it): ``likelihood_map (no
+      up-flow check)``, the same with ``detection_weight`` 0.7, and the map before the meander
+      state (``independent cycles``: ``meander_memory_s`` None, non-detections tempered by 0.3,
+      detections by 0.3 or 0.5), for comparison.
 
     Per configuration: declared %, false declarations (error > 15 m), error median / 95th /
     max, mean T_D share of the mission time to declaration (T_D / t3, TRO Table III), mean D3
@@ -67,8 +66,11 @@ TWO = ROOT / "missions/two_sources.yaml"
 FALSE_M = 15.0
 SEED = 2024
 
-INDEPENDENT: dict[str, Any] = {"declare_source.variant": "likelihood_map",
-                               "declare_source.meander_memory_s": None,
+NO_CHECK: dict[str, Any] = {"declare_source.variant": "likelihood_map",
+                            "declare_source.upflow_check_m": None, "declare_source.radius_m": 8.0}
+"""The map's rule before the up-flow check (declaring within 8 m of the peak)."""
+
+INDEPENDENT: dict[str, Any] = {**NO_CHECK, "declare_source.meander_memory_s": None,
                                "declare_source.nondetection_weight": 0.3}
 """The map before the meander state: cycles independent given the source, tempered."""
 
@@ -77,18 +79,17 @@ CONFIGS: dict[str, dict[str, Any]] = {
     "recent_box": {"declare_source.variant": "recent_box"},
     "upflow_spread": {"declare_source.variant": "upflow_spread"},
     "likelihood_map": {"declare_source.variant": "likelihood_map"},
-    "likelihood_map (no up-flow check)": {"declare_source.variant": "likelihood_map",
-                                          "declare_source.upflow_check_m": None,
-                                          "declare_source.radius_m": 8.0},
-    "likelihood_map (detection_weight 0.7)": {"declare_source.variant": "likelihood_map",
-                                              "declare_source.detection_weight": 0.7},
-    "likelihood_map (independent cycles)": {**INDEPENDENT, "declare_source.detection_weight": 0.3},
-    "likelihood_map (independent cycles; detection_weight 0.5)": {
-        **INDEPENDENT, "declare_source.detection_weight": 0.5},
     "likelihood_map+flyby": {"declare_source.variant": "likelihood_map",
                              "declare_source.flyby": True},
     "likelihood_map+map_guided": {"declare_source.variant": "likelihood_map",
                                   "reacquire_plume.variant": "map_guided"},
+    "likelihood_map (no up-flow check)": NO_CHECK,
+    "likelihood_map (no up-flow check; detection_weight 0.7)": {
+        **NO_CHECK, "declare_source.detection_weight": 0.7},
+    "likelihood_map (no up-flow check; independent cycles)": {
+        **INDEPENDENT, "declare_source.detection_weight": 0.3},
+    "likelihood_map (no up-flow check; independent cycles; detection_weight 0.5)": {
+        **INDEPENDENT, "declare_source.detection_weight": 0.5},
 }
 
 
