@@ -82,10 +82,10 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     12 (seed 78): 1, 23.3%; 10 with ``confidence`` 0.85 (seed 78): 1, 23.1%; ``confidence``
     0.85 at 8 m (seed 77): 0, 25.0%. Two sources: one false declaration on each seed before the
     veto remembered plume seen before the map became sure; none in 100 + 100 after (both found in
-    all 200). The check's leg is part of T_D, hence the larger radius. A wider ``mask_radius_m``
-    does not stop one source being declared twice: on tuning seed 77 (replicate 50) the second
-    declaration of a source declared 12.6 m off fell 17.8, 20.6 and 25.2 m from the first with
-    masks of 15, 20 and 25 m. The first point's plume does not explain the detections next to
+    all 200; seed 77 flown with ``radius_m`` 8, seed 78 with 10). The check's leg is part of
+    T_D, hence the larger radius. With 10 m, seed 77's replicate 50 declares one source twice,
+    and a wider ``mask_radius_m`` does not stop that: the second declaration of a source
+    declared 12.6 m off fell 17.8, 20.6 and 25.2 m from the first with masks of 15, 20 and 25 m. The first point's plume does not explain the detections next to
     the true source, and the mass they leave settles just outside the mask; carrying a declared
     source's own uncertainty into the explanation is what it would take.
 
