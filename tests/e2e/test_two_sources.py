@@ -47,10 +47,11 @@ def test_two_source_runs_never_declare_falsely(seed: int) -> None:
 
 @pytest.mark.slow
 def test_two_source_study() -> None:
-    # A guard against regression, not issue 13's target (0 false declarations, missed: 11 in
-    # 200 runs, benchmarks/results/likelihood_map.md). Measured on these 20 seeds with the
-    # meander state and the same-source replacement: 20 runs found both sources, none made a
-    # false declaration (the independent-cycle map: 19 and 1; before it: 14 and 2).
+    # A guard against regression, not issue 13's target (0 false declarations, missed: 5 in
+    # 200 runs with the up-flow check, 11 before it; benchmarks/results/likelihood_map.md).
+    # Measured on these 20 seeds with the up-flow check (and before it, with the meander state
+    # and the same-source replacement): 20 runs found both sources, none made a false
+    # declaration (the independent-cycle map: 19 and 1; before it: 14 and 2).
     runs = [fly(seed) for seed in range(20)]
     assert sum(s["false_declarations"] for s in runs) == 0
     assert sum(s["sources_found"] == 2 for s in runs) >= 19
