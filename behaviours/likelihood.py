@@ -54,21 +54,31 @@ class LikelihoodMapDeclare(SourceDeclaration):
     declarations beyond 15 m lay 19-46 m down-flow of the source). Two tests stand between the
     rule and the declaration, both along the current flow estimate:
 
-    - *crossing*: the track (since the first detection) must have crossed the candidate's flow
-      line between ``upflow_check_m`` and twice that up-flow of it, reaching ``upflow_band_m``
-      to either side (less ``arrive_radius_m``). Until it has, the node drives a *check leg* to
+    - *crossing*: the track (since the search for this source began, and since the latest
+      vetoing detection) must have crossed the candidate's flow line between
+      ``upflow_check_m`` and twice that up-flow of it, reaching ``upflow_band_m`` to either
+      side (less ``arrive_radius_m``). Until it has, the node drives a *check leg* to
       the point that far up-flow and that far to the side not yet reached (the nearer first). A
       side whose point lies outside the OpArea needs no crossing; nearer the up-flow wall than
       that reach (plus ``arrive_radius_m``) the crossing is looked for nearer, at the candidate
       itself against the wall (the map's mass piles up at a wall no evidence reaches). A leg
       that has not got there after ``upflow_timeout_s`` (safety held the vehicle, say) ends,
-      and the candidate is declared unchecked (counted);
+      and the candidate is declared unchecked (counted, as is a candidate declared without a
+      flow direction). A leg is timed and counted once per candidate: a cycle or two of the
+      map dipping below ``confidence`` resumes it (same clock) if the candidate has moved less
+      than ``radius_m``;
     - *veto*: a detection no declared source explains, made since the search for this source
-      began (within ``upflow_memory_s`` if set), lying more than ``radius_m`` up-flow of the
-      candidate and within ``upflow_band_m`` of its line, vetoes it: a source is not down-flow of
+      began (within ``upflow_memory_s`` if set), lying more than ``radius_m`` and at most three
+      times ``upflow_check_m`` up-flow of the candidate and within ``upflow_band_m`` of its
+      line, vetoes it (counted once per run of vetoed cycles): a source is not down-flow of
       its own plume, and the map, having ruled that water out, had put such a detection down to
       a false alarm. No leg is flown; the tree searches on, and crossings made before the latest
-      vetoing detection no longer count.
+      vetoing detection no longer count. A veto lasts while the map stays sure of that
+      candidate: with the default ``upflow_memory_s`` (none), a single false alarm in that band
+      holds a correct candidate back for the rest of this source's search (the simulator has
+      no false alarms; a sensor that has them wants a finite memory), and a reversed flow turns
+      the plume already seen into such detections (tidal water: set the memory shorter than
+      the tide's turn).
 
     The checks and vetoes are counted in ``declaration_report`` and the run's summary.
 

@@ -85,9 +85,10 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     all 200; seed 77 flown with ``radius_m`` 8, seed 78 with 10). The check's leg is part of
     T_D, hence the larger radius. With 10 m, seed 77's replicate 50 declares one source twice,
     and a wider ``mask_radius_m`` does not stop that: the second declaration of a source
-    declared 12.6 m off fell 17.8, 20.6 and 25.2 m from the first with masks of 15, 20 and 25 m. The first point's plume does not explain the detections next to
-    the true source, and the mass they leave settles just outside the mask; carrying a declared
-    source's own uncertainty into the explanation is what it would take.
+    declared 12.6 m off fell 17.8, 20.6 and 25.2 m from the first with masks of 15, 20 and
+    25 m. The first point's plume does not explain the detections next to the true source, and
+    the mass they leave settles just outside the mask; carrying a declared source's own
+    uncertainty into the explanation is what it would take.
 
     The independent-cycle model's own tuning (``meander_memory_s`` None): with the sharper
     model a run of correlated detections made the map confident on the first approach, some
@@ -158,12 +159,15 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=1, ge=1, le=20, description="Sources to declare before heading home"
     )
     upflow_check_m: float | None = Field(
-        default=10.0, gt=0, description="Declare only once the track has passed at least this "
-        "far up-flow of the candidate, within upflow_band_m of the flow line through it; until "
-        "then the vehicle flies there (the OpArea's wall permitting). None: off, m"
+        default=10.0, gt=0, description="The up-flow check's reach: declare only once the track "
+        "(since this source's search began) has crossed the candidate's flow line between this "
+        "and twice this up-flow of it, reaching upflow_band_m to both sides; until then the "
+        "vehicle flies there. Plume seen between radius_m and three times this up-flow of the "
+        "candidate, within upflow_band_m of its line, vetoes it. None: no check, m"
     )
     upflow_band_m: float = Field(
-        default=5.0, gt=0, description="Half-width across the flow of the up-flow check, m"
+        default=5.0, gt=0, description="How far to each side of the candidate's flow line the "
+        "crossing must reach, and the half-width of the band in which plume vetoes it, m"
     )
     upflow_memory_s: float | None = Field(
         default=None, gt=0, description="Plume seen up-flow of a candidate vetoes it if seen "

@@ -37,7 +37,8 @@ class UpflowCheck:
         reach_m: how far up-flow of the candidate the crossing must be (and at most twice that).
         band_m: how far to either side of the candidate's flow line the crossing must reach, and
             the half-width of the band in which plume seen up-flow vetoes the candidate.
-        veto_beyond_m: plume seen more than this up-flow of the candidate vetoes it.
+        veto_beyond_m: plume seen more than this up-flow of the candidate (and no more than three
+            times ``reach_m``) vetoes it.
         slack_m: how near a point counts as reached.
         memory_s: plume seen longer ago than this no longer vetoes (None: since :meth:`restart`).
         timeout_s: a check leg not done after this long ends; the candidate passes, unchecked.
@@ -49,9 +50,11 @@ class UpflowCheck:
         self.slack_m, self.memory_s, self.timeout_s = slack_m, memory_s, timeout_s
         self.target: Point | None = None  # the check leg's end, while one is under way
         self.leg_t0 = math.nan
+        self.leg_for: Point | None = None  # the candidate the leg under way checks
         self.legs = 0  # check legs started
-        self.unchecked = 0  # candidates passed because a leg timed out
-        self.vetoes = 0  # vetoing detections met (each counted once)
+        self.unchecked = 0  # candidates passed unchecked (a leg timed out, no flow estimate)
+        self.vetoes = 0  # candidates vetoed (a run of cycles vetoed counts once)
+        self.vetoing = False  # the last test was a veto
         self.veto_t = -math.inf  # time of the latest vetoing detection
         self.search_t0 = -math.inf  # when the search for the present source began
         self._t: list[float] = []
@@ -70,17 +73,21 @@ class UpflowCheck:
 
     def restart(self, t: float) -> None:
         """A source was declared (or a candidate withdrawn) at ``t``: the search for the next
-        one begins, and only plume seen from now on can veto its candidates."""
-        self.search_t0, self.target = t, None
+        one begins; only the track and plume seen from now on count for its candidates."""
+        self.search_t0, self.target, self.leg_for, self.vetoing = t, None, None, False
 
     def drop(self) -> None:
-        """The map is no longer sure of a candidate: no leg."""
-        self.target = None
+        """The map is not sure of a candidate this cycle: no leg is flown. A leg under way is
+        taken up again (same count, same clock) if the map is sure again of a candidate within
+        ``veto_beyond_m`` of it: a one-cycle dip of confidence is not a new leg."""
+        self.target, self.vetoing = None, False
 
     def passed(self, p: Percept, candidate: Point, area: OpArea) -> bool:
         """True when ``candidate`` may be declared; else False, with :attr:`target` the check
         leg's end when a crossing is what is missing (None after a veto)."""
-        if p.flow is None:
+        if p.flow is None or math.hypot(p.flow.vx, p.flow.vy) < 1e-9:
+            self.unchecked += 1  # no direction to call up-flow: declared unchecked, counted
+            self.target, self.leg_for = None, None
             return True
         fx, fy = unit(p.flow.toward_deg)
         slack, w = self.slack_m, self.band_m
@@ -95,33 +102,36 @@ class UpflowCheck:
         seen = np.asarray(self._hit, dtype=bool) & (t > self.search_t0)
         if self.memory_s is not None:
             seen &= t >= p.t - self.memory_s
-        seen &= (upflow > self.veto_beyond_m) & (np.abs(across) <= w)
+        seen &= (upflow > self.veto_beyond_m) & (upflow <= 3 * self.reach_m)
+        seen &= np.abs(across) <= w
         if bool(np.any(seen)):
-            self.target = None
-            newest = float(t[seen].max())
-            if newest > self.veto_t:
-                self.veto_t = newest
-                self.vetoes += 1
+            self.target, self.leg_for = None, None
+            self.veto_t = max(self.veto_t, float(t[seen].max()))
+            self.vetoes += int(not self.vetoing)
+            self.vetoing = True
             return False
+        self.vetoing = False
         # Against the up-flow wall the crossing is looked for nearer, at the candidate itself
         # when there is no room: a map's mass piles up at a wall no evidence reaches.
         need = max(min(self.reach_m, room(area, candidate, -fx, -fy) - slack), 0.0)
-        near = across[(upflow >= need - slack) & (upflow <= 2 * need + slack) & (t > self.veto_t)]
+        near = across[(upflow >= need - slack) & (upflow <= 2 * need + slack)
+                      & (t > max(self.veto_t, self.search_t0))]
         ends = [Point(candidate.x - need * fx - s * w * fy, candidate.y - need * fy + s * w * fx)
                 for s in (1.0, -1.0)]
         # A side whose end lies outside the OpArea has nothing to show: it counts as reached.
         left = bool(np.any(near >= w - slack)) or not area.contains(ends[0].x, ends[0].y)
         right = bool(np.any(near <= slack - w)) or not area.contains(ends[1].x, ends[1].y)
         if left and right:
-            self.target = None
+            self.target, self.leg_for = None, None
             return True
-        if self.target is None:
+        if self.leg_for is None or self.leg_for.distance_to(candidate) > self.veto_beyond_m:
             self.leg_t0 = p.t
             self.legs += 1
         elif p.t - self.leg_t0 >= self.timeout_s:
-            self.target = None
+            self.target, self.leg_for = None, None
             self.unchecked += 1
             return True
+        self.leg_for = candidate
         side = 1 if left else 0
         if not (left or right):  # neither side yet: the nearer one first
             here = p.pose.point

@@ -1,0 +1,104 @@
+"""The up-flow check alone (:class:`cptbt.behaviours.upflow_check.UpflowCheck`), cycle by cycle.
+
+The flow goes toward +x, so up-flow is −x; the candidate sits at (50, 0) in a 100 × 100 m area.
+"""
+
+from __future__ import annotations
+
+from cptbt.behaviours.upflow_check import UpflowCheck, room
+from cptbt.testing import ScriptedPerception, square_area
+from cptbt.types import Percept, Point
+
+AREA = square_area(100.0)  # x 0..100, y -50..50
+CAND = Point(50.0, 0.0)
+
+
+def check(**kw: float | None) -> UpflowCheck:
+    args: dict[str, float | None] = {"reach_m": 10.0, "band_m": 5.0, "veto_beyond_m": 10.0,
+                                     "slack_m": 3.0, "memory_s": None, "timeout_s": 120.0}
+    return UpflowCheck(**{**args, **kw})  # type: ignore[arg-type]
+
+
+def at(script: ScriptedPerception, t: float, x: float = 70.0, y: float = 0.0,
+       flow: tuple[float, float] = (0.2, 0.0)) -> Percept:
+    return script.step(t, x, y, flow=flow)
+
+
+def test_the_wall_is_found_along_any_direction() -> None:
+    assert room(AREA, Point(50, 0), -1.0, 0.0) == 50.0
+    assert room(AREA, Point(50, 0), 0.0, 1.0) == 50.0
+    assert room(AREA, Point(90, 40), 0.6, 0.8) == 12.5
+
+
+def test_a_crossing_on_both_sides_between_one_and_two_reaches_up_flow_passes() -> None:
+    c, s = check(), ScriptedPerception(AREA)
+    assert not c.passed(at(s, 0), CAND, AREA) and c.legs == 1
+    assert c.target is not None and c.target.x == 40.0 and abs(c.target.y) == 5.0
+    c.record(1, Point(38, 4), hit=False)  # one side, 12 m up-flow
+    assert not c.passed(at(s, 1), CAND, AREA)
+    assert c.target is not None and c.target.y == -5.0  # now the other side
+    c.record(2, Point(25, -4), hit=False)  # 25 m up-flow: beyond twice the reach, no count
+    assert not c.passed(at(s, 2), CAND, AREA)
+    c.record(3, Point(38, -4), hit=False)
+    assert c.passed(at(s, 3), CAND, AREA) and c.target is None
+    assert c.report() == {"upflow_checks": 1, "unchecked": 0, "upflow_vetoes": 0}
+
+
+def test_a_one_cycle_dip_of_confidence_is_not_a_new_leg_and_keeps_the_clock() -> None:
+    c, s = check(timeout_s=30.0), ScriptedPerception(AREA)
+    for t in range(0, 32, 2):  # the candidate drifting a little, as a map's mean does
+        assert c.passed(at(s, t), Point(50.0 + 0.1 * t, 0.0), AREA) == (t >= 30)
+        c.drop()  # the map unsure for a cycle between each test
+    assert c.legs == 1 and c.unchecked == 1  # one leg, timed out at 30 s
+
+
+def test_a_candidate_elsewhere_is_a_new_leg() -> None:
+    c, s = check(), ScriptedPerception(AREA)
+    c.passed(at(s, 0), CAND, AREA)
+    c.passed(at(s, 1), Point(20.0, 30.0), AREA)
+    assert c.legs == 2
+
+
+def test_plume_up_flow_vetoes_counting_candidates_not_detections() -> None:
+    c, s = check(), ScriptedPerception(AREA)
+    for t, x in enumerate((35.0, 33.0, 31.0)):  # three detections 15-19 m up-flow, on the line
+        c.record(t, Point(x, 1.0), hit=True)
+        assert not c.passed(at(s, t), CAND, AREA) and c.target is None
+    assert c.vetoes == 1
+    c.drop()
+    c.record(3, Point(30.0, 0.0), hit=True)
+    assert not c.passed(at(s, 3), CAND, AREA) and c.vetoes == 2  # a new episode
+    # a crossing made before the latest vetoing detection does not count; one after does
+    for t, y in ((4, 4.0), (5, -4.0)):
+        c.record(t, Point(38.0, y), hit=False)
+    assert not c.passed(at(s, 6), CAND, AREA)  # the detections are still remembered
+
+
+def test_the_veto_reaches_three_reaches_up_flow_and_is_forgotten_after_its_memory() -> None:
+    far, s = check(), ScriptedPerception(AREA)
+    far.record(0, Point(15.0, 0.0), hit=True)  # 35 m up-flow: beyond 3 × 10 m
+    for t, y in ((1, 4.0), (2, -4.0)):
+        far.record(t, Point(38.0, y), hit=False)
+    assert far.passed(at(s, 3), CAND, AREA) and far.vetoes == 0
+    short = check(memory_s=5.0)
+    short.record(0, Point(30.0, 0.0), hit=True)
+    assert not short.passed(at(s, 1), CAND, AREA)
+    for t, y in ((7, 4.0), (8, -4.0)):
+        short.record(t, Point(38.0, y), hit=False)
+    assert short.passed(at(s, 9), CAND, AREA)  # 9 s old: forgotten
+
+
+def test_a_new_search_starts_from_a_clean_track() -> None:
+    c, s = check(), ScriptedPerception(AREA)
+    c.record(0, Point(30.0, 0.0), hit=True)  # the previous source's plume
+    for t, y in ((1, 4.0), (2, -4.0)):
+        c.record(t, Point(38.0, y), hit=False)
+    c.restart(5.0)
+    assert not c.passed(at(s, 6), CAND, AREA) and c.vetoes == 0  # no veto, but no crossing
+    assert c.target is not None
+
+
+def test_without_a_flow_direction_the_candidate_passes_unchecked_and_is_counted() -> None:
+    c, s = check(), ScriptedPerception(AREA)
+    assert c.passed(at(s, 0, flow=(0.0, 0.0)), CAND, AREA)
+    assert c.unchecked == 1 and c.target is None
