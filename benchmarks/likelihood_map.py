@@ -158,10 +158,10 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
                     / statistics.fmean([base[k]["D3"] for k in both]) - 1) if both else None
         fly = sum(r["flybys"] or 0 for r in got)
         wd = sum(r["withdrawn"] or 0 for r in got)
-        # rows flown before the up-flow check have no such keys: "—"
+        # rules without the check (and rows flown before it) have none: "—"
         check = ([sum(r.get(k) or 0 for r in got) for k in ("upflow_checks", "upflow_vetoes",
                                                            "unchecked")]
-                 if any("upflow_checks" in r for r in got) else None)
+                 if any(r.get("upflow_checks") is not None for r in got) else None)
         out.append(
             f"| {name} | {len(got)} | {100 * len(dec) / len(got):.1f}% ({len(dec)}/{len(got)}) | "
             f"{false} | "
