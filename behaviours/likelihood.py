@@ -110,10 +110,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     Readings chosen: the declaration time is the confirmation's (the fly-by is part of
     declaring); the map, the fly-by and the declarations persist across pre-emption; two
     sources one in the other's plume (within reach of ``explained_prob``) are one source; the
-    up-flow check is part of declaring (its leg counts in T_D) and measures "up-flow" along the
-    current flow estimate, for the track and the detections alike (a flow that has turned since
-    a detection was made moves it relative to the candidate; ``upflow_memory_s`` bounds how old
-    a vetoing detection may be, for tidal reversals).
+    up-flow check is part of declaring (its leg counts in T_D).
     """
 
     variant: ClassVar[str] = "likelihood_map"
@@ -206,10 +203,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
         """The up-flow check (class docstring); counts it in the report."""
         if self.params.upflow_check_m is None or self.context is None:
             return True
-        before = self.upflow.report()
         passed = self.upflow.passed(p, candidate, self.context.op_area)
-        if self.upflow.report() != before:
-            self._report()
+        self._report()
         return passed
 
     def _accept(self, source: Point) -> None:

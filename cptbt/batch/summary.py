@@ -129,7 +129,7 @@ def summarise(
     ``withdrawn`` count a likelihood-map declaration's fly-bys and withdrawn declarations;
     ``upflow_checks``, ``upflow_vetoes`` and ``unchecked`` its up-flow check legs flown, the
     candidates vetoed by plume seen up-flow of them, and the declarations made unchecked (a check
-    leg that timed out).
+    leg that timed out, or no flow direction to check along).
     ``closest_approach_m`` is the vehicle's closest true approach to the true source while the
     AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
     maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before

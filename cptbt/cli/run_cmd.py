@@ -208,7 +208,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             legs, vetoes = s["upflow_checks"] or 0, s["upflow_vetoes"] or 0
             print(f"  up-flow check: {legs} check leg{'s' * (legs != 1)} flown, {vetoes} "
                   f"candidate{'s' * (vetoes != 1)} vetoed by plume seen up-flow of them"
-                  + (f", {s['unchecked']} declared unchecked (leg timed out)"
+                  + (f", {s['unchecked']} declared unchecked (a leg timed out, or no flow "
+                     "direction)"
                      if s["unchecked"] else ""))
         if s["criterion"] == "maintain":
             print(f"  first detection {fmt(s['t1'], ' s')}; maintain time T_M "
