@@ -105,12 +105,20 @@ class LikelihoodMapDeclare(SourceDeclaration):
     one's plume, so it was the same source declared short on the approach, whose detections
     farther up-flow it could not explain. On tuning replicates (two-source mission, root seeds
     77 and 78, 200 runs) this was the mode of 5 of the 6 false declarations, each a second
-    declaration 15-18 m up-flow of the first, just outside the 15-m mask.
+    declaration 15-18 m up-flow of the first, just outside the 15-m mask. So is a declaration
+    within ``same_source_m`` (25 m) of a declared source, wherever it lies: a source declared
+    up to ~12 m off leaves detections next to the true one that its plume does not explain,
+    and their mass settles just outside the mask (the two-source study's remaining double
+    declarations fell 15.5-17.8 m from the first point; a wider mask only moves them to its
+    edge). Either way the later point replaces the earlier in ``declared_sources`` (it was
+    made from what the earlier one left unexplained), and both go on explaining that
+    source's plume in the map, so the search moves on to plume neither explains.
 
     Readings chosen: the declaration time is the confirmation's (the fly-by is part of
     declaring); the map, the fly-by and the declarations persist across pre-emption; two
-    sources one in the other's plume (within reach of ``explained_prob``) are one source; the
-    up-flow check is part of declaring (its leg counts in T_D).
+    sources one in the other's plume (within reach of ``explained_prob``), or closer than
+    ``same_source_m``, are one source; the up-flow check is part of declaring (its leg counts
+    in T_D).
     """
 
     variant: ClassVar[str] = "likelihood_map"
@@ -118,9 +126,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
     params: LikelihoodMapParams
     contract: ClassVar[Contract] = Contract(check=radius_fits_grid)
     persistent_state: ClassVar[tuple[str, ...]] = (
-        "declared", "heading_home", "map", "sources", "candidate", "route", "route_index",
-        "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn", "withdrawn_at",
-        "superseded", "upflow",
+        "declared", "heading_home", "map", "sources", "explainers", "candidate", "route",
+        "route_index", "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn",
+        "withdrawn_at", "superseded", "upflow",
         "detections_used", "at_declaration", "search_target", "search_t",
     )
 
@@ -131,6 +139,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.bb.register_key(key, access=Access.WRITE)
         self.map: SourceMap | None = None
         self.sources: tuple[Point, ...] = ()
+        self.explainers: tuple[Point, ...] = ()  # declared and superseded points
         self.candidate: Point | None = None
         self.route: tuple[Point, ...] = ()
         self.route_index = 0
@@ -144,7 +153,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.upflow = UpflowCheck(
             self.params.upflow_check_m or 0.0, self.params.upflow_band_m, self.params.radius_m,
             self.params.arrive_radius_m, self.params.upflow_memory_s,
-            self.params.upflow_timeout_s)
+            self.params.upflow_timeout_s, self.params.upflow_fan_deg)
         self.detections_used = 0
         self.at_declaration: SourceBelief | None = None
         self.search_target: Point | None = None
@@ -210,15 +219,14 @@ class LikelihoodMapDeclare(SourceDeclaration):
     def _accept(self, source: Point) -> None:
         assert self.map is not None
         self.candidate, self.route = None, ()
-        i = next((j for j, known in enumerate(self.sources)
-                  if self.map.expected_detection(source, known.x, known.y)
-                  >= self.params.explained_prob), None)
-        if i is not None:  # a declared source in this one's plume: the same source, short
+        i = next((j for j, known in enumerate(self.sources) if self._same(source, known)), None)
+        if i is not None:  # the same source again: the later point replaces the earlier
             self.sources = (*self.sources[:i], source, *self.sources[i + 1:])
             self.superseded += 1
             self._report()
         else:
             self.sources = (*self.sources, source)
+        self.explainers = (*self.explainers, source)
         self.detections_used = self.map.unexplained
         self.upflow.restart(self.map.t)
         self.at_declaration = self.map.belief()
@@ -228,7 +236,16 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.declared = source
             self.bb.declared_source = source
         else:
-            self.map.explain(self.sources)
+            self.map.explain(self.explainers)
+
+    def _same(self, source: Point, known: Point) -> bool:
+        """Whether a new declaration at ``source`` is the declared ``known`` again: within
+        ``same_source_m`` of it, or ``known`` in its plume (class docstring)."""
+        assert self.map is not None
+        near = self.params.same_source_m
+        return ((near is not None and source.distance_to(known) < near)
+                or self.map.expected_detection(source, known.x, known.y)
+                >= self.params.explained_prob)
 
     # -- fly-by ---------------------------------------------------------------------------
     def _start_flyby(self, p: Percept, candidate: Point) -> None:
@@ -305,7 +322,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     def _explained(self, at: Point) -> bool:
         assert self.map is not None
         return any(self.map.expected_detection(s, at.x, at.y) >= self.params.explained_prob
-                   for s in self.sources)
+                   for s in self.explainers)
 
 
 BEHAVIOURS = [

@@ -158,6 +158,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     max_sources: int = Field(
         default=1, ge=1, le=20, description="Sources to declare before heading home"
     )
+    same_source_m: float | None = Field(
+        default=25.0, gt=0, description="A declaration within this of a declared source is that "
+        "source again: it replaces it (superseded), and both points go on explaining its plume "
+        "(None: only a declared source in the new one's plume is the same source), m"
+    )
     upflow_check_m: float | None = Field(
         default=10.0, gt=0, description="The up-flow check's reach: declare only once the track "
         "(since this source's search began) has crossed the candidate's flow line between this "
@@ -168,6 +173,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     upflow_band_m: float = Field(
         default=5.0, gt=0, description="How far to each side of the candidate's flow line the "
         "crossing must reach, and the half-width of the band in which plume vetoes it, m"
+    )
+    upflow_fan_deg: float = Field(
+        default=0.0, ge=0, le=60, description="The band widens up-flow by tan(this) per metre "
+        "(the flow estimate's direction error): at a up-flow of the candidate its half-width is "
+        "upflow_band_m + a·tan(upflow_fan_deg), deg"
     )
     upflow_memory_s: float | None = Field(
         default=None, gt=0, description="Plume seen up-flow of a candidate vetoes it if seen "

@@ -42,11 +42,14 @@ class UpflowCheck:
         slack_m: how near a point counts as reached.
         memory_s: plume seen longer ago than this no longer vetoes (None: since :meth:`restart`).
         timeout_s: a check leg not done after this long ends; the candidate passes, unchecked.
+        fan_deg: the band widens up-flow by ``tan(fan_deg)`` per metre (the flow estimate's
+            direction error): at ``a`` up-flow its half-width is ``band_m + a · tan(fan_deg)``.
     """
 
     def __init__(self, reach_m: float, band_m: float, veto_beyond_m: float, slack_m: float,
-                 memory_s: float | None, timeout_s: float) -> None:
+                 memory_s: float | None, timeout_s: float, fan_deg: float = 0.0) -> None:
         self.reach_m, self.band_m, self.veto_beyond_m = reach_m, band_m, veto_beyond_m
+        self.fan = math.tan(math.radians(fan_deg))
         self.slack_m, self.memory_s, self.timeout_s = slack_m, memory_s, timeout_s
         self.target: Point | None = None  # the check leg's end, while one is under way
         self.leg_t0 = math.nan
@@ -102,8 +105,9 @@ class UpflowCheck:
         seen = np.asarray(self._hit, dtype=bool) & (t > self.search_t0)
         if self.memory_s is not None:
             seen &= t >= p.t - self.memory_s
+        half = w + np.maximum(upflow, 0.0) * self.fan  # the band's half-width there
         seen &= (upflow > self.veto_beyond_m) & (upflow <= 3 * self.reach_m)
-        seen &= np.abs(across) <= w
+        seen &= np.abs(across) <= half
         if bool(np.any(seen)):
             self.target, self.leg_for = None, None
             self.veto_t = max(self.veto_t, float(t[seen].max()))
@@ -114,13 +118,15 @@ class UpflowCheck:
         # Against the up-flow wall the crossing is looked for nearer, at the candidate itself
         # when there is no room: a map's mass piles up at a wall no evidence reaches.
         need = max(min(self.reach_m, room(area, candidate, -fx, -fy) - slack), 0.0)
-        near = across[(upflow >= need - slack) & (upflow <= 2 * need + slack)
-                      & (t > max(self.veto_t, self.search_t0))]
-        ends = [Point(candidate.x - need * fx - s * w * fy, candidate.y - need * fy + s * w * fx)
+        window = ((upflow >= need - slack) & (upflow <= 2 * need + slack)
+                  & (t > max(self.veto_t, self.search_t0)))
+        near, reach = across[window], half[window] - slack
+        wn = w + need * self.fan
+        ends = [Point(candidate.x - need * fx - s * wn * fy, candidate.y - need * fy + s * wn * fx)
                 for s in (1.0, -1.0)]
         # A side whose end lies outside the OpArea has nothing to show: it counts as reached.
-        left = bool(np.any(near >= w - slack)) or not area.contains(ends[0].x, ends[0].y)
-        right = bool(np.any(near <= slack - w)) or not area.contains(ends[1].x, ends[1].y)
+        left = bool(np.any(near >= reach)) or not area.contains(ends[0].x, ends[0].y)
+        right = bool(np.any(near <= -reach)) or not area.contains(ends[1].x, ends[1].y)
         if left and right:
             self.target, self.leg_for = None, None
             return True

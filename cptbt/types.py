@@ -141,7 +141,8 @@ class SourceBelief:
         xs: cell-centre x coordinates (nx,), planning metres.
         ys: cell-centre y coordinates (ny,), planning metres.
         posterior: probability of each cell (ny, nx), summing to 1 (read-only array).
-        declared: sources declared so far (their plumes are explained away in the belief).
+        declared: points whose plumes are explained away in the belief: the sources declared
+            so far and any earlier declarations of the same sources they replaced.
         explored: cells the vehicle has passed near (ny, nx), or None.
     """
 

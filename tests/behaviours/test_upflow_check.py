@@ -5,6 +5,10 @@ The flow goes toward +x, so up-flow is −x; the candidate sits at (50, 0) in a 
 
 from __future__ import annotations
 
+import math
+
+import pytest
+
 from cptbt.behaviours.upflow_check import UpflowCheck, room
 from cptbt.testing import ScriptedPerception, square_area
 from cptbt.types import Percept, Point
@@ -102,3 +106,28 @@ def test_without_a_flow_direction_the_candidate_passes_unchecked_and_is_counted(
     c, s = check(), ScriptedPerception(AREA)
     assert c.passed(at(s, 0, flow=(0.0, 0.0)), CAND, AREA)
     assert c.unchecked == 1 and c.target is None
+
+
+def test_a_fan_widens_the_crossing_and_the_veto_band_up_flow() -> None:
+    # tan 30° ≈ 0.577: 10 m up-flow the band reaches 5 + 5.8 m to either side, 15 m up-flow
+    # 5 + 8.7 m.
+    s = ScriptedPerception(AREA)
+    narrow, wide = check(), check(fan_deg=30.0)
+    for c in (narrow, wide):
+        for t, y in ((0, 4.0), (1, -4.0)):  # a crossing 12 m up-flow reaching 4 m each side
+            c.record(t, Point(38.0, y), hit=False)
+    assert narrow.passed(at(s, 2), CAND, AREA)
+    assert not wide.passed(at(s, 2), CAND, AREA)  # not wide enough for the fan
+    assert wide.target is not None and wide.target.x == 40.0
+    assert abs(wide.target.y) == pytest.approx(5.0 + 10.0 * math.tan(math.radians(30.0)))
+    for t, y in ((3, 9.0), (4, -9.0)):  # 12 m up-flow, 9 m each side: 10.8 - 3 m of slack
+        wide.record(t, Point(38.0, y), hit=False)
+    assert wide.passed(at(s, 5), CAND, AREA)
+    # plume 15 m up-flow and 10 m aside: outside the narrow band, inside the fan
+    narrow, wide = check(), check(fan_deg=30.0)
+    for c in (narrow, wide):
+        c.record(6, Point(35.0, 10.0), hit=True)
+        for t, y in ((7, 12.0), (8, -12.0)):
+            c.record(t, Point(38.0, y), hit=False)
+    assert narrow.passed(at(s, 9), CAND, AREA)
+    assert not wide.passed(at(s, 9), CAND, AREA) and wide.vetoes == 1 and wide.target is None
