@@ -111,8 +111,11 @@ class LikelihoodMapDeclare(SourceDeclaration):
     and their mass settles just outside the mask (the two-source study's remaining double
     declarations fell 15.5-17.8 m from the first point; a wider mask only moves them to its
     edge). Either way the later point replaces the earlier in ``declared_sources`` (it was
-    made from what the earlier one left unexplained), and both go on explaining that
-    source's plume in the map, so the search moves on to plume neither explains.
+    made from what the earlier one left unexplained). A point replaced for being near goes on
+    explaining that source's plume in the map beside the new one, so the search moves on to
+    plume neither explains; a point replaced for lying in the new one's plume is forgotten
+    (the new one explains it, and far down a wide plume the rule can take another source
+    for this one's: forgotten, that source is found again).
 
     Readings chosen: the declaration time is the confirmation's (the fly-by is part of
     declaring); the map, the fly-by and the declarations persist across pre-emption; two
@@ -219,8 +222,11 @@ class LikelihoodMapDeclare(SourceDeclaration):
     def _accept(self, source: Point) -> None:
         assert self.map is not None
         self.candidate, self.route = None, ()
-        i = next((j for j, known in enumerate(self.sources) if self._same(source, known)), None)
+        near, plume = self._same(source)
+        i = near if near is not None else plume
         if i is not None:  # the same source again: the later point replaces the earlier
+            if near is None:  # down-flow in this one's plume: this one explains it
+                self.explainers = tuple(q for q in self.explainers if q != self.sources[i])
             self.sources = (*self.sources[:i], source, *self.sources[i + 1:])
             self.superseded += 1
             self._report()
@@ -238,14 +244,18 @@ class LikelihoodMapDeclare(SourceDeclaration):
         else:
             self.map.explain(self.explainers)
 
-    def _same(self, source: Point, known: Point) -> bool:
-        """Whether a new declaration at ``source`` is the declared ``known`` again: within
-        ``same_source_m`` of it, or ``known`` in its plume (class docstring)."""
+    def _same(self, source: Point) -> tuple[int | None, int | None]:
+        """Which declared source a new declaration at ``source`` is again (class docstring):
+        the first within ``same_source_m`` of it, and the first in its plume (None: none)."""
         assert self.map is not None
-        near = self.params.same_source_m
-        return ((near is not None and source.distance_to(known) < near)
-                or self.map.expected_detection(source, known.x, known.y)
-                >= self.params.explained_prob)
+        limit = self.params.same_source_m
+        near = (None if limit is None else
+                next((j for j, q in enumerate(self.sources) if source.distance_to(q) < limit),
+                     None))
+        plume = next((j for j, q in enumerate(self.sources)
+                      if self.map.expected_detection(source, q.x, q.y)
+                      >= self.params.explained_prob), None)
+        return near, plume
 
     # -- fly-by ---------------------------------------------------------------------------
     def _start_flyby(self, p: Percept, candidate: Point) -> None:

@@ -271,9 +271,10 @@ def test_a_declaration_up_the_plume_of_a_declared_source_replaces_it() -> None:
     script = ScriptedPerception(AREA, flow=FLOW)
     for t in range(30):
         harness.tick(script.step(t, 99.0, 49.0))
-    node._accept(Point(45.0, 0.0))
-    node._accept(Point(30.0, 2.0))  # 15 m up-flow: the first lies in its plume
+    node._accept(Point(70.0, 0.0))
+    node._accept(Point(30.0, 2.0))  # 40 m up-flow: the first lies in its plume
     assert node.sources == (Point(30.0, 2.0),) and node.superseded == 1
+    assert node.explainers == (Point(30.0, 2.0),)  # the earlier point is forgotten
     node._accept(Point(30.0, -40.0))  # 42 m to the side: another source
     assert node.sources == (Point(30.0, 2.0), Point(30.0, -40.0))
     assert harness.get("declared_sources") == node.sources
