@@ -88,6 +88,7 @@ class RunSummary:
     declared_sources: list[dict[str, float] | None] = field(default_factory=list)
     flybys: int | None = None
     withdrawn: int | None = None
+    superseded: int | None = None
     upflow_checks: int | None = None
     upflow_vetoes: int | None = None
     unchecked: int | None = None
@@ -126,7 +127,8 @@ def summarise(
     nearest unmatched true source in ``sources`` (default: ``source`` alone): ``sources_found``
     counts true sources with a declared point within ``success_radius_m`` (default: the
     mission's), ``false_declarations`` the declared points matched to none; ``flybys`` and
-    ``withdrawn`` count a likelihood-map declaration's fly-bys and withdrawn declarations;
+    ``withdrawn`` count a likelihood-map declaration's fly-bys and withdrawn declarations,
+    ``superseded`` its declarations that replaced an earlier one of the same source;
     ``upflow_checks``, ``upflow_vetoes`` and ``unchecked`` its up-flow check legs flown, the
     candidates vetoed by plume seen up-flow of them, and the declarations made unchecked (a check
     leg that timed out, or no flow direction to check along).
@@ -215,6 +217,7 @@ def summarise(
         declared_sources=[where(mission, p) for p in declared_all],
         flybys=report.get("flybys"),
         withdrawn=report.get("withdrawn"),
+        superseded=report.get("superseded"),
         upflow_checks=report.get("upflow_checks"),
         upflow_vetoes=report.get("upflow_vetoes"),
         unchecked=report.get("unchecked"),

@@ -47,8 +47,9 @@ def test_two_source_runs_never_declare_falsely(seed: int) -> None:
 
 @pytest.mark.slow
 def test_two_source_study() -> None:
-    # A guard against regression, not issue 13's target (0 false declarations, missed: 5 in
-    # 200 runs with the up-flow check, 11 before it; benchmarks/results/likelihood_map.md).
+    # A guard against regression, not issue 13's target (0 false declarations, missed: 3 in
+    # 200 runs with same_source_m, 5 before it, 11 before the up-flow check;
+    # benchmarks/results/likelihood_map.md).
     # Measured on these 20 seeds with the up-flow check (and before it, with the meander state
     # and the same-source replacement): 20 runs found both sources, none made a false
     # declaration (the independent-cycle map: 19 and 1; before it: 14 and 2).

@@ -1,10 +1,15 @@
-"""The MSN007 runs the likelihood map declared far short of the source, flown again (issue 13).
+"""Study runs the likelihood map once got wrong, flown again (issue 13).
 
 Replicates 208, 348, 760, 874 and 918 of the 1000-run declaration study (root seed 2024,
 ``benchmarks/likelihood_map.py``) declared 19-46 m down-flow of the source before the up-flow
 check: the map was sure of a point the vehicle had not crossed up-flow of (208: one cloverleaf leaf
 on one side only), or whose plume it had just seen farther up-flow (760). Each must now declare
 within 15 m; with the check turned off each still declares beyond it (so this test can fail).
+
+Two-source replicates 83 and 132 (same root seed) declared one source twice, 15.5 and 16.6 m
+apart, just outside the 15-m mask; with ``same_source_m`` the second point replaces the first
+and the search goes on to the other source. Replicate 15 declared the far source first and
+the plume rule then took it for the near one's: forgotten, it must be found again.
 """
 
 from __future__ import annotations
@@ -25,23 +30,39 @@ from cptbt.types import Point
 
 ROOT = Path(__file__).resolve().parents[2]
 MSN007 = ROOT / "missions/tro2006_msn007.yaml"
+TWO = ROOT / "missions/two_sources.yaml"
 SHORT = (208, 348, 760, 874, 918)
 
 
-def declaration_error(replicate: int, **settings: Any) -> float:
-    """Fly one study replicate (the AMP alone, as the study does) with the map's declaration."""
-    data = mission_to_data(load_mission(MSN007, default_registry(), Environment))
+def fly(path: Path, replicate: int, **settings: Any) -> tuple[Any, list[Point]]:
+    """Fly one study replicate (the AMP alone, as the study does): the run and the sources."""
+    data = mission_to_data(load_mission(path, default_registry(), Environment))
     data["mission_a"] = None
     for key, value in {"declare_source.variant": "likelihood_map", **settings}.items():
         apply_setting(data, key, value)
-    mission = loads_mission(yaml.safe_dump(data, sort_keys=False), str(MSN007),
+    mission = loads_mission(yaml.safe_dump(data, sort_keys=False), str(path),
                             default_registry(), Environment)
     params = to_sim_params(mission, 2024)
     env_rng, vehicle_rngs = group_seeds(2024, replicate, 1)
     (run,), _, _ = simulate(mission, params, [launch_pose(mission)], env_rng=env_rng,
                             vehicle_rngs=vehicle_rngs)
+    return run, [Point(*params.source_xy_m), *(Point(*xy) for xy in params.extra_sources_xy_m)]
+
+
+def declaration_error(replicate: int, **settings: Any) -> float:
+    """An MSN007 replicate's declaration error."""
+    run, (source,) = fly(MSN007, replicate, **settings)
     assert run.declared is not None, f"replicate {replicate}: no declaration"
-    return run.declared.distance_to(Point(*params.source_xy_m))
+    return float(run.declared.distance_to(source))
+
+
+def nearest(run: Any, sources: list[Point]) -> list[int]:
+    """For each declared point, the index of the true source nearest it (if within 15 m)."""
+    out = []
+    for q in run.declared_all:
+        d = [q.distance_to(s) for s in sources]
+        out.append(int(min(range(len(d)), key=d.__getitem__)) if min(d) <= 15.0 else -1)
+    return out
 
 
 @pytest.mark.parametrize("replicate", SHORT)
@@ -50,3 +71,17 @@ def test_a_run_once_declared_short_is_now_declared_at_the_source(replicate: int)
     # the same plume without the check: still short (the check is what changed the outcome)
     assert declaration_error(replicate, **{"declare_source.upflow_check_m": None,
                                            "declare_source.radius_m": 8.0}) > 15.0
+
+
+@pytest.mark.parametrize("replicate", (83, 132))
+def test_one_source_declared_twice_is_now_one_and_the_other_is_found(replicate: int) -> None:
+    run, sources = fly(TWO, replicate)
+    assert sorted(nearest(run, sources)) == [0, 1]
+    run, sources = fly(TWO, replicate, **{"declare_source.same_source_m": None})
+    twice = nearest(run, sources)  # as before: both points at one source
+    assert len(twice) == 2 and twice[0] == twice[1] != -1
+
+
+def test_a_source_taken_for_another_ones_plume_is_found_again() -> None:
+    run, sources = fly(TWO, 15)
+    assert sorted(nearest(run, sources)) == [0, 1]
