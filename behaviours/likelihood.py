@@ -106,11 +106,10 @@ class LikelihoodMapDeclare(SourceDeclaration):
     farther up-flow it could not explain. On tuning replicates (two-source mission, root seeds
     77 and 78, 200 runs) this was the mode of 5 of the 6 false declarations, each a second
     declaration 15-18 m up-flow of the first, just outside the 15-m mask. So is a declaration
-    within ``same_source_m`` (25 m) of a declared source, wherever it lies: a source declared
+    within ``same_source_m`` (18 m) of a declared source, wherever it lies: a source declared
     up to ~12 m off leaves detections next to the true one that its plume does not explain,
-    and their mass settles just outside the mask (the two-source study's remaining double
-    declarations fell 15.5-17.8 m from the first point; a wider mask only moves them to its
-    edge). Either way the later point replaces the earlier in ``declared_sources`` (it was
+    and their mass settles just outside the mask (the two-source studies' double declarations
+    fell 15.5-17.8 m from the first point; a wider mask only moves them to its edge). Either way the later point replaces the earlier in ``declared_sources`` (it was
     made from what the earlier one left unexplained). A point replaced for being near goes on
     explaining that source's plume in the map beside the new one, so the search moves on to
     plume neither explains; a point replaced for lying in the new one's plume is forgotten

@@ -282,9 +282,9 @@ def test_a_declaration_up_the_plume_of_a_declared_source_replaces_it() -> None:
 
 
 def test_a_declaration_near_a_declared_source_is_that_source_again() -> None:
-    # 20 m across the flow from a declared point: not in its plume, but nearer than
-    # same_source_m (25 m). The later point replaces it and both keep explaining its plume.
-    for near, expected in ((25.0, 1), (None, 2)):
+    # 16 m across the flow from a declared point: not in its plume, but nearer than
+    # same_source_m (18 m). The later point replaces it and both keep explaining its plume.
+    for near, expected in ((18.0, 1), (None, 2)):
         node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=3, same_source_m=near),
                                     namespace=fresh_namespace())
         harness = TreeHarness(node, make_context(AREA))
@@ -292,10 +292,10 @@ def test_a_declaration_near_a_declared_source_is_that_source_again() -> None:
         for t in range(30):
             harness.tick(script.step(t, 99.0, 49.0))
         node._accept(Point(45.0, 0.0))
-        node._accept(Point(45.0, 20.0))
+        node._accept(Point(45.0, 16.0))
         assert len(node.sources) == expected and node.superseded == 2 - expected
-        assert node.sources[-1] == Point(45.0, 20.0)
-        assert node.explainers == (Point(45.0, 0.0), Point(45.0, 20.0))
+        assert node.sources[-1] == Point(45.0, 16.0)
+        assert node.explainers == (Point(45.0, 0.0), Point(45.0, 16.0))
         assert node.map is not None and node.map.known == node.explainers
         # a detection just down-flow of the superseded point is still explained
         assert node._explained(Point(50.0, 0.0))

@@ -58,6 +58,19 @@ def test_two_source_study() -> None:
     assert sum(s["sources_found"] == 2 for s in runs) >= 19
 
 
+@pytest.mark.parametrize("seed", [1, 2])
+def test_sources_20_m_apart_across_the_flow_are_two_sources(tmp_path: Path, seed: int) -> None:
+    # same_source_m (18 m) merges a source declared twice; it must not merge two real ones
+    # 20 m apart (with 25 m it did, in each of these seeds).
+    close = tmp_path / "close.yaml"
+    close.write_text(TWO.read_text(encoding="utf-8").replace(
+        "extra_sources: [[-10, -25]]", "extra_sources: [[-70, 5]]"), encoding="utf-8")
+    assert main(["run", str(close), "--seed", str(seed), "--out", str(tmp_path / "o"),
+                 "--quiet", "--no-figure"]) == 0
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text(encoding="utf-8"))
+    assert summary["sources_found"] == 2 and summary["false_declarations"] == 0
+
+
 def test_an_extra_source_outside_the_op_area_is_one_line_at_its_key(tmp_path: Path) -> None:
     text = TWO.read_text(encoding="utf-8").replace("extra_sources: [[-10, -25]]",
                                                    "extra_sources: [[-10, -25], [300, 0]]")
