@@ -106,20 +106,29 @@ class LikelihoodMapDeclare(SourceDeclaration):
     farther up-flow it could not explain. On tuning replicates (two-source mission, root seeds
     77 and 78, 200 runs) this was the mode of 5 of the 6 false declarations, each a second
     declaration 15-18 m up-flow of the first, just outside the 15-m mask. So is a declaration
-    within ``same_source_m`` (18 m) of a declared source, wherever it lies: a source declared
-    up to ~12 m off leaves detections next to the true one that its plume does not explain,
-    and their mass settles just outside the mask (the two-source studies' double declarations
-    fell 15.5-17.8 m from the first point; a wider mask only moves them to its edge). Either way the later point replaces the earlier in ``declared_sources`` (it was
-    made from what the earlier one left unexplained). A point replaced for being near goes on
+    within ``same_source_m`` (18 m) of a declared source (the nearest), wherever it lies: a
+    source declared up to ~12 m off leaves detections next to the true one that its plume does
+    not explain, and their mass settles just outside the mask (the two-source studies' double
+    declarations fell 15.5-17.8 m from the first point; a wider mask only moves them to its
+    edge). Either way the later point replaces the earlier in ``declared_sources`` (it was
+    made from what the earlier one left unexplained), and the replaced point is listed in
+    ``declaration_report["superseded_at"]``. A point replaced for being near goes on
     explaining that source's plume in the map beside the new one, so the search moves on to
-    plume neither explains; a point replaced for lying in the new one's plume is forgotten
-    (the new one explains it, and far down a wide plume the rule can take another source
-    for this one's: forgotten, that source is found again).
+    plume neither explains; a point replaced for lying in the new one's plume is forgotten,
+    with the points it had itself replaced (the new one explains it, and far down a wide plume
+    the rule can take another source for this one's: forgotten, that source is found again).
+
+    The rule compares *declared points*, not sources: two real sources farther apart than
+    ``same_source_m`` are still merged when a declaration of each falls within it (a correct
+    declaration can be ~12 m off). With sources 20 m apart across the flow a review saw that
+    in 2 of 10 runs, the correct first point replaced and the search run to the time limit;
+    where sources may lie within ~30 m of each other, ``same_source_m: null`` keeps every
+    declaration apart (and declares a source twice more often).
 
     Readings chosen: the declaration time is the confirmation's (the fly-by is part of
     declaring); the map, the fly-by and the declarations persist across pre-emption; two
-    sources one in the other's plume (within reach of ``explained_prob``), or closer than
-    ``same_source_m``, are one source; the up-flow check is part of declaring (its leg counts
+    sources one in the other's plume (within reach of ``explained_prob``), or declared closer
+    than ``same_source_m``, are one source; the up-flow check is part of declaring (its leg counts
     in T_D).
     """
 
@@ -128,9 +137,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
     params: LikelihoodMapParams
     contract: ClassVar[Contract] = Contract(check=radius_fits_grid)
     persistent_state: ClassVar[tuple[str, ...]] = (
-        "declared", "heading_home", "map", "sources", "explainers", "candidate", "route",
+        "declared", "heading_home", "map", "sources", "groups", "candidate", "route",
         "route_index", "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn",
-        "withdrawn_at", "superseded", "upflow",
+        "withdrawn_at", "superseded", "superseded_at", "upflow",
         "detections_used", "at_declaration", "search_target", "search_t",
     )
 
@@ -141,7 +150,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.bb.register_key(key, access=Access.WRITE)
         self.map: SourceMap | None = None
         self.sources: tuple[Point, ...] = ()
-        self.explainers: tuple[Point, ...] = ()  # declared and superseded points
+        # per declared source, the points explaining its plume: it and those it replaced as near
+        self.groups: tuple[tuple[Point, ...], ...] = ()
         self.candidate: Point | None = None
         self.route: tuple[Point, ...] = ()
         self.route_index = 0
@@ -152,6 +162,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.withdrawn = 0
         self.withdrawn_at: tuple[Point, ...] = ()
         self.superseded = 0
+        self.superseded_at: tuple[Point, ...] = ()
         self.upflow = UpflowCheck(
             self.params.upflow_check_m or 0.0, self.params.upflow_band_m, self.params.radius_m,
             self.params.arrive_radius_m, self.params.upflow_memory_s,
@@ -175,7 +186,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.bb.declaration_report = {
             "flybys": self.flybys, "withdrawn": self.withdrawn,
             "withdrawn_at": [(q.x, q.y) for q in self.withdrawn_at],
-            "superseded": self.superseded, **self.upflow.report(),
+            "superseded": self.superseded,
+            "superseded_at": [(q.x, q.y) for q in self.superseded_at], **self.upflow.report(),
         }
 
     def watch(self, p: Percept) -> None:
@@ -223,15 +235,17 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.candidate, self.route = None, ()
         near, plume = self._same(source)
         i = near if near is not None else plume
-        if i is not None:  # the same source again: the later point replaces the earlier
-            if near is None:  # down-flow in this one's plume: this one explains it
-                self.explainers = tuple(q for q in self.explainers if q != self.sources[i])
+        if i is not None:  # taken for the same source again: the later point replaces it
+            # near: both go on explaining its plume; in this one's plume: this one explains it
+            group = (*self.groups[i], source) if near is not None else (source,)
+            self.superseded_at = (*self.superseded_at, self.sources[i])
             self.sources = (*self.sources[:i], source, *self.sources[i + 1:])
+            self.groups = (*self.groups[:i], group, *self.groups[i + 1:])
             self.superseded += 1
             self._report()
         else:
             self.sources = (*self.sources, source)
-        self.explainers = (*self.explainers, source)
+            self.groups = (*self.groups, (source,))
         self.detections_used = self.map.unexplained
         self.upflow.restart(self.map.t)
         self.at_declaration = self.map.belief()
@@ -243,14 +257,20 @@ class LikelihoodMapDeclare(SourceDeclaration):
         else:
             self.map.explain(self.explainers)
 
+    @property
+    def explainers(self) -> tuple[Point, ...]:
+        """Every point whose plume the map explains away: the declared sources and the points
+        each replaced for being near it."""
+        return tuple(q for group in self.groups for q in group)
+
     def _same(self, source: Point) -> tuple[int | None, int | None]:
         """Which declared source a new declaration at ``source`` is again (class docstring):
-        the first within ``same_source_m`` of it, and the first in its plume (None: none)."""
+        the nearest within ``same_source_m`` of it, and the first in its plume (None: none)."""
         assert self.map is not None
         limit = self.params.same_source_m
-        near = (None if limit is None else
-                next((j for j, q in enumerate(self.sources) if source.distance_to(q) < limit),
-                     None))
+        d = [source.distance_to(q) for q in self.sources]
+        near = (min(range(len(d)), key=d.__getitem__)
+                if limit is not None and d and min(d) < limit else None)
         plume = next((j for j, q in enumerate(self.sources)
                       if self.map.expected_detection(source, q.x, q.y)
                       >= self.params.explained_prob), None)

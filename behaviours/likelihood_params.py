@@ -181,9 +181,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=1, ge=1, le=20, description="Sources to declare before heading home"
     )
     same_source_m: float | None = Field(
-        default=18.0, gt=0, description="A declaration within this of a declared source is that "
-        "source again: it replaces it (superseded), and both points go on explaining its plume "
-        "(None: only a declared source in the new one's plume is the same source), m"
+        default=18.0, gt=0, le=100, description="A declaration within this of a declared source "
+        "is taken for that source again: it replaces it (superseded), and both points go on "
+        "explaining its plume. It compares declared points, which can be ~12 m off: real sources "
+        "up to ~30 m apart can be merged (None: only a declared source in the new one's plume is "
+        "the same source), m"
     )
     upflow_check_m: float | None = Field(
         default=10.0, gt=0, description="The up-flow check's reach: declare only once the track "

@@ -223,6 +223,11 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
         ax.plot(w[:, 0], w[:, 1], "X", color="#d62728", mec="black", ms=9, ls="none",
                 label="withdrawn after fly-by")
     _sources(ax, truth, declared, label=False)
+    replaced = report.get("superseded_at") or []
+    if replaced:  # a ring, drawn last: it may sit on a true source's star
+        r = np.asarray(replaced, dtype=float)
+        ax.plot(r[:, 0], r[:, 1], "o", mfc="none", mec="#9467bd", mew=2.0, ms=15, ls="none",
+                zorder=10, label="replaced declaration (taken for the same source)")
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m), 90° clockwise from x")

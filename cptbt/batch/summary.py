@@ -89,6 +89,7 @@ class RunSummary:
     flybys: int | None = None
     withdrawn: int | None = None
     superseded: int | None = None
+    superseded_points: list[dict[str, float] | None] = field(default_factory=list)
     upflow_checks: int | None = None
     upflow_vetoes: int | None = None
     unchecked: int | None = None
@@ -128,7 +129,8 @@ def summarise(
     counts true sources with a declared point within ``success_radius_m`` (default: the
     mission's), ``false_declarations`` the declared points matched to none; ``flybys`` and
     ``withdrawn`` count a likelihood-map declaration's fly-bys and withdrawn declarations,
-    ``superseded`` its declarations that replaced an earlier one of the same source;
+    ``superseded`` its declarations that replaced an earlier one taken for the same source,
+    ``superseded_points`` the points replaced;
     ``upflow_checks``, ``upflow_vetoes`` and ``unchecked`` its up-flow check legs flown, the
     candidates vetoed by plume seen up-flow of them, and the declarations made unchecked (a check
     leg that timed out, or no flow direction to check along).
@@ -218,6 +220,7 @@ def summarise(
         flybys=report.get("flybys"),
         withdrawn=report.get("withdrawn"),
         superseded=report.get("superseded"),
+        superseded_points=[where(mission, Point(*q)) for q in report.get("superseded_at") or []],
         upflow_checks=report.get("upflow_checks"),
         upflow_vetoes=report.get("upflow_vetoes"),
         unchecked=report.get("unchecked"),

@@ -205,7 +205,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                   + (f"; fly-bys {s['flybys']}, withdrawn {s['withdrawn']}"
                      if s["flybys"] is not None else "")
                   + (f"; {s['superseded']} declaration{'s' * (s['superseded'] != 1)} replaced "
-                     "an earlier one of the same source" if s.get("superseded") else ""))
+                     "an earlier one taken for the same source (at "
+                     + ", ".join(place(q) for q in s["superseded_points"] if q) + ")"
+                     if s.get("superseded") else ""))
         if s["upflow_checks"] or s["upflow_vetoes"] or s["unchecked"]:
             legs, vetoes = s["upflow_checks"] or 0, s["upflow_vetoes"] or 0
             print(f"  up-flow check: {legs} check leg{'s' * (legs != 1)} flown, {vetoes} "

@@ -301,6 +301,39 @@ def test_a_declaration_near_a_declared_source_is_that_source_again() -> None:
         assert node._explained(Point(50.0, 0.0))
 
 
+def test_a_plume_replacement_forgets_the_points_its_source_had_replaced_as_near() -> None:
+    # (80, 0), then (80, 15) near it (both explain), then (40, 30), 40 m up-flow with (80, 15)
+    # in its plume: the whole group goes, so nothing is left explaining plume at (83, -3),
+    # which only (80, 0) explained.
+    node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=3), namespace=fresh_namespace())
+    harness = TreeHarness(node, make_context(AREA))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    for t in range(30):
+        harness.tick(script.step(t, 99.0, 49.0))
+    node._accept(Point(80.0, 0.0))
+    node._accept(Point(80.0, 15.0))
+    assert node.explainers == (Point(80.0, 0.0), Point(80.0, 15.0))
+    assert node._explained(Point(83.0, -3.0))
+    node._accept(Point(40.0, 30.0))
+    assert node.sources == (Point(40.0, 30.0),) and node.explainers == (Point(40.0, 30.0),)
+    assert not node._explained(Point(83.0, -3.0))
+    report = harness.get("declaration_report")
+    assert report["superseded"] == 2
+    assert report["superseded_at"] == [(80.0, 0.0), (80.0, 15.0)]
+
+
+def test_a_near_declaration_replaces_the_nearest_declared_source() -> None:
+    node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=3), namespace=fresh_namespace())
+    harness = TreeHarness(node, make_context(AREA))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    for t in range(30):
+        harness.tick(script.step(t, 99.0, 49.0))
+    node._accept(Point(50.0, -10.0))
+    node._accept(Point(50.0, 20.0))  # 30 m away: a second source
+    node._accept(Point(50.0, 8.0))  # 18 m from the first (not near), 12 m from the second
+    assert node.sources == (Point(50.0, -10.0), Point(50.0, 8.0))
+
+
 # -- map-guided reacquire -----------------------------------------------------------------
 def belief_peaked_at(x: float, y: float) -> SourceBelief:
     xs = np.arange(1.0, 100.0, 2.0)

@@ -120,7 +120,7 @@ def test_a_fan_widens_the_crossing_and_the_veto_band_up_flow() -> None:
     assert not wide.passed(at(s, 2), CAND, AREA)  # not wide enough for the fan
     assert wide.target is not None and wide.target.x == 40.0
     assert abs(wide.target.y) == pytest.approx(5.0 + 10.0 * math.tan(math.radians(30.0)))
-    for t, y in ((3, 9.0), (4, -9.0)):  # 12 m up-flow, 9 m each side: 10.8 - 3 m of slack
+    for t, y in ((3, 9.5), (4, -9.5)):  # 12 m up-flow: 5 + 12 tan 30° - 3 m slack = 8.9 m
         wide.record(t, Point(38.0, y), hit=False)
     assert wide.passed(at(s, 5), CAND, AREA)
     # plume 15 m up-flow and 10 m aside: outside the narrow band, inside the fan
