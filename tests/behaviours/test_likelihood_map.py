@@ -11,6 +11,7 @@ import math
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import py_trees
@@ -264,13 +265,19 @@ def test_declares_two_sources_one_after_the_other() -> None:
     assert harness.get("declared_sources") == node.sources
 
 
-def test_a_declaration_up_the_plume_of_a_declared_source_replaces_it() -> None:
-    # The same source declared short on the approach, then again at the source: one source.
-    node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=3), namespace=fresh_namespace())
+def declaring(**params: Any) -> tuple[LikelihoodMapDeclare, TreeHarness]:
+    """A declaration node with a map of 30 quiet cycles in a corner, to accept points into."""
+    node = LikelihoodMapDeclare(LikelihoodMapParams(**params), namespace=fresh_namespace())
     harness = TreeHarness(node, make_context(AREA))
     script = ScriptedPerception(AREA, flow=FLOW)
     for t in range(30):
         harness.tick(script.step(t, 99.0, 49.0))
+    return node, harness
+
+
+def test_a_declaration_up_the_plume_of_a_declared_source_replaces_it() -> None:
+    # The same source declared short on the approach, then again at the source: one source.
+    node, harness = declaring(max_sources=3)
     node._accept(Point(70.0, 0.0))
     node._accept(Point(30.0, 2.0))  # 40 m up-flow: the first lies in its plume
     assert node.sources == (Point(30.0, 2.0),) and node.superseded == 1
@@ -285,12 +292,7 @@ def test_a_declaration_near_a_declared_source_is_that_source_again() -> None:
     # 16 m across the flow from a declared point: not in its plume, but nearer than
     # same_source_m (18 m). The later point replaces it and both keep explaining its plume.
     for near, expected in ((18.0, 1), (None, 2)):
-        node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=3, same_source_m=near),
-                                    namespace=fresh_namespace())
-        harness = TreeHarness(node, make_context(AREA))
-        script = ScriptedPerception(AREA, flow=FLOW)
-        for t in range(30):
-            harness.tick(script.step(t, 99.0, 49.0))
+        node, _ = declaring(max_sources=3, same_source_m=near)
         node._accept(Point(45.0, 0.0))
         node._accept(Point(45.0, 16.0))
         assert len(node.sources) == expected and node.superseded == 2 - expected
@@ -305,11 +307,7 @@ def test_a_plume_replacement_forgets_the_points_its_source_had_replaced_as_near(
     # (80, 0), then (80, 15) near it (both explain), then (40, 30), 40 m up-flow with (80, 15)
     # in its plume: the whole group goes, so nothing is left explaining plume at (83, -3),
     # which only (80, 0) explained.
-    node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=3), namespace=fresh_namespace())
-    harness = TreeHarness(node, make_context(AREA))
-    script = ScriptedPerception(AREA, flow=FLOW)
-    for t in range(30):
-        harness.tick(script.step(t, 99.0, 49.0))
+    node, harness = declaring(max_sources=3)
     node._accept(Point(80.0, 0.0))
     node._accept(Point(80.0, 15.0))
     assert node.explainers == (Point(80.0, 0.0), Point(80.0, 15.0))
@@ -323,11 +321,7 @@ def test_a_plume_replacement_forgets_the_points_its_source_had_replaced_as_near(
 
 
 def test_a_near_declaration_replaces_the_nearest_declared_source() -> None:
-    node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=3), namespace=fresh_namespace())
-    harness = TreeHarness(node, make_context(AREA))
-    script = ScriptedPerception(AREA, flow=FLOW)
-    for t in range(30):
-        harness.tick(script.step(t, 99.0, 49.0))
+    node, _ = declaring(max_sources=3)
     node._accept(Point(50.0, -10.0))
     node._accept(Point(50.0, 20.0))  # 30 m away: a second source
     node._accept(Point(50.0, 8.0))  # 18 m from the first (not near), 12 m from the second
