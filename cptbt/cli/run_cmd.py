@@ -199,6 +199,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         if s["declared_source"]:
             print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source "
                   f"{place(s['declared_source'])}; error {fmt(s['error_m'], ' m')}")
+        points = [q for q in s["declared_sources"] if q]
+        if len(points) > 1 or (points and not s["declared_source"]):  # several, or timed out
+            print("  declared points: " + "; ".join(place(q) for q in points))
         if s["sources_true"] > 1 or s["sources_declared"] > 1 or s["withdrawn"] or s["flybys"]:
             print(f"  sources: {s['sources_found']} of {s['sources_true']} found, "
                   f"{s['false_declarations']} false"

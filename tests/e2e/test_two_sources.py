@@ -38,6 +38,13 @@ def test_the_shipped_run_declares_both_sources_and_draws_the_map(tmp_path: Path)
     assert (tmp_path / "trajectory.png").stat().st_size > 10_000
 
 
+def test_the_printed_run_names_every_declared_point(tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", str(TWO), "--out", str(tmp_path), "--no-figure"]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if "declared points:" in ln]
+    assert len(lines) == 1 and lines[0].count("x ") == 2, lines
+
+
 @pytest.mark.parametrize("seed", [1, 2])
 def test_two_source_runs_never_declare_falsely(seed: int) -> None:
     s = fly(seed)
