@@ -137,7 +137,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     params: LikelihoodMapParams
     contract: ClassVar[Contract] = Contract(check=radius_fits_grid)
     persistent_state: ClassVar[tuple[str, ...]] = (
-        "declared", "heading_home", "map", "sources", "groups", "candidate", "route",
+        "declared", "heading_home", "map", "groups", "candidate", "route",
         "route_index", "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn",
         "withdrawn_at", "superseded", "superseded_at", "upflow",
         "detections_used", "at_declaration", "search_target", "search_t",
@@ -149,8 +149,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
                     "declaration_report"):
             self.bb.register_key(key, access=Access.WRITE)
         self.map: SourceMap | None = None
-        self.sources: tuple[Point, ...] = ()
-        # per declared source, the points explaining its plume: it and those it replaced as near
+        # per declared source, the points explaining its plume: those it replaced as near, then it
         self.groups: tuple[tuple[Point, ...], ...] = ()
         self.candidate: Point | None = None
         self.route: tuple[Point, ...] = ()
@@ -239,12 +238,10 @@ class LikelihoodMapDeclare(SourceDeclaration):
             # near: both go on explaining its plume; in this one's plume: this one explains it
             group = (*self.groups[i], source) if near is not None else (source,)
             self.superseded_at = (*self.superseded_at, self.sources[i])
-            self.sources = (*self.sources[:i], source, *self.sources[i + 1:])
             self.groups = (*self.groups[:i], group, *self.groups[i + 1:])
             self.superseded += 1
             self._report()
         else:
-            self.sources = (*self.sources, source)
             self.groups = (*self.groups, (source,))
         self.detections_used = self.map.unexplained
         self.upflow.restart(self.map.t)
@@ -256,6 +253,11 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.bb.declared_source = source
         else:
             self.map.explain(self.explainers)
+
+    @property
+    def sources(self) -> tuple[Point, ...]:
+        """The sources declared so far (each group's latest point)."""
+        return tuple(group[-1] for group in self.groups)
 
     @property
     def explainers(self) -> tuple[Point, ...]:

@@ -142,7 +142,7 @@ class SourceBelief:
         ys: cell-centre y coordinates (ny,), planning metres.
         posterior: probability of each cell (ny, nx), summing to 1 (read-only array).
         declared: points whose plumes are explained away in the belief: the sources declared
-            so far and any earlier declarations of the same sources they replaced.
+            so far and the earlier declarations each replaced for lying near it.
         explored: cells the vehicle has passed near (ny, nx), or None.
     """
 
