@@ -72,7 +72,13 @@ class LikelihoodMapDeclare(SourceDeclaration):
       times ``upflow_check_m`` up-flow of the candidate and within ``upflow_band_m`` of its
       line, vetoes it (counted once per run of vetoed cycles): a source is not down-flow of
       its own plume, and the map, having ruled that water out, had put such a detection down to
-      a false alarm. No leg is flown; the tree searches on, and crossings made before the latest
+      a false alarm. So does a *trace* there (``upflow_trace_fraction``, 0.25): a reading below
+      the threshold but at least that fraction of it, and at least three times the median
+      reading of the track's cycles without a detection (the sensor's noise floor: a noisy or
+      offset sensor reads above zero in clean water, and the trace veto then needs more). Up-flow
+      of a source there is no dye at all; a check leg that crossed the plume's fringe, or a
+      filament too diluted to reach the threshold, has seen plume that came from farther
+      up-flow. No leg is flown; the tree searches on, and crossings made before the latest
       vetoing detection no longer count. A veto lasts while the map stays sure of that
       candidate: with the default ``upflow_memory_s`` (none), a single false alarm in that band
       holds a correct candidate back for the rest of this source's search (the simulator has
@@ -178,6 +184,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
         threshold, factor = self.context.threshold, self.params.strong_factor
         strong = threshold * factor if threshold is not None and factor is not None else None
         self.map = SourceMap(self.context.op_area, self.params, strong_concentration=strong)
+        trace = self.params.upflow_trace_fraction
+        self.upflow.trace_level = threshold * trace if threshold is not None \
+            and trace is not None else None
         self.bb.declared_sources = ()
         self._report()
 
@@ -195,7 +204,10 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.map.observe(p)
         if self.map.detections and self.params.upflow_check_m is not None:
             here = p.pose.point
-            self.upflow.record(p.t, here, p.detected and not self._explained(here))
+            reading = p.concentration if p.in_op_area else 0.0
+            explained = reading > 0 and self._explained(here)
+            self.upflow.record(p.t, here, p.detected and not explained,
+                               0.0 if explained else reading)
         post = self.map.posterior()
         if self.candidate is not None:
             self._flyby_step(p)

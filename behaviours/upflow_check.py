@@ -44,11 +44,19 @@ class UpflowCheck:
         timeout_s: a check leg not done after this long ends; the candidate passes, unchecked.
         fan_deg: the band widens up-flow by ``tan(fan_deg)`` per metre (the flow estimate's
             direction error): at ``a`` up-flow its half-width is ``band_m + a · tan(fan_deg)``.
+        trace_level: a reading at least this (the sensor's units) in the band vetoes like a
+            detection, if it also stands clear of the sensor's noise floor (:meth:`trace_floor`);
+            None: only detections veto.
     """
 
+    FLOOR_FACTOR = 3.0
+    """A trace must reach this many times the median reading of the track's other cycles."""
+
     def __init__(self, reach_m: float, band_m: float, veto_beyond_m: float, slack_m: float,
-                 memory_s: float | None, timeout_s: float, fan_deg: float = 0.0) -> None:
+                 memory_s: float | None, timeout_s: float, fan_deg: float = 0.0,
+                 trace_level: float | None = None) -> None:
         self.reach_m, self.band_m, self.veto_beyond_m = reach_m, band_m, veto_beyond_m
+        self.trace_level = trace_level
         self.fan = math.tan(math.radians(fan_deg))
         self.slack_m, self.memory_s, self.timeout_s = slack_m, memory_s, timeout_s
         self.target: Point | None = None  # the check leg's end, while one is under way
@@ -57,6 +65,7 @@ class UpflowCheck:
         self.legs = 0  # check legs started
         self.unchecked = 0  # candidates passed unchecked (a leg timed out, no flow estimate)
         self.vetoes = 0  # candidates vetoed (a run of cycles vetoed counts once)
+        self.trace_vetoes = 0  # of those, vetoed by sub-threshold traces alone
         self.vetoing = False  # the last test was a veto
         self.veto_t = -math.inf  # time of the latest vetoing detection
         self.search_t0 = -math.inf  # when the search for the present source began
@@ -64,15 +73,27 @@ class UpflowCheck:
         self._x: list[float] = []
         self._y: list[float] = []
         self._hit: list[bool] = []
+        self._conc: list[float] = []
 
-    def record(self, t: float, at: Point, hit: bool) -> None:
-        """One cycle of the track: where the vehicle was and whether it saw plume no declared
-        source explains."""
+    def record(self, t: float, at: Point, hit: bool, reading: float = 0.0) -> None:
+        """One cycle of the track: where the vehicle was, whether it saw plume no declared
+        source explains, and its reading (0 where a declared source explains it; NaN: none)."""
         if math.isfinite(at.x) and math.isfinite(at.y):
             self._t.append(t)
             self._x.append(at.x)
             self._y.append(at.y)
             self._hit.append(hit)
+            self._conc.append(reading)
+
+    def trace_floor(self) -> float:
+        """The level a trace must reach: :attr:`trace_level`, or :attr:`FLOOR_FACTOR` times the
+        median reading of the track's cycles without a detection if that is higher (a noisy or
+        offset sensor reads above zero in clean water; a noise-free one reads 0 there)."""
+        assert self.trace_level is not None
+        quiet = np.asarray(self._conc)[~np.asarray(self._hit, dtype=bool)]
+        quiet = quiet[np.isfinite(quiet)]
+        floor = float(np.median(quiet)) if quiet.size else 0.0
+        return max(self.trace_level, self.FLOOR_FACTOR * floor)
 
     def restart(self, t: float) -> None:
         """A source was declared (or a candidate withdrawn) at ``t``: the search for the next
@@ -102,16 +123,25 @@ class UpflowCheck:
         # down to a false alarm or another meander (it had ruled that water out), but the source
         # cannot be down-flow of its own plume. No declaration, nor check leg: the tree searches
         # on; a crossing made before the latest such detection no longer counts.
-        seen = np.asarray(self._hit, dtype=bool) & (t > self.search_t0)
-        if self.memory_s is not None:
-            seen &= t >= p.t - self.memory_s
+        # A sub-threshold trace there says the same: up-flow of a source there is no dye at all.
+        hit = np.asarray(self._hit, dtype=bool)
+        if self.trace_level is not None and len(t):
+            with np.errstate(invalid="ignore"):
+                trace = np.asarray(self._conc) >= self.trace_floor()
+        else:
+            trace = np.zeros_like(hit)
         half = w + np.maximum(upflow, 0.0) * self.fan  # the band's half-width there
-        seen &= (upflow > self.veto_beyond_m) & (upflow <= 3 * self.reach_m)
-        seen &= np.abs(across) <= half
+        where = ((t > self.search_t0) & (upflow > self.veto_beyond_m)
+                 & (upflow <= 3 * self.reach_m) & (np.abs(across) <= half))
+        if self.memory_s is not None:
+            where &= t >= p.t - self.memory_s
+        seen = where & (hit | trace)
         if bool(np.any(seen)):
             self.target, self.leg_for = None, None
             self.veto_t = max(self.veto_t, float(t[seen].max()))
-            self.vetoes += int(not self.vetoing)
+            if not self.vetoing:
+                self.vetoes += 1
+                self.trace_vetoes += int(not np.any(where & hit))
             self.vetoing = True
             return False
         self.vetoing = False
@@ -148,4 +178,4 @@ class UpflowCheck:
     def report(self) -> dict[str, int]:
         """The counts for ``declaration_report``."""
         return {"upflow_checks": self.legs, "unchecked": self.unchecked,
-                "upflow_vetoes": self.vetoes}
+                "upflow_vetoes": self.vetoes, "trace_vetoes": self.trace_vetoes}

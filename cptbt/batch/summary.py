@@ -92,6 +92,7 @@ class RunSummary:
     superseded_points: list[dict[str, float] | None] = field(default_factory=list)
     upflow_checks: int | None = None
     upflow_vetoes: int | None = None
+    trace_vetoes: int | None = None
     unchecked: int | None = None
     closest_approach_m: float | None = None
     T_M: float | None = None
@@ -132,8 +133,9 @@ def summarise(
     ``superseded`` its declarations that replaced an earlier one taken for the same source,
     ``superseded_points`` the points replaced;
     ``upflow_checks``, ``upflow_vetoes`` and ``unchecked`` its up-flow check legs flown, the
-    candidates vetoed by plume seen up-flow of them, and the declarations made unchecked (a check
-    leg that timed out, or no flow direction to check along).
+    candidates vetoed by plume seen up-flow of them (``trace_vetoes`` of them by sub-threshold
+    traces alone), and the declarations made unchecked (a check leg that timed out, or no flow
+    direction to check along).
     ``closest_approach_m`` is the vehicle's closest true approach to the true source while the
     AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
     maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before
@@ -223,6 +225,7 @@ def summarise(
         superseded_points=[where(mission, Point(*q)) for q in report.get("superseded_at") or []],
         upflow_checks=report.get("upflow_checks"),
         upflow_vetoes=report.get("upflow_vetoes"),
+        trace_vetoes=report.get("trace_vetoes"),
         unchecked=report.get("unchecked"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
         T_M=_maintain_time(run) if mission.evaluation.criterion == "maintain" else None,

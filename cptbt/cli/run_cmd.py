@@ -215,6 +215,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             legs, vetoes = s["upflow_checks"] or 0, s["upflow_vetoes"] or 0
             print(f"  up-flow check: {legs} check leg{'s' * (legs != 1)} flown, {vetoes} "
                   f"candidate{'s' * (vetoes != 1)} vetoed by plume seen up-flow of them"
+                  + (f" ({s['trace_vetoes']} by a sub-threshold trace alone)"
+                     if s.get("trace_vetoes") else "")
                   + (f", {s['unchecked']} declared unchecked (a leg timed out, or no flow "
                      "direction)"
                      if s["unchecked"] else ""))

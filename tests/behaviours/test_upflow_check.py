@@ -45,7 +45,8 @@ def test_a_crossing_on_both_sides_between_one_and_two_reaches_up_flow_passes() -
     assert not c.passed(at(s, 2), CAND, AREA)
     c.record(3, Point(38, -4), hit=False)
     assert c.passed(at(s, 3), CAND, AREA) and c.target is None
-    assert c.report() == {"upflow_checks": 1, "unchecked": 0, "upflow_vetoes": 0}
+    assert c.report() == {"upflow_checks": 1, "unchecked": 0, "upflow_vetoes": 0,
+                          "trace_vetoes": 0}
 
 
 def test_a_one_cycle_dip_of_confidence_is_not_a_new_leg_and_keeps_the_clock() -> None:
@@ -131,3 +132,39 @@ def test_a_fan_widens_the_crossing_and_the_veto_band_up_flow() -> None:
             c.record(t, Point(38.0, y), hit=False)
     assert narrow.passed(at(s, 9), CAND, AREA)
     assert not wide.passed(at(s, 9), CAND, AREA) and wide.vetoes == 1 and wide.target is None
+
+
+def test_a_trace_up_flow_vetoes_like_a_detection_and_is_counted_as_one() -> None:
+    c, s = check(trace_level=0.05), ScriptedPerception(AREA)
+    for t in range(-20, 0):  # clean water reads 0: the noise floor is 0
+        c.record(t, Point(80.0, 20.0 + t), hit=False, reading=0.0)
+    c.record(0, Point(45.0, 0.0), hit=False, reading=0.9)  # 5 m up-flow: inside radius_m
+    c.record(1, Point(36.0, 2.0), hit=False, reading=0.04)  # 14 m up-flow, below the level
+    c.record(2, Point(36.0, 9.0), hit=False, reading=0.9)  # beside the band
+    c.record(3, Point(70.0, 0.0), hit=False, reading=0.9)  # down-flow
+    c.record(4, Point(36.0, 0.0), hit=False, reading=math.nan)  # a dropout
+    assert not c.passed(at(s, 4), CAND, AREA) and c.target is not None  # no veto: a leg
+    c.record(5, Point(34.0, -1.0), hit=False, reading=0.06)  # 16 m up-flow, on the line
+    assert not c.passed(at(s, 5), CAND, AREA) and c.target is None
+    assert (c.vetoes, c.trace_vetoes) == (1, 1)
+    c.drop()
+    c.record(6, Point(33.0, 0.0), hit=True, reading=0.5)  # a detection there as well
+    assert not c.passed(at(s, 6), CAND, AREA)
+    assert (c.vetoes, c.trace_vetoes) == (2, 1)  # a detection's veto is not a trace's
+
+
+def test_without_a_trace_level_only_detections_veto() -> None:
+    c, s = check(), ScriptedPerception(AREA)
+    c.record(0, Point(34.0, 0.0), hit=False, reading=0.19)
+    assert not c.passed(at(s, 0), CAND, AREA) and c.target is not None and c.vetoes == 0
+
+
+def test_a_trace_must_stand_clear_of_the_sensors_noise_floor() -> None:
+    c, s = check(trace_level=0.05), ScriptedPerception(AREA)
+    for t in range(20):  # clean water reading 0.03 (noise, or an offset): floor 3 x 0.03
+        c.record(t, Point(80.0, 20.0 + t), hit=False, reading=0.03)
+    assert c.trace_floor() == pytest.approx(0.09)
+    c.record(20, Point(34.0, 0.0), hit=False, reading=0.08)  # above the level, in the noise
+    assert not c.passed(at(s, 20), CAND, AREA) and c.vetoes == 0
+    c.record(21, Point(34.0, 0.0), hit=False, reading=0.1)
+    assert not c.passed(at(s, 21), CAND, AREA) and c.trace_vetoes == 1

@@ -10,6 +10,10 @@ Two-source replicates 83 and 132 (same root seed) declared one source twice, 15.
 apart, just outside the 15-m mask; with ``same_source_m`` the second point replaces the first
 and the search goes on to the other source. Replicate 15 declared the far source first and
 the plume rule then took it for the near one's: forgotten, it must be found again.
+
+Replicates 45, 639 and 932 of root seed 2025 declared 16-40 m short after a check leg that saw
+no detection up-flow but a sub-threshold trace of the plume (0.28-0.45 of the threshold): with
+``upflow_trace_fraction`` the trace vetoes them and each must declare within 15 m.
 """
 
 from __future__ import annotations
@@ -34,7 +38,8 @@ TWO = ROOT / "missions/two_sources.yaml"
 SHORT = (208, 348, 760, 874, 918)
 
 
-def fly(path: Path, replicate: int, **settings: Any) -> tuple[Any, list[Point]]:
+def fly(path: Path, replicate: int, *, seed: int = 2024,
+        **settings: Any) -> tuple[Any, list[Point]]:
     """Fly one study replicate (the AMP alone, as the study does): the run and the sources."""
     data = mission_to_data(load_mission(path, default_registry(), Environment))
     data["mission_a"] = None
@@ -42,16 +47,16 @@ def fly(path: Path, replicate: int, **settings: Any) -> tuple[Any, list[Point]]:
         apply_setting(data, key, value)
     mission = loads_mission(yaml.safe_dump(data, sort_keys=False), str(path),
                             default_registry(), Environment)
-    params = to_sim_params(mission, 2024)
-    env_rng, vehicle_rngs = group_seeds(2024, replicate, 1)
+    params = to_sim_params(mission, seed)
+    env_rng, vehicle_rngs = group_seeds(seed, replicate, 1)
     (run,), _, _ = simulate(mission, params, [launch_pose(mission)], env_rng=env_rng,
                             vehicle_rngs=vehicle_rngs)
     return run, [Point(*params.source_xy_m), *(Point(*xy) for xy in params.extra_sources_xy_m)]
 
 
-def declaration_error(replicate: int, **settings: Any) -> float:
+def declaration_error(replicate: int, *, seed: int = 2024, **settings: Any) -> float:
     """An MSN007 replicate's declaration error."""
-    run, (source,) = fly(MSN007, replicate, **settings)
+    run, (source,) = fly(MSN007, replicate, seed=seed, **settings)
     assert run.declared is not None, f"replicate {replicate}: no declaration"
     return float(run.declared.distance_to(source))
 
@@ -71,6 +76,16 @@ def test_a_run_once_declared_short_is_now_declared_at_the_source(replicate: int)
     # the same plume without the check: still short (the check is what changed the outcome)
     assert declaration_error(replicate, **{"declare_source.upflow_check_m": None,
                                            "declare_source.radius_m": 8.0}) > 15.0
+
+
+@pytest.mark.parametrize("replicate", (45, 639, 932))
+def test_a_trace_up_flow_vetoes_a_candidate_short_of_the_source(replicate: int) -> None:
+    run, (source,) = fly(MSN007, replicate, seed=2025)
+    assert run.declared is not None and run.declared.distance_to(source) < 15.0
+    assert run.declaration_report["upflow_vetoes"] >= 1
+    # without traces the same plume is declared short (the trace is what changed the outcome)
+    assert declaration_error(replicate, seed=2025,
+                             **{"declare_source.upflow_trace_fraction": None}) > 15.0
 
 
 @pytest.mark.parametrize("replicate", (83, 132))
