@@ -336,10 +336,13 @@ class LikelihoodMapDeclare(SourceDeclaration):
         """Fly the fly-by while one is under way; search on between declarations; otherwise go
         to the source, then home."""
         if self.candidate is not None and self.route_index < len(self.route):
+            self.activity = "fly-by"
             return self.command(p.pose.point.bearing_to(self.route[self.route_index]))
         if self.upflow.target is not None and self.declared is None:
+            self.activity = "check leg"
             return self.command(p.pose.point.bearing_to(self.upflow.target))
         if self.sources and self.declared is None:
+            self.activity = "search on"
             return self._search_on(p)
         return super().decide(p)
 

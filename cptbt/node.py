@@ -137,6 +137,9 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         self.bb.register_key("field_reached", access=Access.WRITE)
         self.context: MissionContext | None = None
         self.last_command: Command | None = None
+        # what a behaviour with several jobs is doing this cycle (set in decide(); the planner
+        # appends it to the active behaviour's name, and the figures colour it apart)
+        self.activity: str | None = None
 
     def setup(self, **kwargs: Any) -> None:
         """Bind the collaborators: ``context`` (a :class:`MissionContext`) is required."""
@@ -165,6 +168,7 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
     def update(self) -> Status:
         """Tick: RUNNING with the command written to the blackboard, or FAILURE."""
         assert self.context is not None and self.context.percept is not None, "call setup()"
+        self.activity = None
         cmd = self.decide(self.context.percept)
         self.last_command = cmd
         if cmd is None:
@@ -180,6 +184,15 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         The default does nothing; the tree builder adds a watcher node for classes that override
         it (declare-source uses it to keep checking the lost-contact list).
         """
+
+
+def active_name(tip: py_trees.behaviour.Behaviour | None) -> str | None:
+    """The name a run records for the node that drove a cycle: its own, with what it was doing
+    when it has several jobs (``declare_source.likelihood_map (check leg)``); None: none drove."""
+    if tip is None:
+        return None
+    activity = getattr(tip, "activity", None)
+    return f"{tip.name} ({activity})" if activity else tip.name
 
 
 def overrides_watch(cls: type[PlanBehaviour]) -> bool:

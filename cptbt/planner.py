@@ -15,7 +15,7 @@ from py_trees.common import Access, Status
 
 from cptbt import ticking
 from cptbt.mission import MissionBase
-from cptbt.node import MissionContext, planner_keys
+from cptbt.node import MissionContext, active_name, planner_keys
 from cptbt.perception import Perception
 from cptbt.registry import Registry, default_registry
 from cptbt.tree import build_tree, plan_leaves
@@ -123,7 +123,7 @@ class Planner:
                 cmd = Command(heading, cmd.speed_mps)
         self.command = cmd
         tip = self.root.tip() if cmd is not None else None
-        self.active = tip.name if tip is not None else None
+        self.active = active_name(tip)
         return cmd
 
     # -- outputs --------------------------------------------------------------------------

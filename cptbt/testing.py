@@ -29,6 +29,7 @@ from cptbt.node import (
     MissionContext,
     PlanBehaviour,
     Watch,
+    active_name,
     overrides_watch,
     planner_keys,
 )
@@ -160,7 +161,7 @@ class TreeHarness:
         running = self.root.status == Status.RUNNING
         cmd = self.get("command") if running else None
         tip = self.root.tip() if running else None
-        return Tick(p.t, self.root.status, cmd, tip.name if tip else None)  # type: ignore[arg-type]
+        return Tick(p.t, self.root.status, cmd, active_name(tip))  # type: ignore[arg-type]
 
     def run(self, percepts: Iterable[Percept]) -> list[Tick]:
         """Tick through a script; one :class:`Tick` per percept."""

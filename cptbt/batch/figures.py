@@ -42,11 +42,22 @@ def _phase_style(phase: str) -> tuple[str, str, str] | None:
     return PHASE_STYLES.get(phase) or PHASE_STYLES.get(phase.split(".")[0])
 
 
+ACTIVITY_COLOURS = {
+    "check leg": "#e377c2",
+    "search on": "#bcbd22",
+    "fly-by": "#17becf",
+}
+"""Colours of what a behaviour with several jobs is doing (the active name's "(...)" part)."""
+
+
 def _colour(active: str) -> str:
-    for key in (active, active.split(".")[-1], active.split(".")[0]):
+    name, _, activity = active.partition(" (")
+    if activity.rstrip(")") in ACTIVITY_COLOURS:
+        return ACTIVITY_COLOURS[activity.rstrip(")")]
+    for key in (name, name.split(".")[-1], name.split(".")[0]):
         if key in BEHAVIOUR_COLOURS:
             return BEHAVIOUR_COLOURS[key]
-    return "#17becf"
+    return "#7b4173"
 
 
 def pyplot() -> Any:

@@ -24,6 +24,7 @@ from cptbt.behaviours.meander import MeanderChain
 from cptbt.behaviours.source_map import MapModelParams, SourceMap
 from cptbt.cli import main
 from cptbt.frames import OpArea
+from cptbt.node import active_name
 from cptbt.registry import BehaviourSpec
 from cptbt.testing import (
     FakeVehicle,
@@ -224,11 +225,15 @@ def fly_by(plume_on_pass: Plume) -> tuple[LikelihoodMapDeclare, list[Point]]:
     route = list(node.route)
     x, y = lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20])[t - 1]
     vehicle = FakeVehicle(x, y)
+    actives = []
     while node.candidate is not None and t < 2000:
         tk = harness.tick(script.step(t, vehicle.x, vehicle.y,
                                       conc=plume_on_pass(vehicle.x, vehicle.y)))
+        actives.append(tk.active)
         vehicle.apply(tk.command, 1.0)
         t += 1
+    # recorded as a fly-by until the cycle that judges it (the figures draw it apart)
+    assert set(actives[:-1]) == {"declare_source.likelihood_map (fly-by)"}
     return node, route
 
 
@@ -705,6 +710,8 @@ def test_a_confident_map_is_not_declared_before_the_track_crossed_up_flow_of_it(
     assert mass >= node.params.confidence
     assert node.upflow.target.x == pytest.approx(cand.x - node.params.upflow_check_m, abs=0.5)
     assert abs(node.upflow.target.y - cand.y) == pytest.approx(node.params.upflow_band_m, abs=0.5)
+    # the run records the leg as such (the figures draw it apart from the trip to the source)
+    assert active_name(node) == "declare_source.likelihood_map (check leg)"
     # nothing up-flow: the vehicle crosses the line there on both sides, then declares
     t, path = fly_check(node, harness, script, t, lambda x, y: 0.0)
     assert node.declared is not None and node.declared.distance_to(cand) < 2
