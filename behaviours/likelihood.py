@@ -51,9 +51,18 @@ class LikelihoodMapDeclare(SourceDeclaration):
     **The up-flow check** (``upflow_check_m``; None turns it off). A map can be sure of a point
     short of the source: the meander carried the plume off the flow estimate's axis while the
     vehicle's misses ruled out the water up-flow (TRO MSN007, 1000 runs, seed 2024: the five
-    declarations beyond 15 m lay 19-46 m down-flow of the source). Two tests stand between the
-    rule and the declaration, both along the current flow estimate:
+    declarations beyond 15 m lay 19-46 m down-flow of the source). Three tests stand between
+    the rule and the declaration, the last two along the current flow estimate:
 
+    - *plume seen near* (``upflow_seen_near``): a detection no declared source explains, made
+      since the search for this source began, within ``radius_m`` of the candidate. Without one
+      the node drives to the candidate itself (a *visit*, counted in ``visits``): the map can be
+      sure of a point where no plume was ever seen — up-flow of a source the vehicle overshot,
+      whose own misses there were too few, or against a wall its passes never sampled — and
+      the misses at the point move the map's mass (or the plume is found there). A visit not
+      done after ``upflow_timeout_s`` ends, and the candidate goes on, counted unchecked. A
+      source emits: next to it a pass detects in most cycles (the model's ``detection_prob``).
+      Only with the check on (``upflow_check_m``);
     - *crossing*: the track (since the search for this source began, and since the latest
       vetoing detection) must have crossed the candidate's flow line between
       ``upflow_check_m`` and twice that up-flow of it, reaching ``upflow_band_m`` to either
@@ -171,7 +180,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.upflow = UpflowCheck(
             self.params.upflow_check_m or 0.0, self.params.upflow_band_m, self.params.radius_m,
             self.params.arrive_radius_m, self.params.upflow_memory_s,
-            self.params.upflow_timeout_s, self.params.upflow_fan_deg)
+            self.params.upflow_timeout_s, self.params.upflow_fan_deg,
+            near_m=self.params.radius_m if self.params.upflow_seen_near else None)
         self.detections_used = 0
         self.at_declaration: SourceBelief | None = None
         self.search_target: Point | None = None
@@ -339,7 +349,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.activity = "fly-by"
             return self.command(p.pose.point.bearing_to(self.route[self.route_index]))
         if self.upflow.target is not None and self.declared is None:
-            self.activity = "check leg"
+            self.activity = self.upflow.kind
             return self.command(p.pose.point.bearing_to(self.upflow.target))
         if self.sources and self.declared is None:
             self.activity = "search on"

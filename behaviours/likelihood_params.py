@@ -130,6 +130,16 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     77's first 390 replicates (trace veto alone: T_D share 24.3%): 10° 1 beyond 15 m, 25.7%;
     15° 1, 26.3%; 20° 0, 26.8%: still too dear.
 
+    The visit (``upflow_seen_near``) was made after inspecting seed 2024's remaining false
+    declarations: MSN007 replicate 495 and two-source replicate 85 declared 14-18 m up-flow of
+    a source the vehicle had overshot, and two-source replicate 110 against the OpArea's wall
+    47 m from either source; the nearest detection to those candidates was 12.5, 14.4 and 49.7
+    m away, against at most 9.8 m (median ~2 m) for the correct declarations of replicates
+    0-30. With it those three declare within 15 m (495: 14.8 m). On tuning seed 77: MSN007
+    (1000 runs) the same 2 beyond 15 m (528 and 732: short of the source, plume seen around
+    them), T_D share 24.4% against 24.3% (paired); two sources (200 runs) both found in 199
+    against 198, no false declaration against 1 (replicate 170, at the wall).
+
     The independent-cycle model's own tuning (``meander_memory_s`` None): with the sharper
     model a run of correlated detections made the map confident on the first approach, some
     15-50 m short of the source when the meander then carried the plume off the axis the
@@ -227,6 +237,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "of the track's cycles without a detection: the sensor's noise floor) vetoes like a "
         "detection: up-flow of a source there is no dye at all (class docstring; None: only "
         "detections veto)"
+    )
+    upflow_seen_near: bool = Field(
+        default=True, description="A candidate needs plume seen within radius_m of it (since "
+        "this source's search began), or the vehicle there, before the up-flow check's "
+        "crossing is looked for; until then the vehicle visits it (class docstring)"
     )
     upflow_memory_s: float | None = Field(
         default=None, gt=0, description="Plume seen up-flow of a candidate vetoes it if seen "

@@ -47,6 +47,8 @@ class UpflowCheck:
         trace_level: a reading at least this (the sensor's units) in the band vetoes like a
             detection, if it also stands clear of the sensor's noise floor (:meth:`trace_floor`);
             None: only detections veto.
+        near_m: a candidate needs plume seen within this of it (or the vehicle there) before
+            the crossing is looked for; until then the vehicle visits it. None: not needed.
     """
 
     FLOOR_FACTOR = 3.0
@@ -54,8 +56,14 @@ class UpflowCheck:
 
     def __init__(self, reach_m: float, band_m: float, veto_beyond_m: float, slack_m: float,
                  memory_s: float | None, timeout_s: float, fan_deg: float = 0.0,
-                 trace_level: float | None = None) -> None:
+                 trace_level: float | None = None, near_m: float | None = None) -> None:
         self.reach_m, self.band_m, self.veto_beyond_m = reach_m, band_m, veto_beyond_m
+        self.near_m = near_m
+        self.visit_for: Point | None = None  # the candidate the visit under way goes to
+        self.visit_t0 = math.nan
+        self.visit_over = False  # the visit to visit_for timed out: its candidate goes on
+        self.visits = 0  # visits started
+        self.kind = "check leg"  # what the target is: a check leg's end or a visit's candidate
         self.trace_level = trace_level
         self.fan = math.tan(math.radians(fan_deg))
         self.slack_m, self.memory_s, self.timeout_s = slack_m, memory_s, timeout_s
@@ -99,6 +107,7 @@ class UpflowCheck:
         """A source was declared (or a candidate withdrawn) at ``t``: the search for the next
         one begins; only the track and plume seen from now on count for its candidates."""
         self.search_t0, self.target, self.leg_for, self.vetoing = t, None, None, False
+        self.visit_for = None
 
     def drop(self) -> None:
         """The map is not sure of a candidate this cycle: no leg is flown. A leg under way is
@@ -145,6 +154,8 @@ class UpflowCheck:
             self.vetoing = True
             return False
         self.vetoing = False
+        if not self._supported(p, candidate, t, dx, dy, hit):
+            return False
         # Against the up-flow wall the crossing is looked for nearer, at the candidate itself
         # when there is no room: a map's mass piles up at a wall no evidence reaches.
         need = max(min(self.reach_m, room(area, candidate, -fx, -fy) - slack), 0.0)
@@ -172,10 +183,36 @@ class UpflowCheck:
         if not (left or right):  # neither side yet: the nearer one first
             here = p.pose.point
             side = int(here.distance_to(ends[1]) < here.distance_to(ends[0]))
-        self.target = ends[side]
+        self.target, self.kind = ends[side], "check leg"
+        return False
+
+    def _supported(self, p: Percept, candidate: Point, t: np.ndarray, dx: np.ndarray,
+                   dy: np.ndarray, hit: np.ndarray) -> bool:
+        """Whether plume was seen within :attr:`near_m` of ``candidate`` while searching for
+        this source; if not, :attr:`target` is the candidate itself (a *visit*: the misses
+        there move the map's mass, or the plume is found), until :attr:`timeout_s` ends it
+        (the candidate goes on, counted unchecked)."""
+        if self.near_m is None:
+            return True
+        d2 = dx * dx + dy * dy
+        now = t > self.search_t0
+        if bool(np.any(now & hit & (d2 <= self.near_m**2))):
+            return True
+        if self.visit_for is None or self.visit_for.distance_to(candidate) > self.veto_beyond_m:
+            self.visit_t0, self.visit_over = p.t, False
+            self.visits += 1
+        elif self.visit_over:
+            return True
+        elif p.t - self.visit_t0 >= self.timeout_s:
+            self.visit_over = True
+            self.unchecked += 1
+            return True
+        self.visit_for = candidate
+        self.target, self.kind = candidate, "visit"
         return False
 
     def report(self) -> dict[str, int]:
         """The counts for ``declaration_report``."""
         return {"upflow_checks": self.legs, "unchecked": self.unchecked,
-                "upflow_vetoes": self.vetoes, "trace_vetoes": self.trace_vetoes}
+                "upflow_vetoes": self.vetoes, "trace_vetoes": self.trace_vetoes,
+                "visits": self.visits}

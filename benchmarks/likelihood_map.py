@@ -122,7 +122,8 @@ def fly(job: tuple[str, str, dict[str, Any], int, int]) -> dict[str, Any]:
                   success_radius_m=FALSE_M).to_dict()
     keep = ("outcome", "error_m", "t3", "T_D", "D3", "sources_true", "sources_declared",
             "sources_found", "false_declarations", "flybys", "withdrawn", "upflow_checks",
-            "upflow_vetoes", "trace_vetoes", "unchecked", "sim_time_s", "wall_time_s")
+            "upflow_vetoes", "trace_vetoes", "visits", "unchecked", "sim_time_s",
+            "wall_time_s")
     return {"study": study, "replicate": r, **{k: s[k] for k in keep}}
 
 
@@ -141,7 +142,7 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
     out = [f"| rule (MSN007, up to N = {n} paired) | N | declared | false (> 15 m) | error "
            "median / p95 / max (m) | T_D share (mean) | D3 mean (m) | D3 paired change vs "
            "upflow_cluster | fly-bys / withdrawn | up-flow check legs / vetoes (by a trace) / "
-           "unchecked |",
+           "visits / unchecked |",
            "|---|---|---|---|---|---|---|---|---|---|"]
     for name, runs in by.items():
         got = list(runs.values())
@@ -165,6 +166,8 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
                  if any(r.get("upflow_checks") is not None for r in got) else None)
         traces = (f" ({sum(r.get('trace_vetoes') or 0 for r in got)})"
                   if any(r.get("trace_vetoes") is not None for r in got) else "")
+        visits = (f"{sum(r.get('visits') or 0 for r in got)}"
+                  if any(r.get("visits") is not None for r in got) else "—")
         out.append(
             f"| {name} | {len(got)} | {100 * len(dec) / len(got):.1f}% ({len(dec)}/{len(got)}) | "
             f"{false} | "
@@ -174,7 +177,8 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
             f"{_f(100 * of_means if of_means is not None else None, '+.0f')}% of means, "
             f"{_f(100 * statistics.median(paired) if paired else None, '+.0f')}% median ratio | "
             f"{fly} / {wd} | "
-            + (f"{check[0]} / {check[1]}{traces} / {check[2]}" if check is not None else "—")
+            + (f"{check[0]} / {check[1]}{traces} / {visits} / {check[2]}" if check is not None
+               else "—")
             + " |"
         )
     return out

@@ -44,6 +44,7 @@ def _phase_style(phase: str) -> tuple[str, str, str] | None:
 
 ACTIVITY_COLOURS = {
     "check leg": "#e377c2",
+    "visit": "#ad494a",
     "search on": "#bcbd22",
     "fly-by": "#17becf",
 }

@@ -211,14 +211,17 @@ def cmd_run(args: argparse.Namespace) -> int:
                      "an earlier one taken for the same source (at "
                      + ", ".join(place(q) for q in s["superseded_points"] if q) + ")"
                      if s.get("superseded") else ""))
-        if s["upflow_checks"] or s["upflow_vetoes"] or s["unchecked"]:
+        if s["upflow_checks"] or s["upflow_vetoes"] or s["unchecked"] or s.get("visits"):
             legs, vetoes = s["upflow_checks"] or 0, s["upflow_vetoes"] or 0
             print(f"  up-flow check: {legs} check leg{'s' * (legs != 1)} flown, {vetoes} "
                   f"candidate{'s' * (vetoes != 1)} vetoed by plume seen up-flow of them"
                   + (f" ({s['trace_vetoes']} by a sub-threshold trace alone)"
                      if s.get("trace_vetoes") else "")
-                  + (f", {s['unchecked']} declared unchecked (a leg timed out, or no flow "
-                     "direction)"
+                  + (f", {s['visits']} candidate{'s' * (s['visits'] != 1)} visited for want "
+                     "of plume seen near"
+                     if s.get("visits") else "")
+                  + (f", {s['unchecked']} declared unchecked (a leg or visit timed out, or no "
+                     "flow direction)"
                      if s["unchecked"] else ""))
         if s["criterion"] == "maintain":
             print(f"  first detection {fmt(s['t1'], ' s')}; maintain time T_M "

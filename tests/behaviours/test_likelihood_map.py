@@ -751,7 +751,8 @@ def test_against_the_up_flow_wall_the_crossing_is_sought_at_the_candidate() -> N
                                 namespace=fresh_namespace())
     sweep(node, cone_plume((30.0, 5.0), np.random.default_rng(1)), APPROACH)
     assert node.declared is not None and node.upflow.legs == 0  # the check turned off
-    node, _, script, t = confident_short_of_the_crossing()
+    # (hand-placed candidates with no plume seen near them: no visit, the crossing alone)
+    node, _, script, t = confident_short_of_the_crossing(upflow_seen_near=False)
     p = script.step(t, 32.0, 40.0)
     assert not node._passed_upflow(p, Point(30.0, 5.0))  # 30 m from the wall at x = 0
     assert node.upflow.target is not None and node.upflow.target.x == pytest.approx(20.0)

@@ -46,7 +46,7 @@ def test_a_crossing_on_both_sides_between_one_and_two_reaches_up_flow_passes() -
     c.record(3, Point(38, -4), hit=False)
     assert c.passed(at(s, 3), CAND, AREA) and c.target is None
     assert c.report() == {"upflow_checks": 1, "unchecked": 0, "upflow_vetoes": 0,
-                          "trace_vetoes": 0}
+                          "trace_vetoes": 0, "visits": 0}
 
 
 def test_a_one_cycle_dip_of_confidence_is_not_a_new_leg_and_keeps_the_clock() -> None:
@@ -168,3 +168,34 @@ def test_a_trace_must_stand_clear_of_the_sensors_noise_floor() -> None:
     assert not c.passed(at(s, 20), CAND, AREA) and c.vetoes == 0
     c.record(21, Point(34.0, 0.0), hit=False, reading=0.1)
     assert not c.passed(at(s, 21), CAND, AREA) and c.trace_vetoes == 1
+
+
+def test_a_candidate_with_no_plume_seen_near_it_is_visited_first() -> None:
+    c, s = check(near_m=10.0), ScriptedPerception(AREA)
+    c.record(0, Point(62.0, 0.0), hit=True)  # 12 m down-flow: not near enough
+    assert not c.passed(at(s, 0), CAND, AREA)
+    assert c.target == CAND and c.kind == "visit" and (c.visits, c.legs) == (1, 0)
+    c.record(1, Point(55.0, 1.0), hit=False)  # on the way there: the same visit
+    assert not c.passed(at(s, 1), Point(50.5, 0.0), AREA) and c.visits == 1
+    c.record(2, Point(52.0, 1.0), hit=True)  # plume 2 m from it: now the crossing
+    assert not c.passed(at(s, 2), CAND, AREA)
+    assert c.kind == "check leg" and c.target is not None and c.target.x == 40.0
+    assert c.report()["visits"] == 1 and c.legs == 1
+
+
+def test_a_visit_that_cannot_get_there_ends_and_the_candidate_goes_on_unchecked() -> None:
+    c, s = check(near_m=10.0, timeout_s=30.0), ScriptedPerception(AREA)
+    c.record(0, Point(80.0, 0.0), hit=True)
+    for t in range(0, 30, 5):  # held where it is
+        assert not c.passed(at(s, t), CAND, AREA) and c.kind == "visit"
+    assert not c.passed(at(s, 30), CAND, AREA) and c.kind == "check leg"  # visit timed out
+    for t, y in ((31, 4.0), (32, -4.0)):  # the crossing is what counts now
+        c.record(t, Point(38.0, y), hit=False)
+    assert c.passed(at(s, 33), CAND, AREA) and (c.visits, c.unchecked) == (1, 1)
+
+
+def test_plume_seen_near_before_this_sources_search_does_not_count() -> None:
+    c, s = check(near_m=10.0), ScriptedPerception(AREA)
+    c.record(0, Point(52.0, 0.0), hit=True)
+    c.restart(1.0)  # a source declared: the next one's search begins
+    assert not c.passed(at(s, 2), CAND, AREA) and c.kind == "visit"

@@ -13,7 +13,13 @@ the plume rule then took it for the near one's: forgotten, it must be found agai
 
 Replicates 45, 639 and 932 of root seed 2025 declared 16-40 m short after a check leg that saw
 no detection up-flow but a sub-threshold trace of the plume (0.28-0.45 of the threshold): with
-``upflow_trace_fraction`` the trace vetoes them and each must declare within 15 m.
+``upflow_trace_fraction`` the trace vetoes them and each must declare within 15 m (flown
+without the visit rule below, which changes their tracks).
+
+Two-source replicates 85 and 110 (root seed 2024) declared a point where no plume had been seen
+within 10 m: 14 m up-flow of a source the vehicle had overshot, and against the OpArea's wall
+47 m from either source. With ``upflow_seen_near`` the vehicle visits such a candidate first,
+and both sources must be found.
 """
 
 from __future__ import annotations
@@ -80,12 +86,23 @@ def test_a_run_once_declared_short_is_now_declared_at_the_source(replicate: int)
 
 @pytest.mark.parametrize("replicate", (45, 639, 932))
 def test_a_trace_up_flow_vetoes_a_candidate_short_of_the_source(replicate: int) -> None:
-    run, (source,) = fly(MSN007, replicate, seed=2025)
+    alone = {"declare_source.upflow_seen_near": False}  # the trace veto alone (as designed)
+    run, (source,) = fly(MSN007, replicate, seed=2025, **alone)
     assert run.declared is not None and run.declared.distance_to(source) < 15.0
     assert run.declaration_report["upflow_vetoes"] >= 1
     # without traces the same plume is declared short (the trace is what changed the outcome)
-    assert declaration_error(replicate, seed=2025,
+    assert declaration_error(replicate, seed=2025, **alone,
                              **{"declare_source.upflow_trace_fraction": None}) > 15.0
+
+
+@pytest.mark.parametrize("replicate", (85, 110))
+def test_a_candidate_where_no_plume_was_seen_is_visited_before_it_is_declared(
+        replicate: int) -> None:
+    run, sources = fly(TWO, replicate)
+    assert sorted(nearest(run, sources)) == [0, 1]
+    assert run.declaration_report["visits"] >= 1
+    run, sources = fly(TWO, replicate, **{"declare_source.upflow_seen_near": False})
+    assert -1 in nearest(run, sources)  # as before: one point far from either source
 
 
 @pytest.mark.parametrize("replicate", (83, 132))
