@@ -82,13 +82,22 @@ class LikelihoodMapDeclare(SourceDeclaration):
       line, vetoes it (counted once per run of vetoed cycles): a source is not down-flow of
       its own plume, and the map, having ruled that water out, had put such a detection down to
       a false alarm. So does a *trace* there (``upflow_trace_fraction``, 0.25): a reading below
-      the threshold but at least that fraction of it, and at least three times the median
-      reading of the track's cycles without a detection (the sensor's noise floor: a noisy or
-      offset sensor reads above zero in clean water, and the trace veto then needs more). Up-flow
-      of a source there is no dye at all; a check leg that crossed the plume's fringe, or a
-      filament too diluted to reach the threshold, has seen plume that came from farther
-      up-flow. No leg is flown; the tree searches on, and crossings made before the latest
-      vetoing detection no longer count. A veto lasts while the map stays sure of that
+      the threshold but above that fraction of it, and above three times the median reading of
+      the track's cycles without a detection (a noise floor: a noisy or offset sensor reads
+      above zero in clean water, and the trace veto then needs more). Up-flow of a source there
+      is no dye at all; a check leg that crossed the plume's fringe, or a filament too diluted
+      to reach the threshold, has seen plume that came from farther up-flow. Limits, found by
+      review: the floor is a median, so *rare* spikes (a sensor with 2% of its samples at half
+      the threshold) do not raise it, and a single spike in the band then holds a correct
+      candidate back like a false alarm (12 of 20 MSN007 runs timed out; set
+      ``upflow_trace_fraction: null``, or a finite ``upflow_memory_s``, for such a sensor); a
+      lagging sensor (``alpha_per_s`` 0.2) carries a decaying tail of the plume past the
+      source into the band; and the median counts the cycles a declared source explains (and
+      those outside the OpArea) as 0, which lowers the floor of a noisy sensor in a
+      several-source search (two trace vetoes of a correct candidate, 28 s, in one run).
+      ``trace_vetoes`` counts vetoes whose band held traces but no detection. No leg is
+      flown; the tree searches on, and crossings made before the latest vetoing detection no
+      longer count. A veto lasts while the map stays sure of that
       candidate: with the default ``upflow_memory_s`` (none), a single false alarm in that band
       holds a correct candidate back for the rest of this source's search (the simulator has
       no false alarms; a sensor that has them wants a finite memory), and a reversed flow turns
@@ -354,7 +363,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
         if self.sources and self.declared is None:
             self.activity = "search on"
             return self._search_on(p)
-        return super().decide(p)
+        cmd = super().decide(p)
+        self.activity = "home" if self.heading_home else "to source"
+        return cmd
 
     def _search_on(self, p: Percept) -> Command | None:
         """Between declarations: while the latest detection is one a declared source explains,

@@ -232,11 +232,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "upflow_band_m + a·tan(upflow_fan_deg), deg"
     )
     upflow_trace_fraction: float | None = Field(
-        default=0.25, gt=0, le=1, description="A reading of at least this fraction of the "
-        "perception's threshold in the veto band (and at least three times the median reading "
-        "of the track's cycles without a detection: the sensor's noise floor) vetoes like a "
-        "detection: up-flow of a source there is no dye at all (class docstring; None: only "
-        "detections veto)"
+        default=0.25, gt=0, le=1, description="With the up-flow check, a reading above this "
+        "fraction of the perception's threshold in the veto band (and above three times the "
+        "median reading of the track's cycles without a detection: a noise floor) vetoes like "
+        "a detection: up-flow of a source there is no dye at all. A sensor with rare spikes or "
+        "a slow filter wants None (the declaring class's docstring; None: only detections veto)"
     )
     upflow_seen_near: bool = Field(
         default=True, description="A candidate needs plume seen within radius_m of it (since "

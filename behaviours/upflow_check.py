@@ -136,7 +136,7 @@ class UpflowCheck:
         hit = np.asarray(self._hit, dtype=bool)
         if self.trace_level is not None and len(t):
             with np.errstate(invalid="ignore"):
-                trace = np.asarray(self._conc) >= self.trace_floor()
+                trace = np.asarray(self._conc) > self.trace_floor()  # a level of 0: not 0
         else:
             trace = np.zeros_like(hit)
         half = w + np.maximum(upflow, 0.0) * self.fan  # the band's half-width there

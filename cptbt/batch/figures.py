@@ -44,9 +44,11 @@ def _phase_style(phase: str) -> tuple[str, str, str] | None:
 
 ACTIVITY_COLOURS = {
     "check leg": "#e377c2",
-    "visit": "#ad494a",
+    "visit": "#393b79",
     "search on": "#bcbd22",
-    "fly-by": "#17becf",
+    "fly-by": "#6b6ecf",
+    "to source": "#9467bd",
+    "home": "#8c564b",
 }
 """Colours of what a behaviour with several jobs is doing (the active name's "(...)" part)."""
 
@@ -58,7 +60,7 @@ def _colour(active: str) -> str:
     for key in (name, name.split(".")[-1], name.split(".")[0]):
         if key in BEHAVIOUR_COLOURS:
             return BEHAVIOUR_COLOURS[key]
-    return "#7b4173"
+    return "#17becf"
 
 
 def pyplot() -> Any:

@@ -203,10 +203,10 @@ def test_after_declaring_it_goes_to_the_source_then_home() -> None:
     src = node.declared
     assert src is not None and not node.heading_home
     far = harness.tick(script.step(t, 80.0, 5.0))  # carried away before reaching it
-    assert far.command is not None
+    assert far.command is not None and far.active == "declare_source.likelihood_map (to source)"
     assert far.command.heading_deg == pytest.approx(Point(80, 5).bearing_to(src))
     near = harness.tick(script.step(t + 1, src.x + 0.5, src.y))  # within reach: home is (0, 0)
-    assert near.command is not None
+    assert near.command is not None and near.active == "declare_source.likelihood_map (home)"
     assert near.command.heading_deg == pytest.approx(Point(src.x + 0.5, src.y).bearing_to(
         Point(0, 0)))
     harness.tick(script.step(t + 2, 3.0, 0.0))
