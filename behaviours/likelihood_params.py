@@ -240,8 +240,9 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     )
     upflow_seen_near: bool = Field(
         default=True, description="A candidate needs plume seen within radius_m of it (since "
-        "this source's search began), or the vehicle there, before the up-flow check's "
-        "crossing is looked for; until then the vehicle visits it (class docstring)"
+        "this source's search began) before the up-flow check's crossing is looked for; until "
+        "then the vehicle visits it, and a visit not done in upflow_timeout_s lets it go on, "
+        "unchecked (the declaring class's docstring)"
     )
     upflow_memory_s: float | None = Field(
         default=None, gt=0, description="Plume seen up-flow of a candidate vetoes it if seen "

@@ -44,11 +44,12 @@ class UpflowCheck:
         timeout_s: a check leg not done after this long ends; the candidate passes, unchecked.
         fan_deg: the band widens up-flow by ``tan(fan_deg)`` per metre (the flow estimate's
             direction error): at ``a`` up-flow its half-width is ``band_m + a · tan(fan_deg)``.
-        trace_level: a reading at least this (the sensor's units) in the band vetoes like a
+        trace_level: a reading above this (the sensor's units) in the band vetoes like a
             detection, if it also stands clear of the sensor's noise floor (:meth:`trace_floor`);
             None: only detections veto.
-        near_m: a candidate needs plume seen within this of it (or the vehicle there) before
-            the crossing is looked for; until then the vehicle visits it. None: not needed.
+        near_m: a candidate needs plume seen within this of it before the crossing is looked
+            for; until then the vehicle visits it (a visit that times out lets it go on,
+            unchecked). None: not needed.
     """
 
     FLOOR_FACTOR = 3.0

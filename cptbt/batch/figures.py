@@ -46,11 +46,19 @@ ACTIVITY_COLOURS = {
     "check leg": "#e377c2",
     "visit": "#393b79",
     "search on": "#bcbd22",
-    "fly-by": "#6b6ecf",
+    "fly-by": "#8c6d31",
     "to source": "#9467bd",
     "home": "#8c564b",
 }
 """Colours of what a behaviour with several jobs is doing (the active name's "(...)" part)."""
+
+DASHED_ACTIVITIES = frozenset({"visit", "home"})
+"""Jobs drawn dashed, apart from a solid track of a like colour (and from the dotted trip back
+to the break-off point)."""
+
+
+def _line_style(active: str) -> str:
+    return "--" if active.partition(" (")[2].rstrip(")") in DASHED_ACTIVITIES else "-"
 
 
 def _colour(active: str) -> str:
@@ -266,7 +274,7 @@ def _track(ax: Any, run: VehicleRun, waypoints: Sequence[Point] | None) -> None:
         if i == len(xs_true) or actives[i] != actives[start]:
             name = actives[start] or "none"
             style = _phase_style(name.removeprefix("phase:")) if name.startswith("phase:") else None
-            colour, ls, shown = style if style else (_colour(name), "-", name)
+            colour, ls, shown = style if style else (_colour(name), _line_style(name), name)
             if shown == "none":
                 shown = "no behaviour output"
             label = None if shown in seen else shown
