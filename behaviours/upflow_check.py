@@ -135,17 +135,18 @@ class UpflowCheck:
         # on; a crossing made before the latest such detection no longer counts.
         # A sub-threshold trace there says the same: up-flow of a source there is no dye at all.
         hit = np.asarray(self._hit, dtype=bool)
-        if self.trace_level is not None and len(t):
-            with np.errstate(invalid="ignore"):
-                trace = np.asarray(self._conc) > self.trace_floor()  # a level of 0: not 0
-        else:
-            trace = np.zeros_like(hit)
         half = w + np.maximum(upflow, 0.0) * self.fan  # the band's half-width there
         where = ((t > self.search_t0) & (upflow > self.veto_beyond_m)
                  & (upflow <= 3 * self.reach_m) & (np.abs(across) <= half))
         if self.memory_s is not None:
             where &= t >= p.t - self.memory_s
-        seen = where & (hit | trace)
+        seen = where & hit
+        if self.trace_level is not None:  # the floor (a median) only when a reading could pass
+            conc = np.asarray(self._conc)
+            with np.errstate(invalid="ignore"):
+                trace = where & (conc > self.trace_level)  # a level of 0: not 0
+                if np.any(trace):
+                    seen |= trace & (conc > self.trace_floor())
         if bool(np.any(seen)):
             self.target, self.leg_for = None, None
             self.veto_t = max(self.veto_t, float(t[seen].max()))

@@ -57,14 +57,20 @@ DASHED_ACTIVITIES = frozenset({"visit", "home"})
 to the break-off point)."""
 
 
+def _split(active: str) -> tuple[str, str]:
+    """An active name's behaviour and job: ``"a.b (check leg)"`` → ``("a.b", "check leg")``."""
+    name, _, activity = active.partition(" (")
+    return name, activity.removesuffix(")")
+
+
 def _line_style(active: str) -> str:
-    return "--" if active.partition(" (")[2].rstrip(")") in DASHED_ACTIVITIES else "-"
+    return "--" if _split(active)[1] in DASHED_ACTIVITIES else "-"
 
 
 def _colour(active: str) -> str:
-    name, _, activity = active.partition(" (")
-    if activity.rstrip(")") in ACTIVITY_COLOURS:
-        return ACTIVITY_COLOURS[activity.rstrip(")")]
+    name, activity = _split(active)
+    if activity in ACTIVITY_COLOURS:
+        return ACTIVITY_COLOURS[activity]
     for key in (name, name.split(".")[-1], name.split(".")[0]):
         if key in BEHAVIOUR_COLOURS:
             return BEHAVIOUR_COLOURS[key]
