@@ -60,7 +60,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
       sure of a point where no plume was ever seen — up-flow of a source the vehicle overshot,
       whose own misses there were too few, or against a wall its passes never sampled — and
       the misses at the point move the map's mass (or the plume is found there). A visit not
-      done after ``upflow_timeout_s`` ends, and the candidate goes on, counted unchecked. A
+      done after ``upflow_timeout_s`` ends (``visits_ended``) and holds its candidate back
+      while the tree searches on, until plume is seen near it or the map moves to another
+      candidate (a new visit): a candidate no plume was seen near is never declared. A
       source emits: next to it a pass detects in most cycles (the model's ``detection_prob``).
       Only with the check on (``upflow_check_m``);
     - *crossing*: the track (since the search for this source began, and since the latest
@@ -86,15 +88,18 @@ class LikelihoodMapDeclare(SourceDeclaration):
       the track's cycles without a detection (a noise floor: a noisy or offset sensor reads
       above zero in clean water, and the trace veto then needs more). Up-flow of a source there
       is no dye at all; a check leg that crossed the plume's fringe, or a filament too diluted
-      to reach the threshold, has seen plume that came from farther up-flow. Limits, found by
-      review: the floor is a median, so *rare* spikes (a sensor with 2% of its samples at half
-      the threshold) do not raise it, and a single spike in the band then holds a correct
-      candidate back like a false alarm (12 of 20 MSN007 runs timed out; set
-      ``upflow_trace_fraction: null``, or a finite ``upflow_memory_s``, for such a sensor); a
-      lagging sensor (``alpha_per_s`` 0.2) carries a decaying tail of the plume past the
-      source into the band; and the median counts the cycles a declared source explains (and
-      those outside the OpArea) as 0, which lowers the floor of a noisy sensor in a
-      several-source search (two trace vetoes of a correct candidate, 28 s, in one run).
+      to reach the threshold, has seen plume that came from farther up-flow. A single reading
+      decides (each of the three study runs the trace veto was made for had exactly one above
+      the level in the band), so it cannot tell a spike from a trace: a trace vetoes for
+      ``upflow_timeout_s`` only, and the crossing must then be made again after it (a
+      detection's veto does not end). The floor is a median over the cycles that speak of
+      this source (those a declared source explains, or made outside the OpArea, are left
+      out), so *rare* spikes do not raise it: a sensor with 2% of its samples at half the
+      threshold (MSN007 runs 0-19, root seed 2024, the spikes seen by the declaration alone)
+      made 5 trace vetoes, and all 20 runs declared within 11 m, the latest at 540 s (a veto
+      that did not end: one run timed out, two declared 137 and 306 s later). A lagging sensor
+      (``alpha_per_s`` 0.2) carries a decaying tail of the plume past the source into the band
+      (set ``upflow_trace_fraction: null`` for such a sensor).
       ``trace_vetoes`` counts vetoes whose band held traces but no detection. No leg is
       flown; the tree searches on, and crossings made before the latest vetoing detection no
       longer count. A veto lasts while the map stays sure of that
@@ -223,10 +228,10 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.map.observe(p)
         if self.map.detections and self.params.upflow_check_m is not None:
             here = p.pose.point
-            reading = p.concentration if p.in_op_area else 0.0
+            reading = p.concentration if p.in_op_area else math.nan
             explained = reading > 0 and self._explained(here)
             self.upflow.record(p.t, here, p.detected and not explained,
-                               0.0 if explained else reading)
+                               math.nan if explained else reading)
         post = self.map.posterior()
         if self.candidate is not None:
             self._flyby_step(p)

@@ -241,16 +241,17 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     upflow_seen_near: bool = Field(
         default=True, description="A candidate needs plume seen within radius_m of it (since "
         "this source's search began) before the up-flow check's crossing is looked for; until "
-        "then the vehicle visits it, and a visit not done in upflow_timeout_s lets it go on, "
-        "unchecked (the declaring class's docstring)"
+        "then the vehicle visits it; a visit not done in upflow_timeout_s holds it back while "
+        "the tree searches on (the declaring class's docstring)"
     )
     upflow_memory_s: float | None = Field(
         default=None, gt=0, description="Plume seen up-flow of a candidate vetoes it if seen "
         "within this long (None: since the search for this source began), s"
     )
     upflow_timeout_s: float = Field(
-        default=120.0, gt=0, description="A check leg that has not got there after this long "
-        "ends, and the candidate is declared unchecked (counted in declaration_report), s"
+        default=120.0, gt=0, description="A check leg or visit that has not got there after "
+        "this long ends: a leg's candidate is declared unchecked, a visit's is held back while "
+        "the tree searches on (both counted in declaration_report), s"
     )
     flyby: bool = Field(
         default=False, description="Verify each declaration with a pass across the flow "

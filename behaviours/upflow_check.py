@@ -45,11 +45,12 @@ class UpflowCheck:
         fan_deg: the band widens up-flow by ``tan(fan_deg)`` per metre (the flow estimate's
             direction error): at ``a`` up-flow its half-width is ``band_m + a · tan(fan_deg)``.
         trace_level: a reading above this (the sensor's units) in the band vetoes like a
-            detection, if it also stands clear of the sensor's noise floor (:meth:`trace_floor`);
-            None: only detections veto.
+            detection, if it also stands clear of the sensor's noise floor (:meth:`trace_floor`),
+            but for ``timeout_s`` only: then the crossing must be made again (a single reading
+            may be a spike); None: only detections veto.
         near_m: a candidate needs plume seen within this of it before the crossing is looked
-            for; until then the vehicle visits it (a visit that times out lets it go on,
-            unchecked). None: not needed.
+            for; until then the vehicle visits it (a visit that times out holds it back while
+            the tree searches on). None: not needed.
     """
 
     FLOOR_FACTOR = 3.0
@@ -64,6 +65,7 @@ class UpflowCheck:
         self.visit_t0 = math.nan
         self.visit_over = False  # the visit to visit_for timed out: its candidate goes on
         self.visits = 0  # visits started
+        self.visits_ended = 0  # of those, timed out (their candidates held back)
         self.kind = "check leg"  # what the target is: a check leg's end or a visit's candidate
         self.trace_level = trace_level
         self.fan = math.tan(math.radians(fan_deg))
@@ -86,7 +88,8 @@ class UpflowCheck:
 
     def record(self, t: float, at: Point, hit: bool, reading: float = 0.0) -> None:
         """One cycle of the track: where the vehicle was, whether it saw plume no declared
-        source explains, and its reading (0 where a declared source explains it; NaN: none)."""
+        source explains, and its reading (NaN: none, or one that says nothing of this source:
+        a declared source explains it, or it was made outside the OpArea)."""
         if math.isfinite(at.x) and math.isfinite(at.y):
             self._t.append(t)
             self._x.append(at.x)
@@ -143,8 +146,8 @@ class UpflowCheck:
         seen = where & hit
         if self.trace_level is not None:  # the floor (a median) only when a reading could pass
             conc = np.asarray(self._conc)
-            with np.errstate(invalid="ignore"):
-                trace = where & (conc > self.trace_level)  # a level of 0: not 0
+            with np.errstate(invalid="ignore"):  # a level of 0: not 0; NaN: no reading
+                trace = where & (conc > self.trace_level) & (t >= p.t - self.timeout_s)
                 if np.any(trace):
                     seen |= trace & (conc > self.trace_floor())
         if bool(np.any(seen)):
@@ -192,8 +195,12 @@ class UpflowCheck:
                    dy: np.ndarray, hit: np.ndarray) -> bool:
         """Whether plume was seen within :attr:`near_m` of ``candidate`` while searching for
         this source; if not, :attr:`target` is the candidate itself (a *visit*: the misses
-        there move the map's mass, or the plume is found), until :attr:`timeout_s` ends it
-        (the candidate goes on, counted unchecked)."""
+        there move the map's mass, or the plume is found), until :attr:`timeout_s` ends it.
+        A visit that timed out holds its candidate back (no target: the tree searches on)
+        until plume is seen near it; a candidate more than ``veto_beyond_m`` from it is a new
+        visit. A candidate no plume was seen near is not declared at all: the two-source
+        study's one corner declaration (seed 2026, replicate 159, 47 m from either source) was
+        a visit the vehicle never made, passed unchecked."""
         if self.near_m is None:
             return True
         d2 = dx * dx + dy * dy
@@ -203,12 +210,12 @@ class UpflowCheck:
         if self.visit_for is None or self.visit_for.distance_to(candidate) > self.veto_beyond_m:
             self.visit_t0, self.visit_over = p.t, False
             self.visits += 1
-        elif self.visit_over:
-            return True
-        elif p.t - self.visit_t0 >= self.timeout_s:
+        elif not self.visit_over and p.t - self.visit_t0 >= self.timeout_s:
             self.visit_over = True
-            self.unchecked += 1
-            return True
+            self.visits_ended += 1
+        if self.visit_over:  # held back, the tree searching on, until plume is seen near it
+            self.target = None
+            return False
         self.visit_for = candidate
         self.target, self.kind = candidate, "visit"
         return False
@@ -217,4 +224,4 @@ class UpflowCheck:
         """The counts for ``declaration_report``."""
         return {"upflow_checks": self.legs, "unchecked": self.unchecked,
                 "upflow_vetoes": self.vetoes, "trace_vetoes": self.trace_vetoes,
-                "visits": self.visits}
+                "visits": self.visits, "visits_ended": self.visits_ended}

@@ -122,7 +122,7 @@ def fly(job: tuple[str, str, dict[str, Any], int, int]) -> dict[str, Any]:
                   success_radius_m=FALSE_M).to_dict()
     keep = ("outcome", "error_m", "t3", "T_D", "D3", "sources_true", "sources_declared",
             "sources_found", "false_declarations", "flybys", "withdrawn", "upflow_checks",
-            "upflow_vetoes", "trace_vetoes", "visits", "unchecked", "sim_time_s",
+            "upflow_vetoes", "trace_vetoes", "visits", "visits_ended", "unchecked", "sim_time_s",
             "wall_time_s")
     return {"study": study, "replicate": r, **{k: s[k] for k in keep}}
 
@@ -142,7 +142,7 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
     out = [f"| rule (MSN007, up to N = {n} paired) | N | declared | false (> 15 m) | error "
            "median / p95 / max (m) | T_D share (mean) | D3 mean (m) | D3 paired change vs "
            "upflow_cluster | fly-bys / withdrawn | up-flow check legs / vetoes (by a trace) / "
-           "visits / unchecked |",
+           "visits (timed out) / unchecked |",
            "|---|---|---|---|---|---|---|---|---|---|"]
     for name, runs in by.items():
         got = list(runs.values())
@@ -168,6 +168,8 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
                   if any(r.get("trace_vetoes") is not None for r in got) else "")
         visits = (f"{sum(r.get('visits') or 0 for r in got)}"
                   if any(r.get("visits") is not None for r in got) else "—")
+        if any(r.get("visits_ended") is not None for r in got):
+            visits += f" ({sum(r.get('visits_ended') or 0 for r in got)})"
         out.append(
             f"| {name} | {len(got)} | {100 * len(dec) / len(got):.1f}% ({len(dec)}/{len(got)}) | "
             f"{false} | "

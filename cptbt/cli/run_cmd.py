@@ -219,8 +219,10 @@ def cmd_run(args: argparse.Namespace) -> int:
                      if s.get("trace_vetoes") else "")
                   + (f", {s['visits']} candidate{'s' * (s['visits'] != 1)} visited for want "
                      "of plume seen near"
+                     + (f" ({s['visits_ended']} held back, the visit timed out)"
+                        if s.get("visits_ended") else "")
                      if s.get("visits") else "")
-                  + (f", {s['unchecked']} declared unchecked (a leg or visit timed out, or no "
+                  + (f", {s['unchecked']} declared unchecked (a check leg timed out, or no "
                      "flow direction)"
                      if s["unchecked"] else ""))
         if s["criterion"] == "maintain":

@@ -270,14 +270,32 @@ def test_declares_two_sources_one_after_the_other() -> None:
     assert harness.get("declared_sources") == node.sources
 
 
-def declaring(**params: Any) -> tuple[LikelihoodMapDeclare, TreeHarness]:
+def declaring(threshold: float | None = None,
+              **params: Any) -> tuple[LikelihoodMapDeclare, TreeHarness]:
     """A declaration node with a map of 30 quiet cycles in a corner, to accept points into."""
     node = LikelihoodMapDeclare(LikelihoodMapParams(**params), namespace=fresh_namespace())
-    harness = TreeHarness(node, make_context(AREA))
+    harness = TreeHarness(node, make_context(AREA, threshold=threshold))
     script = ScriptedPerception(AREA, flow=FLOW)
     for t in range(30):
         harness.tick(script.step(t, 99.0, 49.0))
     return node, harness
+
+
+def test_the_trace_floor_is_taken_from_readings_that_speak_of_this_source_only() -> None:
+    # A noisy sensor (0.03 in clean water) searching for a second source: the readings a
+    # declared source's plume explains, and those outside the OpArea, are no clean water.
+    node, harness = declaring(threshold=0.2, max_sources=2)
+    node._accept(Point(40.0, 0.0))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    harness.tick(script.step(30, 50.0, 0.0, conc=1.0))  # in its plume: explained
+    for t in range(31, 41):
+        harness.tick(script.step(t, 50.0, 1.0, conc=0.1))  # explained, below the threshold
+        harness.tick(script.step(t + 0.5, 103.0, 0.0, conc=0.0))  # outside the OpArea
+    for t in range(41, 46):
+        harness.tick(script.step(t, 90.0, 40.0, conc=0.03))  # clean water, this search's
+    level = node.upflow.trace_level
+    assert level is not None and level < 0.09
+    assert node.upflow.trace_floor() == pytest.approx(0.09)  # 3 x the clean water's median
 
 
 def test_a_declaration_up_the_plume_of_a_declared_source_replaces_it() -> None:

@@ -46,7 +46,7 @@ def test_a_crossing_on_both_sides_between_one_and_two_reaches_up_flow_passes() -
     c.record(3, Point(38, -4), hit=False)
     assert c.passed(at(s, 3), CAND, AREA) and c.target is None
     assert c.report() == {"upflow_checks": 1, "unchecked": 0, "upflow_vetoes": 0,
-                          "trace_vetoes": 0, "visits": 0}
+                          "trace_vetoes": 0, "visits": 0, "visits_ended": 0}
 
 
 def test_a_one_cycle_dip_of_confidence_is_not_a_new_leg_and_keeps_the_clock() -> None:
@@ -170,6 +170,39 @@ def test_a_trace_must_stand_clear_of_the_sensors_noise_floor() -> None:
     assert not c.passed(at(s, 21), CAND, AREA) and c.trace_vetoes == 1
 
 
+def test_a_traces_veto_ends_after_the_timeout_and_a_fresh_crossing_is_then_needed() -> None:
+    c, s = check(trace_level=0.05, timeout_s=60.0), ScriptedPerception(AREA)
+    for t, y in ((0, 4.0), (1, -4.0)):  # a crossing, both sides: it would pass ...
+        c.record(t, Point(38.0, y), hit=False, reading=0.0)
+    c.record(2, Point(34.0, 0.0), hit=False, reading=0.1)  # ... but a trace (a spike?) there
+    for t in (2, 30, 61):
+        assert not c.passed(at(s, t), CAND, AREA) and c.target is None and c.vetoes == 1
+    assert not c.passed(at(s, 63), CAND, AREA)  # the veto is over: the crossing again
+    assert c.target is not None and c.target.x == 40.0 and c.legs == 1
+    for t, y in ((64, 4.0), (65, -4.0)):
+        c.record(t, Point(38.0, y), hit=False, reading=0.0)
+    assert c.passed(at(s, 66), CAND, AREA) and (c.vetoes, c.trace_vetoes) == (1, 1)
+
+
+def test_a_detections_veto_does_not_end_with_the_timeout() -> None:
+    c, s = check(trace_level=0.05, timeout_s=60.0), ScriptedPerception(AREA)
+    c.record(0, Point(34.0, 0.0), hit=True, reading=0.5)
+    for t, y in ((1, 4.0), (2, -4.0)):
+        c.record(t, Point(38.0, y), hit=False, reading=0.0)
+    assert not c.passed(at(s, 1000), CAND, AREA) and c.target is None
+
+
+def test_readings_that_say_nothing_of_this_source_do_not_lower_the_floor() -> None:
+    c, s = check(trace_level=0.05), ScriptedPerception(AREA)
+    for t in range(10):  # a noisy sensor in clean water
+        c.record(t, Point(80.0, 20.0 + t), hit=False, reading=0.03)
+    for t in range(10, 40):  # a declared source's plume, or outside the OpArea: no reading
+        c.record(t, Point(80.0, -20.0), hit=False, reading=math.nan)
+    assert c.trace_floor() == pytest.approx(0.09)  # as 0 they made it 0.05 (the level)
+    c.record(40, Point(34.0, 0.0), hit=False, reading=0.08)
+    assert not c.passed(at(s, 40), CAND, AREA) and c.vetoes == 0
+
+
 def test_a_candidate_with_no_plume_seen_near_it_is_visited_first() -> None:
     c, s = check(near_m=10.0), ScriptedPerception(AREA)
     c.record(0, Point(62.0, 0.0), hit=True)  # 12 m down-flow: not near enough
@@ -183,15 +216,30 @@ def test_a_candidate_with_no_plume_seen_near_it_is_visited_first() -> None:
     assert c.report()["visits"] == 1 and c.legs == 1
 
 
-def test_a_visit_that_cannot_get_there_ends_and_the_candidate_goes_on_unchecked() -> None:
+def test_a_visit_that_cannot_get_there_ends_and_holds_the_candidate_back() -> None:
     c, s = check(near_m=10.0, timeout_s=30.0), ScriptedPerception(AREA)
     c.record(0, Point(80.0, 0.0), hit=True)
     for t in range(0, 30, 5):  # held where it is
         assert not c.passed(at(s, t), CAND, AREA) and c.kind == "visit"
-    assert not c.passed(at(s, 30), CAND, AREA) and c.kind == "check leg"  # visit timed out
-    for t, y in ((31, 4.0), (32, -4.0)):  # the crossing is what counts now
+    for t in (30, 60, 600):  # timed out: not declared, no target (the tree searches on)
+        assert not c.passed(at(s, t), CAND, AREA) and c.target is None
+    for t, y in ((601, 4.0), (602, -4.0)):  # a crossing does not make up for no plume near
         c.record(t, Point(38.0, y), hit=False)
-    assert c.passed(at(s, 33), CAND, AREA) and (c.visits, c.unchecked) == (1, 1)
+    assert not c.passed(at(s, 603), CAND, AREA) and c.target is None
+    assert (c.visits, c.visits_ended, c.unchecked, c.legs) == (1, 1, 0, 0)
+    c.record(604, Point(45.0, 1.0), hit=True)  # plume seen 5 m from it: now it may go on
+    assert c.passed(at(s, 605), CAND, AREA)
+
+
+def test_a_held_back_candidate_that_moves_is_visited_again() -> None:
+    c, s = check(near_m=10.0, timeout_s=30.0), ScriptedPerception(AREA)
+    c.record(0, Point(80.0, 0.0), hit=True)
+    assert not c.passed(at(s, 0), CAND, AREA) and c.kind == "visit"
+    assert not c.passed(at(s, 30), CAND, AREA) and c.target is None
+    assert not c.passed(at(s, 31), Point(52.0, 3.0), AREA) and c.target is None  # same one
+    other = Point(30.0, 20.0)  # more than veto_beyond_m away: a new visit, a new clock
+    assert not c.passed(at(s, 32), other, AREA) and c.target == other and c.kind == "visit"
+    assert (c.visits, c.visits_ended) == (2, 1)
 
 
 def test_plume_seen_near_before_this_sources_search_does_not_count() -> None:

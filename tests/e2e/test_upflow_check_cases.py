@@ -19,7 +19,10 @@ without the visit rule below, which changes their tracks).
 Two-source replicates 85 and 110 (root seed 2024) declared a point where no plume had been seen
 within 10 m: 14 m up-flow of a source the vehicle had overshot, and against the OpArea's wall
 47 m from either source. With ``upflow_seen_near`` the vehicle visits such a candidate first,
-and both sources must be found.
+and both sources must be found. Two-source replicate 159 of root seed 2026 visited a
+candidate in the OpArea's corner that the vehicle never reached (the map's confidence dipped
+while it circled the real source) and, the visit timed out, declared it unchecked 47 m from
+either source: a timed-out visit now holds its candidate back, and both sources are found.
 """
 
 from __future__ import annotations
@@ -103,6 +106,12 @@ def test_a_candidate_where_no_plume_was_seen_is_visited_before_it_is_declared(
     assert run.declaration_report["visits"] >= 1
     run, sources = fly(TWO, replicate, **{"declare_source.upflow_seen_near": False})
     assert -1 in nearest(run, sources)  # as before: one point far from either source
+
+
+def test_a_visit_that_timed_out_holds_its_candidate_back() -> None:
+    run, sources = fly(TWO, 159, seed=2026)
+    assert run.declaration_report["visits_ended"] >= 1
+    assert sorted(nearest(run, sources)) == [0, 1]
 
 
 @pytest.mark.parametrize("replicate", (83, 132))
