@@ -196,10 +196,15 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"{mission.name}, seed {seed}: {s['outcome']} ({verdict}: {judged}); the AMP "
               f"ended at {fmt(s['sim_time_s'], ' s')} "
               f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
-        if s["declared_source"]:
+        points = [q for q in s["declared_sources"] if q]
+        if s["declared_source"] and (len(points) > 1 or s["sources_true"] > 1):
+            # the error is the worst point's (summary.py): not the last point's alone
+            print(f"  declared at t3 = {fmt(s['t3'], ' s')}: the last of {len(points)} points "
+                  f"{place(s['declared_source'])}; worst error {fmt(s['error_m'], ' m')} (each "
+                  "declared point against its nearest true source)")
+        elif s["declared_source"]:
             print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source "
                   f"{place(s['declared_source'])}; error {fmt(s['error_m'], ' m')}")
-        points = [q for q in s["declared_sources"] if q]
         if len(points) > 1 or (points and not s["declared_source"]):  # several, or timed out
             print("  declared points: " + "; ".join(place(q) for q in points))
         if s["sources_true"] > 1 or s["sources_declared"] > 1 or s["withdrawn"] or s["flybys"]:

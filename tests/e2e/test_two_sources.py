@@ -41,8 +41,12 @@ def test_the_shipped_run_declares_both_sources_and_draws_the_map(tmp_path: Path)
 def test_the_printed_run_names_every_declared_point(tmp_path: Path,
                                                    capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", str(TWO), "--out", str(tmp_path), "--no-figure"]) == 0
-    lines = [ln for ln in capsys.readouterr().out.splitlines() if "declared points:" in ln]
+    out = capsys.readouterr().out.splitlines()
+    lines = [ln for ln in out if "declared points:" in ln]
     assert len(lines) == 1 and lines[0].count("x ") == 2, lines
+    # the error is the worst point's: it is not printed as the last point's own
+    (t3,) = [ln for ln in out if "declared at t3" in ln]
+    assert "the last of 2 points" in t3 and "worst error" in t3, t3
 
 
 @pytest.mark.parametrize("seed", [1, 2])
