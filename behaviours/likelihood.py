@@ -127,7 +127,17 @@ class LikelihoodMapDeclare(SourceDeclaration):
     With ``max_sources > 1`` each confirmed source is added to ``declared_sources``, its
     neighbourhood ruled out and its plume explained away in the map (rebuilt from the history),
     and the search resumes; after the last, the vehicle goes to it and home (TRO IV-D).
-    ``declared_source`` is written once, at the last declaration. A declaration whose plume
+    ``declared_source`` is written once, at the last declaration. Where fewer sources may be
+    there than ``max_sources`` allows, ``search_give_up_s`` bounds the search between
+    declarations: that long after the latest declaration or detection no declared source
+    explains (and with no check leg or visit under way), the search ends, ``declared_source``
+    is the latest point, and the vehicle heads home (``search_given_up`` in
+    ``declaration_report``; t3 is then when it gave up: the AMP was declaring until then).
+    Without it, the vehicle searches on to the time limit: the map's mass left over settles
+    where no evidence reaches (along the walls), and the vehicle patrols them; a source lying
+    in a declared one's plume is never found (its detections are explained away: three seeds
+    of the two-source mission with a third source 110 m down-flow of one, in its plume).
+    A declaration whose plume
     would reach an already declared source (the model's chance of a detection there is at
     least ``explained_prob``) *replaces* that source instead of adding one, and the search goes
     on (``superseded`` in ``declaration_report``): the earlier point lies down-flow in this
@@ -170,6 +180,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         "route_index", "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn",
         "withdrawn_at", "superseded", "superseded_at", "upflow",
         "detections_used", "at_declaration", "search_target", "search_t",
+        "evidence_t", "evidence_count", "search_given_up",
     )
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
@@ -200,6 +211,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.at_declaration: SourceBelief | None = None
         self.search_target: Point | None = None
         self.search_t = -math.inf
+        self.evidence_t = -math.inf  # the latest declaration or unexplained detection
+        self.evidence_count = 0  # the map's unexplained detections at evidence_t
+        self.search_given_up = False
 
     def setup(self, **kwargs: Any) -> None:
         """Bind the context and lay the grid over its OpArea."""
@@ -220,12 +234,15 @@ class LikelihoodMapDeclare(SourceDeclaration):
             "withdrawn_at": [(q.x, q.y) for q in self.withdrawn_at],
             "superseded": self.superseded,
             "superseded_at": [(q.x, q.y) for q in self.superseded_at], **self.upflow.report(),
+            "search_given_up": self.search_given_up,
         }
 
     def watch(self, p: Percept) -> None:
         """Update the map; run the fly-by's bookkeeping; test the rule; publish the map."""
         assert self.map is not None, "call setup()"
         self.map.observe(p)
+        if self.map.unexplained != self.evidence_count:
+            self.evidence_t, self.evidence_count = p.t, self.map.unexplained
         if self.map.detections and self.params.upflow_check_m is not None:
             here = p.pose.point
             reading = p.concentration if p.in_op_area else math.nan
@@ -235,9 +252,27 @@ class LikelihoodMapDeclare(SourceDeclaration):
         post = self.map.posterior()
         if self.candidate is not None:
             self._flyby_step(p)
-        elif len(self.sources) < self.params.max_sources:
+        elif len(self.sources) < self.params.max_sources and not self._give_up(p):
             self._test_rule(p, post)
         self.bb.set(SOURCE_MAP_KEY, self.map.belief(post))
+
+    def _give_up(self, p: Percept) -> bool:
+        """``search_give_up_s`` since the latest declaration or unexplained detection, with no
+        check leg or visit under way: the search ends with the sources found, and the vehicle
+        heads home (each source was reached when it was declared)."""
+        if self.search_given_up:
+            return True
+        limit = self.params.search_give_up_s
+        if (limit is None or not self.sources or self.upflow.target is not None
+                or p.t - self.evidence_t < limit):
+            return False
+        source = self.sources[-1]
+        self.declared = source
+        self.bb.declared_source = source
+        self.heading_home = True
+        self.search_given_up = True
+        self._report()
+        return True
 
     def _test_rule(self, p: Percept, post: np.ndarray) -> None:
         assert self.map is not None
@@ -281,6 +316,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.groups = (*self.groups, (source,))
         self.detections_used = self.map.unexplained
         self.upflow.restart(self.map.t)
+        self.evidence_t = self.map.t
         self.at_declaration = self.map.belief()
         self.bb.set("source_map_at_declaration", self.at_declaration)
         self.bb.declared_sources = self.sources

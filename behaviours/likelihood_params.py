@@ -283,6 +283,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=20.0, gt=0, description="Between declarations, the search target is re-chosen "
         "at least this often, s"
     )
+    search_give_up_s: float | None = Field(
+        default=None, gt=0, description="With max_sources > 1: the search for another source "
+        "ends after this long without a detection no declared source explains, and the "
+        "vehicle goes home with the sources found (None: it searches on to the time limit), s"
+    )
 
 
 

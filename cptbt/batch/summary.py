@@ -95,6 +95,7 @@ class RunSummary:
     trace_vetoes: int | None = None
     visits: int | None = None
     visits_ended: int | None = None
+    search_given_up: bool | None = None
     unchecked: int | None = None
     closest_approach_m: float | None = None
     T_M: float | None = None
@@ -138,7 +139,9 @@ def summarise(
     candidates vetoed by plume seen up-flow of them (``trace_vetoes`` of them by sub-threshold
     traces alone), ``visits`` the candidates it flew to for want of plume seen near them
     (``visits_ended`` of those visits timed out, the candidate held back), and the declarations
-    made unchecked (a check leg that timed out, or no flow direction to check along).
+    made unchecked (a check leg that timed out, or no flow direction to check along);
+    ``search_given_up`` that the search for another source ended (``search_give_up_s``) before
+    ``max_sources`` were declared.
     ``closest_approach_m`` is the vehicle's closest true approach to the true source while the
     AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
     maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before
@@ -231,6 +234,7 @@ def summarise(
         trace_vetoes=report.get("trace_vetoes"),
         visits=report.get("visits"),
         visits_ended=report.get("visits_ended"),
+        search_given_up=report.get("search_given_up"),
         unchecked=report.get("unchecked"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
         T_M=_maintain_time(run) if mission.evaluation.criterion == "maintain" else None,

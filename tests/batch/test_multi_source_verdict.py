@@ -27,19 +27,34 @@ def test_every_true_source_declared_and_nothing_false_is_a_success() -> None:
     assert _judge_set([], [A], 0) == Verdict(False, False, None)
 
 
-def test_asking_for_two_sources_where_there_is_one() -> None:
-    """max_sources 2 over one real source: the AMP declares it, searches on to the time limit
-    (outcome timeout) and is judged on what it declared: a success, not a failure."""
+def msn007_asking_for_two(extra: str = "") -> dict:  # type: ignore[type-arg]
+    """MSN007 (one source) with a likelihood-map declaration asking for two, 900 s."""
     text = (ROOT / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8")
     start = text.index("declare_source:")
     end = text.index("\n", start)
-    text = text[:start] + ("declare_source: {variant: likelihood_map, max_sources: 2}"
+    text = text[:start] + (f"declare_source: {{variant: likelihood_map, max_sources: 2{extra}}}"
                            ) + text[end:]
     mission = loads_mission(text, "m.yaml", default_registry(), Environment)
     mission = mission.model_copy(update={"mission_a": None, "time_limit_s": 900.0})
     params = to_sim_params(mission, 1)
     (run,), _, wall = simulate(mission, params, [launch_pose(mission)])
-    s = summarise(run, mission, Point(*params.source_xy_m), 1, wall).to_dict()
+    return summarise(run, mission, Point(*params.source_xy_m), 1, wall).to_dict()
+
+
+def test_asking_for_two_sources_where_there_is_one() -> None:
+    """max_sources 2 over one real source: the AMP declares it, searches on to the time limit
+    (outcome timeout) and is judged on what it declared: a success, not a failure."""
+    s = msn007_asking_for_two()
     assert s["outcome"] == "timeout" and s["sources_declared"] == 1
+    assert not s["search_given_up"]
     assert s["sources_found"] == 1 and s["false_declarations"] == 0
     assert s["success"] and s["error_m"] is not None and s["error_m"] <= 15.0
+
+
+def test_a_search_that_gives_up_goes_home_with_the_sources_found() -> None:
+    """The same with search_give_up_s: 120 s without a detection the declared source does not
+    explain, the search ends, and the vehicle goes to it and home (outcome declared)."""
+    s = msn007_asking_for_two(", search_give_up_s: 120")
+    assert s["outcome"] == "declared" and s["search_given_up"]
+    assert s["sources_declared"] == 1 and s["sources_found"] == 1 and s["success"]
+    assert s["sim_time_s"] < 900.0

@@ -298,6 +298,32 @@ def test_the_trace_floor_is_taken_from_readings_that_speak_of_this_source_only()
     assert node.upflow.trace_floor() == pytest.approx(0.09)  # 3 x the clean water's median
 
 
+def test_the_search_for_another_source_gives_up_after_a_while_without_new_plume() -> None:
+    node, harness = declaring(max_sources=2, search_give_up_s=50.0)
+    node._accept(Point(40.0, 0.0))  # at t = 29 (the map's latest cycle)
+    script = ScriptedPerception(AREA, flow=FLOW)
+    for t in range(30, 79):
+        harness.tick(script.step(t, 90.0, 40.0))  # nothing seen
+    assert node.declared is None and harness.get("declared_source") is None
+    harness.tick(script.step(79, 10.0, 40.0, conc=1.0))  # plume no declared source explains
+    for t in range(80, 129):
+        harness.tick(script.step(t, 90.0, 40.0))
+    assert node.declared is None  # 49 s since that detection
+    harness.tick(script.step(129, 90.0, 40.0))
+    assert node.declared == Point(40.0, 0.0) and node.heading_home  # home, not back to it
+    assert harness.get("declaration_report")["search_given_up"]
+    assert harness.get("declared_source") == Point(40.0, 0.0)
+
+
+def test_without_a_give_up_time_the_search_goes_on() -> None:
+    node, harness = declaring(max_sources=2)
+    node._accept(Point(40.0, 0.0))
+    script = ScriptedPerception(AREA, flow=FLOW)
+    for t in range(30, 2000, 7):
+        harness.tick(script.step(t, 90.0, 40.0))
+    assert node.declared is None and not node.search_given_up
+
+
 def test_a_declaration_up_the_plume_of_a_declared_source_replaces_it() -> None:
     # The same source declared short on the approach, then again at the source: one source.
     node, harness = declaring(max_sources=3)
