@@ -45,9 +45,8 @@ class UpflowCheck:
         fan_deg: the band widens up-flow by ``tan(fan_deg)`` per metre (the flow estimate's
             direction error): at ``a`` up-flow its half-width is ``band_m + a · tan(fan_deg)``.
         trace_level: a reading above this (the sensor's units) in the band vetoes like a
-            detection, if it also stands clear of the sensor's noise floor (:meth:`trace_floor`),
-            but for ``timeout_s`` only: then the crossing must be made again (a single reading
-            may be a spike); None: only detections veto.
+            detection, if it also stands clear of the sensor's noise floor (:meth:`trace_floor`);
+            None: only detections veto.
         near_m: a candidate needs plume seen within this of it before the crossing is looked
             for; until then the vehicle visits it (a visit that times out holds it back while
             the tree searches on). None: not needed.
@@ -147,7 +146,7 @@ class UpflowCheck:
         if self.trace_level is not None:  # the floor (a median) only when a reading could pass
             conc = np.asarray(self._conc)
             with np.errstate(invalid="ignore"):  # a level of 0: not 0; NaN: no reading
-                trace = where & (conc > self.trace_level) & (t >= p.t - self.timeout_s)
+                trace = where & (conc > self.trace_level)
                 if np.any(trace):
                     seen |= trace & (conc > self.trace_floor())
         if bool(np.any(seen)):

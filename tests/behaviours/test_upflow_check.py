@@ -170,28 +170,6 @@ def test_a_trace_must_stand_clear_of_the_sensors_noise_floor() -> None:
     assert not c.passed(at(s, 21), CAND, AREA) and c.trace_vetoes == 1
 
 
-def test_a_traces_veto_ends_after_the_timeout_and_a_fresh_crossing_is_then_needed() -> None:
-    c, s = check(trace_level=0.05, timeout_s=60.0), ScriptedPerception(AREA)
-    for t, y in ((0, 4.0), (1, -4.0)):  # a crossing, both sides: it would pass ...
-        c.record(t, Point(38.0, y), hit=False, reading=0.0)
-    c.record(2, Point(34.0, 0.0), hit=False, reading=0.1)  # ... but a trace (a spike?) there
-    for t in (2, 30, 61):
-        assert not c.passed(at(s, t), CAND, AREA) and c.target is None and c.vetoes == 1
-    assert not c.passed(at(s, 63), CAND, AREA)  # the veto is over: the crossing again
-    assert c.target is not None and c.target.x == 40.0 and c.legs == 1
-    for t, y in ((64, 4.0), (65, -4.0)):
-        c.record(t, Point(38.0, y), hit=False, reading=0.0)
-    assert c.passed(at(s, 66), CAND, AREA) and (c.vetoes, c.trace_vetoes) == (1, 1)
-
-
-def test_a_detections_veto_does_not_end_with_the_timeout() -> None:
-    c, s = check(trace_level=0.05, timeout_s=60.0), ScriptedPerception(AREA)
-    c.record(0, Point(34.0, 0.0), hit=True, reading=0.5)
-    for t, y in ((1, 4.0), (2, -4.0)):
-        c.record(t, Point(38.0, y), hit=False, reading=0.0)
-    assert not c.passed(at(s, 1000), CAND, AREA) and c.target is None
-
-
 def test_readings_that_say_nothing_of_this_source_do_not_lower_the_floor() -> None:
     c, s = check(trace_level=0.05), ScriptedPerception(AREA)
     for t in range(10):  # a noisy sensor in clean water
