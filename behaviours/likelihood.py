@@ -88,18 +88,19 @@ class LikelihoodMapDeclare(SourceDeclaration):
       the track's cycles without a detection (a noise floor: a noisy or offset sensor reads
       above zero in clean water, and the trace veto then needs more). Up-flow of a source there
       is no dye at all; a check leg that crossed the plume's fringe, or a filament too diluted
-      to reach the threshold, has seen plume that came from farther up-flow. A single reading
-      decides (each of the three study runs the trace veto was made for had exactly one above
-      the level in the band), so it cannot tell a spike from a trace: a trace vetoes for
-      ``upflow_timeout_s`` only, and the crossing must then be made again after it (a
-      detection's veto does not end). The floor is a median over the cycles that speak of
-      this source (those a declared source explains, or made outside the OpArea, are left
-      out), so *rare* spikes do not raise it: a sensor with 2% of its samples at half the
-      threshold (MSN007 runs 0-19, root seed 2024, the spikes seen by the declaration alone)
-      made 5 trace vetoes, and all 20 runs declared within 11 m, the latest at 540 s (a veto
-      that did not end: one run timed out, two declared 137 and 306 s later). A lagging sensor
-      (``alpha_per_s`` 0.2) carries a decaying tail of the plume past the source into the band
-      (set ``upflow_trace_fraction: null`` for such a sensor).
+      to reach the threshold, has seen plume that came from farther up-flow. Limits: a single
+      reading decides (each of the three study runs the trace veto was made for had exactly
+      one above the level in the band), so it cannot tell a spike from a trace, and the veto
+      lasts like a detection's (ending it after ``upflow_timeout_s`` lost two-source replicate
+      8 of seed 2024, whose old traces in the band of a turned flow had held a candidate 45 m
+      off back). The floor is a median over the cycles that speak of this source (those a
+      declared source explains, or made outside the OpArea, are left out), so *rare* spikes do
+      not raise it: with a sensor whose samples are at half the threshold 2% of the time
+      (MSN007 runs 0-19, root seed 2024, the spikes seen by the declaration alone), one run
+      of 20 never declared, its right candidate held back by one spike. A lagging sensor
+      (``alpha_per_s`` 0.2) carries a decaying tail of the plume past the source into the
+      band. Set ``upflow_trace_fraction: null``, or a finite ``upflow_memory_s``, for such
+      sensors.
       ``trace_vetoes`` counts vetoes whose band held traces but no detection. No leg is
       flown; the tree searches on, and crossings made before the latest vetoing detection no
       longer count. A veto lasts while the map stays sure of that
