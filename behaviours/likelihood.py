@@ -26,7 +26,11 @@ from py_trees.common import Access
 
 from cptbt.angles import unit
 from cptbt.behaviours.declare_source import SourceDeclaration
-from cptbt.behaviours.likelihood_params import LikelihoodMapParams, radius_fits_grid
+from cptbt.behaviours.likelihood_params import (
+    LikelihoodMapParams,
+    radius_fits_grid,
+    radius_suits_area,
+)
 from cptbt.behaviours.map_guided import MapGuidedReacquire, best_target
 from cptbt.behaviours.source_map import SOURCE_MAP_KEY, SourceMap
 from cptbt.behaviours.upflow_check import UpflowCheck
@@ -175,7 +179,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     variant: ClassVar[str] = "likelihood_map"
     Params: ClassVar[type[BehaviourParams]] = LikelihoodMapParams
     params: LikelihoodMapParams
-    contract: ClassVar[Contract] = Contract(check=radius_fits_grid)
+    contract: ClassVar[Contract] = Contract(check=radius_fits_grid, advise=radius_suits_area)
     persistent_state: ClassVar[tuple[str, ...]] = (
         "declared", "heading_home", "map", "groups", "candidate", "route",
         "route_index", "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn",

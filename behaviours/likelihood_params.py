@@ -10,6 +10,7 @@ from pydantic import Field
 
 from cptbt.behaviours.declare_source import DeclareParams
 from cptbt.behaviours.map_model import MapModelParams
+from cptbt.frames import OpArea
 from cptbt.node import BehaviourParams
 
 
@@ -289,6 +290,25 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "vehicle goes home with the sources found (None: it searches on to the time limit), s"
     )
 
+
+
+DISC_SHARE = 0.1
+"""A declaration disc (``radius_m``) covering more of the OpArea than this is warned of."""
+
+
+def radius_suits_area(params: BehaviourParams, area: OpArea) -> str | None:
+    """A warning when the declaration disc covers much of the OpArea: the posterior mass within
+    it starts at its share of the area (a uniform prior), so ``confidence`` is reached on little
+    evidence, and the declared point, the disc's posterior mean, can be off by about its
+    radius (a 30 x 30 m box with the default 10 m: a disc of 35%, one of six runs 9.7 m off)."""
+    assert isinstance(params, LikelihoodMapParams)
+    share = area.disc_share(params.radius_m)
+    if share <= DISC_SHARE:
+        return None
+    return (f"radius_m {params.radius_m:g}: the declaration disc covers {100 * share:.0f}% of "
+            "the OpArea, so the map is sure of it on little evidence and a declared point can "
+            f"be about that far off (a radius of {area.disc_radius(DISC_SHARE):.1f} m covers a "
+            "tenth)")
 
 
 def radius_fits_grid(params: BehaviourParams, perception: Any) -> str | None:

@@ -86,6 +86,15 @@ class OpArea:
         """Centre of the rectangle."""
         return Point(0.5 * (self.xmin + self.xmax), 0.5 * (self.ymin + self.ymax))
 
+    def disc_share(self, radius_m: float) -> float:
+        """The share of the area a disc of ``radius_m`` covers (at most 1; edges ignored)."""
+        size = (self.xmax - self.xmin) * (self.ymax - self.ymin)
+        return min(math.pi * radius_m**2 / size, 1.0) if size > 0 else 1.0
+
+    def disc_radius(self, share: float) -> float:
+        """The radius of a disc covering ``share`` of the area."""
+        return math.sqrt(share * (self.xmax - self.xmin) * (self.ymax - self.ymin) / math.pi)
+
     def contains(self, x: float, y: float) -> bool:
         """Whether (x, y) is inside or on the boundary."""
         return self.xmin <= x <= self.xmax and self.ymin <= y <= self.ymax

@@ -57,6 +57,9 @@ Place = Literal["start", "home", "source"]
 Loc = tuple[str | int, ...]
 Problem = tuple[Loc, str]
 
+SUCCESS_DISC_SHARE = 1 / 3
+"""A success radius whose disc covers more of the OpArea than this is warned of."""
+
 
 class OpAreaSpec(BaseModel):
     """The OpArea as written: four corners in the mission's frame."""
@@ -176,6 +179,30 @@ class MissionBase(BaseModel):
         raise ValueError("; ".join(f"{dotted(loc)}: {msg}" for loc, msg in problems))
 
     # -- cross-field rules -------------------------------------------------------------------
+    def advisories(self) -> list[Problem]:
+        """What is valid but likely not what the mission means, as (key path, message): the
+        CLI prints each as a warning at its key's line. Empty for a mission with problems."""
+        try:
+            area = self.op_area_geometry()
+        except ValueError:
+            return []
+        out: list[Problem] = []
+        r = self.evaluation.success_radius_m
+        share = area.disc_share(r)
+        if share > SUCCESS_DISC_SHARE:
+            given = ("evaluation" in self.model_fields_set
+                     and "success_radius_m" in self.evaluation.model_fields_set)
+            out.append((("evaluation", "success_radius_m"),
+                        f"{r:g} m{'' if given else ' (the default)'}: the success disc covers "
+                        f"{100 * share:.0f}% of the OpArea, so a point drawn at random would "
+                        "count as a success about that often (a radius of "
+                        f"{area.disc_radius(SUCCESS_DISC_SHARE):.1f} m covers a third)"))
+        for i, e in enumerate(self.entries()):
+            why = e.contract.advise(e.params, area) if e.contract.advise else None
+            if why:
+                out.append((("behaviours", i, e.family), why))
+        return out
+
     def problems(self) -> list[Problem]:
         """Every cross-field problem, as (key path, message); empty for a sound mission."""
         out = self._coordinate_problems()

@@ -27,12 +27,15 @@ def environment_model() -> type[BaseModel] | None:
     return Environment
 
 
-def load(path: str, simulate: bool = False) -> MissionBase:
+def load(path: str, simulate: bool = False, warn: bool = True) -> MissionBase:
     """Load a mission with the installed behaviours and check its simulator settings too.
 
     Args:
         path: the mission file.
         simulate: the caller will simulate it, so it must have an ``environment:`` section.
+        warn: print the mission's advisories (valid settings likely not meant, such as a
+            success radius covering much of the OpArea) to stderr, one
+            ``FILE:LINE: path: warning: message`` line each.
 
     Raises:
         MissionError: one ``FILE:LINE: path: message`` line per problem.
@@ -54,6 +57,12 @@ def load(path: str, simulate: bool = False) -> MissionBase:
 
             raise MissionError(format_errors(error, section, lines, path, ("environment",),
                                              model=EnvironmentParams))
+    advice = mission.advisories() if warn else []
+    if advice:
+        _, lines = parse_yaml(Path(path).read_text(encoding="utf-8"), path)
+        for line in format_problems([(loc, f"warning: {msg}") for loc, msg in advice],
+                                    lines, path):
+            print(line, file=sys.stderr)
     return mission
 
 

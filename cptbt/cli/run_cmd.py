@@ -143,7 +143,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         return refly(args)
     if args.mission is None:
         raise UsageError("run: give a MISSION file (or --from RESULTS --row N)")
-    mission = load(args.mission, simulate=True)
+    mission = load(args.mission, simulate=True, warn=not args.quiet)
     params = to_sim_params(mission, args.seed)
     seed = params.seed
     assert seed is not None, "to_sim_params always sets the seed"

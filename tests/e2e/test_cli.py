@@ -35,6 +35,36 @@ def test_shipped_missions_validate(mission: Path) -> None:
     res = cptbt("validate", str(mission))
     assert res.returncode == 0, res.stderr
     assert ": ok (" in res.stdout
+    assert "warning" not in res.stderr, res.stderr  # no advisories for a shipped mission
+
+
+def test_settings_unlikely_meant_for_a_small_oparea_are_warned_of(tmp_path: Path) -> None:
+    # A 30 x 30 m box with the 15 m success radius (default) and the likelihood map's 10 m
+    # declaration disc: valid (exit 0), each warned of at its line.
+    text = (ROOT / "missions/small_oparea.yaml").read_text(encoding="utf-8")
+    for a, b in (("start: [-15, -15]", "start: [-10, -10]"), ("25", "15"),
+                 ("[-20, 0]", "[-12, 0]"), ("source: [12, 10]", "source: [8, 6]")):
+        text = text.replace(a, b)
+    start = text.index("- declare_source:")
+    text = text[:start] + "- declare_source: {variant: likelihood_map}" \
+        + text[text.index("\n", start):]
+    small = tmp_path / "small.yaml"
+    small.write_text(text, encoding="utf-8")
+    res = cptbt("validate", str(small))
+    assert res.returncode == 0 and ": ok (" in res.stdout, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 2, lines
+    line = text[:text.index("- declare_source:")].count("\n") + 1
+    assert lines[0].startswith(f"{small}:") and "evaluation.success_radius_m: warning: 15 m " \
+        "(the default): the success disc covers 79% of the OpArea" in lines[0]
+    assert lines[1].startswith(f"{small}:{line}: behaviours[1].declare_source: warning: "
+                               "radius_m 10: the declaration disc covers 35%"), lines[1]
+    text += "evaluation: {criterion: declaration, success_radius_m: 5}\n"
+    small.write_text(text.replace("likelihood_map}", "likelihood_map, radius_m: 5}"),
+                     encoding="utf-8")
+    assert cptbt("validate", str(small)).stderr == ""
+    quiet = cptbt("run", str(small), "--quiet", "--no-figure", "--out", str(tmp_path / "o"))
+    assert quiet.returncode == 0 and quiet.stderr == "" and quiet.stdout == ""
 
 
 def test_tree_prints_the_subsumption_order_and_writes_dot(tmp_path: Path) -> None:
