@@ -28,8 +28,8 @@ from cptbt.angles import unit
 from cptbt.behaviours.declare_source import SourceDeclaration
 from cptbt.behaviours.likelihood_params import (
     LikelihoodMapParams,
+    advise,
     radius_fits_grid,
-    radius_suits_area,
 )
 from cptbt.behaviours.map_guided import MapGuidedReacquire, best_target
 from cptbt.behaviours.source_map import SOURCE_MAP_KEY, SourceMap
@@ -179,7 +179,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     variant: ClassVar[str] = "likelihood_map"
     Params: ClassVar[type[BehaviourParams]] = LikelihoodMapParams
     params: LikelihoodMapParams
-    contract: ClassVar[Contract] = Contract(check=radius_fits_grid, advise=radius_suits_area)
+    contract: ClassVar[Contract] = Contract(check=radius_fits_grid, advise=advise)
     persistent_state: ClassVar[tuple[str, ...]] = (
         "declared", "heading_home", "map", "groups", "candidate", "route",
         "route_index", "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn",
@@ -251,7 +251,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
         if self.map.detections and self.params.upflow_check_m is not None:
             here = p.pose.point
             reading = p.concentration if p.in_op_area else math.nan
-            explained = reading > 0 and self._explained(here)
+            # a reading in a declared source's plume, 0 or not, says nothing of this source
+            explained = math.isfinite(reading) and bool(self.sources) and self._explained(here)
             self.upflow.record(p.t, here, p.detected and not explained,
                                math.nan if explained else reading)
         post = self.map.posterior()
@@ -394,6 +395,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.withdrawn_at = (*self.withdrawn_at, self.candidate)
             self.detections_used = self.map.unexplained
             self.upflow.restart(self.map.t)
+            self.evidence_t = self.map.t  # the search restarts: so does its give-up clock
             self.candidate, self.route = None, ()
         self._report()
 

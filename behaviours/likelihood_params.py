@@ -287,7 +287,8 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     search_give_up_s: float | None = Field(
         default=None, gt=0, description="With max_sources > 1: the search for another source "
         "ends after this long without a detection no declared source explains, and the "
-        "vehicle goes home with the sources found (None: it searches on to the time limit), s"
+        "vehicle goes home with the sources found; t3 is then when it gave up (None: it "
+        "searches on to the time limit), s"
     )
 
 
@@ -296,19 +297,25 @@ DISC_SHARE = 0.1
 """A declaration disc (``radius_m``) covering more of the OpArea than this is warned of."""
 
 
-def radius_suits_area(params: BehaviourParams, area: OpArea) -> str | None:
-    """A warning when the declaration disc covers much of the OpArea: the posterior mass within
-    it starts at its share of the area (a uniform prior), so ``confidence`` is reached on little
-    evidence, and the declared point, the disc's posterior mean, can be off by about its
-    radius (a 30 x 30 m box with the default 10 m: a disc of 35%, one of six runs 9.7 m off)."""
+def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
+    """Warnings, ``(parameter, why)``: a declaration disc covering much of the OpArea (the
+    posterior mass within it starts at its share of the area, a uniform prior, so
+    ``confidence`` is reached on little evidence, and the declared point, the disc's posterior
+    mean, can be off by up to about ``radius_m``: a 30 x 30 m box with the default 10 m, a disc
+    of 35%, declared one of six runs 9.7 m off); a give-up time with one source to find."""
     assert isinstance(params, LikelihoodMapParams)
+    out = []
     share = area.disc_share(params.radius_m)
-    if share <= DISC_SHARE:
-        return None
-    return (f"radius_m {params.radius_m:g}: the declaration disc covers {100 * share:.0f}% of "
-            "the OpArea, so the map is sure of it on little evidence and a declared point can "
-            f"be about that far off (a radius of {area.disc_radius(DISC_SHARE):.1f} m covers a "
-            "tenth)")
+    if share > DISC_SHARE:
+        out.append(("radius_m", f"{params.radius_m:g} m: the declaration disc covers "
+                    f"{100 * share:.0f}% of the OpArea, so the map holds the confidence mass "
+                    "in it on little evidence, and the declared point (the disc's mean) can be "
+                    f"off by up to about {params.radius_m:g} m (a radius of "
+                    f"{area.disc_radius(DISC_SHARE):.1f} m covers a tenth)"))
+    if params.search_give_up_s is not None and params.max_sources == 1:
+        out.append(("search_give_up_s", "has no effect with max_sources 1 (it bounds the "
+                    "search for a further source)"))
+    return out
 
 
 def radius_fits_grid(params: BehaviourParams, perception: Any) -> str | None:

@@ -62,7 +62,7 @@ class UpflowCheck:
         self.near_m = near_m
         self.visit_for: Point | None = None  # the candidate the visit under way goes to
         self.visit_t0 = math.nan
-        self.visit_over = False  # the visit to visit_for timed out: its candidate goes on
+        self.visit_over = False  # the visit to visit_for timed out: its candidate is held back
         self.visits = 0  # visits started
         self.visits_ended = 0  # of those, timed out (their candidates held back)
         self.kind = "check leg"  # what the target is: a check leg's end or a visit's candidate

@@ -87,13 +87,24 @@ class OpArea:
         return Point(0.5 * (self.xmin + self.xmax), 0.5 * (self.ymin + self.ymax))
 
     def disc_share(self, radius_m: float) -> float:
-        """The share of the area a disc of ``radius_m`` covers (at most 1; edges ignored)."""
-        size = (self.xmax - self.xmin) * (self.ymax - self.ymin)
-        return min(math.pi * radius_m**2 / size, 1.0) if size > 0 else 1.0
+        """The largest share of the area a disc of ``radius_m`` can cover (centred in it: in a
+        long, thin area the disc overhangs the sides)."""
+        a, b = 0.5 * (self.xmax - self.xmin), 0.5 * (self.ymax - self.ymin)
+        if a <= 0 or b <= 0:
+            return 1.0
+        reach = min(a, radius_m)
+        x = np.linspace(-reach, reach, 2001)
+        chord = 2.0 * np.minimum(b, np.sqrt(np.maximum(radius_m**2 - x * x, 0.0)))
+        inside = float(np.sum(0.5 * (chord[1:] + chord[:-1]) * np.diff(x)))  # trapezoids
+        return min(inside / (4.0 * a * b), 1.0)
 
     def disc_radius(self, share: float) -> float:
-        """The radius of a disc covering ``share`` of the area."""
-        return math.sqrt(share * (self.xmax - self.xmin) * (self.ymax - self.ymin) / math.pi)
+        """The radius of the smallest disc that can cover ``share`` of the area."""
+        lo, hi = 0.0, math.hypot(self.xmax - self.xmin, self.ymax - self.ymin)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if self.disc_share(mid) < share else (lo, mid)
+        return hi
 
     def contains(self, x: float, y: float) -> bool:
         """Whether (x, y) is inside or on the boundary."""

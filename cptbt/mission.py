@@ -192,15 +192,17 @@ class MissionBase(BaseModel):
         if share > SUCCESS_DISC_SHARE:
             given = ("evaluation" in self.model_fields_set
                      and "success_radius_m" in self.evaluation.model_fields_set)
+            what = ("a declaration drawn at random would count as a success" if
+                    self.evaluation.criterion == "declaration" else
+                    "a vehicle at a random point would count as having reached the source")
             out.append((("evaluation", "success_radius_m"),
-                        f"{r:g} m{'' if given else ' (the default)'}: the success disc covers "
-                        f"{100 * share:.0f}% of the OpArea, so a point drawn at random would "
-                        "count as a success about that often (a radius of "
-                        f"{area.disc_radius(SUCCESS_DISC_SHARE):.1f} m covers a third)"))
+                        f"{r:g} m{'' if given else ' (the default)'}: a disc this size covers "
+                        f"{100 * share:.0f}% of the OpArea, so {what} about that often (a "
+                        f"radius of {area.disc_radius(SUCCESS_DISC_SHARE):.1f} m covers a "
+                        "third)"))
         for i, e in enumerate(self.entries()):
-            why = e.contract.advise(e.params, area) if e.contract.advise else None
-            if why:
-                out.append((("behaviours", i, e.family), why))
+            for key, why in e.contract.advise(e.params, area) if e.contract.advise else []:
+                out.append((("behaviours", i, e.family, key), why))
         return out
 
     def problems(self) -> list[Problem]:

@@ -33,14 +33,14 @@ class Contract:
         pairs_with: ``(family, variant)`` pairs: if the mission lists that family, it must use
             that variant (the two halves of an AB strategy share state).
         check: ``check(params, perception_settings)`` returns why the pair cannot work, or None.
-        advise: ``advise(params, op_area)`` returns why the setting, valid, is likely not what
-            the mission means in an OpArea of that size (a warning), or None.
+        advise: ``advise(params, op_area)`` returns ``(parameter, why)`` for each setting that,
+            valid, is likely not what the mission means (a warning at that parameter's line).
     """
 
     needs_flow: bool = True
     pairs_with: tuple[tuple[str, str], ...] = ()
     check: Callable[[BehaviourParams, Any], str | None] | None = None
-    advise: Callable[[BehaviourParams, OpArea], str | None] | None = None
+    advise: Callable[[BehaviourParams, OpArea], list[tuple[str, str]]] | None = None
 
 
 class BehaviourParams(BaseModel):

@@ -225,7 +225,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     The mission's ``study:`` section says where, how often and what to sweep; each flag
     overrides the matching key.
     """
-    mission = load(args.mission, simulate=True)
+    mission = load(args.mission, simulate=True, warn=not args.quiet)
     if mission.mission_a is not None:
         if not args.amp_only:
             raise UsageError(

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from cptbt.batch.engine import simulate
 from cptbt.batch.outcome import Verdict
 from cptbt.batch.scenario import Environment, launch_pose, to_sim_params
 from cptbt.batch.summary import _judge_set, summarise
+from cptbt.cli import main
 from cptbt.loader import loads_mission
 from cptbt.registry import default_registry
 from cptbt.types import Point
@@ -53,8 +56,22 @@ def test_asking_for_two_sources_where_there_is_one() -> None:
 
 def test_a_search_that_gives_up_goes_home_with_the_sources_found() -> None:
     """The same with search_give_up_s: 120 s without a detection the declared source does not
-    explain, the search ends, and the vehicle goes to it and home (outcome declared)."""
+    explain, the search ends, and the vehicle goes home (outcome declared)."""
     s = msn007_asking_for_two(", search_give_up_s: 120")
     assert s["outcome"] == "declared" and s["search_given_up"]
     assert s["sources_declared"] == 1 and s["sources_found"] == 1 and s["success"]
     assert s["sim_time_s"] < 900.0
+
+
+def test_cptbt_run_says_the_search_gave_up_and_when(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    text = (ROOT / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8")
+    start = text.index("declare_source:")
+    text = text[:start] + ("declare_source: {variant: likelihood_map, max_sources: 2, "
+                           "search_give_up_s: 120}") + text[text.index("\n", start):]
+    mission = tmp_path / "two.yaml"
+    mission.write_text(text, encoding="utf-8")
+    assert main(["run", str(mission), "--out", str(tmp_path / "o"), "--no-figure"]) == 0
+    out = capsys.readouterr().out
+    assert "the search for more sources gave up at t3 = " in out and "with 1 point, " in out
+    assert "the last of 1 points" not in out

@@ -290,7 +290,8 @@ def test_the_trace_floor_is_taken_from_readings_that_speak_of_this_source_only()
     harness.tick(script.step(30, 50.0, 0.0, conc=1.0))  # in its plume: explained
     for t in range(31, 41):
         harness.tick(script.step(t, 50.0, 1.0, conc=0.1))  # explained, below the threshold
-        harness.tick(script.step(t + 0.5, 103.0, 0.0, conc=0.0))  # outside the OpArea
+        harness.tick(script.step(t + 0.3, 50.0, -1.0, conc=0.0))  # a gap in that plume
+        harness.tick(script.step(t + 0.6, 103.0, 0.0, conc=0.0))  # outside the OpArea
     for t in range(41, 46):
         harness.tick(script.step(t, 90.0, 40.0, conc=0.03))  # clean water, this search's
     level = node.upflow.trace_level
@@ -313,6 +314,25 @@ def test_the_search_for_another_source_gives_up_after_a_while_without_new_plume(
     assert node.declared == Point(40.0, 0.0) and node.heading_home  # home, not back to it
     assert harness.get("declaration_report")["search_given_up"]
     assert harness.get("declared_source") == Point(40.0, 0.0)
+
+
+def test_a_withdrawn_fly_by_restarts_the_give_up_clock() -> None:
+    node, harness = declaring(max_sources=2, search_give_up_s=50.0, flyby=True,
+                              flyby_timeout_s=5.0)
+    node._accept(Point(40.0, 0.0))  # at t = 29
+    script = ScriptedPerception(AREA, flow=FLOW)
+    for t in range(30, 70):
+        harness.tick(script.step(t, 90.0, 40.0))
+    aside = ScriptedPerception(AREA, flow=FLOW).step(70, 90.0, 40.0)  # not the harness's clock
+    node._start_flyby(aside, Point(20.0, -30.0))  # a candidate ...
+    for t in range(70, 76):
+        harness.tick(script.step(t, 90.0, 40.0))
+    assert node.withdrawn == 1 and node.candidate is None  # ... the map no longer holds
+    for t in range(76, 125):
+        harness.tick(script.step(t, 90.0, 40.0))
+    assert not node.search_given_up  # 96 s since the declaration, 50 since the withdrawal
+    harness.tick(script.step(125, 90.0, 40.0))
+    assert node.search_given_up
 
 
 def test_without_a_give_up_time_the_search_goes_on() -> None:
@@ -817,3 +837,16 @@ def test_a_check_leg_that_cannot_get_there_ends_in_time_and_is_reported() -> Non
             break
     assert node.declared is not None and node.upflow.unchecked == 1
     assert harness.get("declaration_report")["unchecked"] == 1
+
+
+def test_advice_for_settings_valid_but_unlikely_meant() -> None:
+    from cptbt.behaviours.likelihood_params import advise
+
+    assert advise(LikelihoodMapParams(), AREA) == []  # 100 x 100 m: a 10 m disc is 3%
+    small = square_area(30.0)
+    ((key, why),) = advise(LikelihoodMapParams(), small)
+    assert key == "radius_m" and "covers 35% of the OpArea" in why
+    assert advise(LikelihoodMapParams(radius_m=5.0), small) == []
+    ((key, why),) = advise(LikelihoodMapParams(search_give_up_s=300.0), AREA)
+    assert key == "search_give_up_s" and "max_sources 1" in why
+    assert advise(LikelihoodMapParams(search_give_up_s=300.0, max_sources=2), AREA) == []

@@ -70,3 +70,14 @@ def test_oparea_distance_outside() -> None:
     assert a.distance_outside(103, 54) == pytest.approx(5)
     with pytest.raises(ValueError):
         OpArea(0, 0, -1, 1)
+
+
+def test_a_discs_share_of_the_op_area_counts_only_what_fits_inside() -> None:
+    square, thin = OpArea(-15, 15, -15, 15), OpArea(-60, 60, -6, 6)
+    assert square.disc_share(10.0) == pytest.approx(math.pi * 100 / 900, rel=1e-4)
+    assert square.disc_share(30.0) == 1.0
+    # 120 x 12 m: a 15 m disc overhangs both long sides; at most a 30 x 12 m strip fits
+    assert 0.24 < thin.disc_share(15.0) < 30 * 12 / 1440
+    for area in (square, thin):
+        for share in (0.1, 1 / 3):
+            assert area.disc_share(area.disc_radius(share)) == pytest.approx(share, rel=1e-4)

@@ -55,10 +55,21 @@ def test_settings_unlikely_meant_for_a_small_oparea_are_warned_of(tmp_path: Path
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 2, lines
     line = text[:text.index("- declare_source:")].count("\n") + 1
-    assert lines[0].startswith(f"{small}:") and "evaluation.success_radius_m: warning: 15 m " \
-        "(the default): the success disc covers 79% of the OpArea" in lines[0]
-    assert lines[1].startswith(f"{small}:{line}: behaviours[1].declare_source: warning: "
-                               "radius_m 10: the declaration disc covers 35%"), lines[1]
+    top = next(i for i, ln in enumerate(text.splitlines(), 1) if ln.startswith("name:"))
+    # no evaluation key: the default is warned of at the mission's first key, and said so
+    assert lines[0].startswith(f"{small}:{top}: evaluation.success_radius_m: warning: 15 m "
+                               "(the default): a disc this size covers 79% of the OpArea, so a "
+                               "declaration drawn at random"), lines[0]
+    assert lines[1].startswith(f"{small}:{line}: behaviours[1].declare_source.radius_m: "
+                               "warning: 10 m: the declaration disc covers 35%"), lines[1]
+    # a thin area: what fits inside counts (120 x 12 m: a 15 m disc covers 24%, not 49%)
+    thin = text.replace("[15, -15]", "[60, -6]").replace("[15, 15]", "[60, 6]") \
+        .replace("[-15, 15]", "[-60, 6]").replace("[-15, -15]", "[-60, -6]") \
+        .replace("start: [-10, -10]", "start: [-50, -3]").replace("source: [8, 6]",
+                                                                   "source: [40, 2]")
+    small.write_text(thin, encoding="utf-8")
+    res = cptbt("validate", str(small))
+    assert res.returncode == 0 and "success_radius_m" not in res.stderr, res.stderr
     text += "evaluation: {criterion: declaration, success_radius_m: 5}\n"
     small.write_text(text.replace("likelihood_map}", "likelihood_map, radius_m: 5}"),
                      encoding="utf-8")
