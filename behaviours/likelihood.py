@@ -134,8 +134,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
     and the search resumes; after the last, the vehicle goes to it and home (TRO IV-D).
     ``declared_source`` is written once, at the last declaration. Where fewer sources may be
     there than ``max_sources`` allows, ``search_give_up_s`` bounds the search between
-    declarations: that long after the latest declaration or detection no declared source
-    explains (and with no check leg or visit under way), the search ends, ``declared_source``
+    declarations: that long after the latest declaration, withdrawn fly-by or detection no
+    declared source explains (and with no check leg, visit or fly-by under way), the search
+    ends, ``declared_source``
     is the latest point, and the vehicle heads home (``search_given_up`` in
     ``declaration_report``; t3 is then when it gave up: the AMP was declaring until then).
     Without it, the vehicle searches on to the time limit: the map's mass left over settles
