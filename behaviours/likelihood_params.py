@@ -139,7 +139,10 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     0-30. With it those three declare within 15 m (495: 14.8 m). On tuning seed 77: MSN007
     (1000 runs) the same 2 beyond 15 m (528 and 732: short of the source, plume seen around
     them), T_D share 24.4% against 24.3% (paired); two sources (200 runs) both found in 199
-    against 198, no false declaration against 1 (replicate 170, at the wall).
+    against 198, no false declaration against 1 (replicate 170, at the wall). Flown again
+    once a timed-out visit held its candidate back instead of passing it unchecked: the same
+    figures (2 beyond 15 m, T_D share 24.4%; 199 of 200 both found, none false), one visit
+    timed out (MSN007 replicate 293, which then declared 4.2 m off, at t = 327 s).
 
     The independent-cycle model's own tuning (``meander_memory_s`` None): with the sharper
     model a run of correlated detections made the map confident on the first approach, some
