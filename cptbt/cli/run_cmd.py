@@ -31,6 +31,24 @@ if TYPE_CHECKING:
 # are used: a plain `cptbt run` needs none of them (issue 15: imports are part of a run's cost).
 
 
+def upflow_check_line(s: dict[str, Any]) -> str | None:
+    """The run summary's up-flow check counts as one line (None: the check did nothing)."""
+    if not (s["upflow_checks"] or s["upflow_vetoes"] or s["unchecked"] or s.get("visits")):
+        return None
+    legs, vetoes = s["upflow_checks"] or 0, s["upflow_vetoes"] or 0
+    return (f"  up-flow check: {legs} check leg{'s' * (legs != 1)} flown, {vetoes} "
+            f"candidate{'s' * (vetoes != 1)} vetoed by plume seen up-flow of them"
+            + (f" ({s['trace_vetoes']} by a sub-threshold trace alone)"
+               if s.get("trace_vetoes") else "")
+            + (f", {s['visits']} candidate{'s' * (s['visits'] != 1)} visited for want "
+               "of plume seen near"
+               + (f" ({s['visits_ended']} held back, the visit timed out)"
+                  if s.get("visits_ended") else "")
+               if s.get("visits") else "")
+            + (f", {s['unchecked']} declared unchecked (a check leg timed out, or no "
+               "flow direction)"
+               if s["unchecked"] else ""))
+
 def add_parsers(sub: Any) -> None:
     """Register ``run``."""
     p = sub.add_parser("run", help="simulate a mission", description=cmd_run.__doc__)
@@ -223,20 +241,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                      "an earlier one taken for the same source (at "
                      + ", ".join(place(q) for q in s["superseded_points"] if q) + ")"
                      if s.get("superseded") else ""))
-        if s["upflow_checks"] or s["upflow_vetoes"] or s["unchecked"] or s.get("visits"):
-            legs, vetoes = s["upflow_checks"] or 0, s["upflow_vetoes"] or 0
-            print(f"  up-flow check: {legs} check leg{'s' * (legs != 1)} flown, {vetoes} "
-                  f"candidate{'s' * (vetoes != 1)} vetoed by plume seen up-flow of them"
-                  + (f" ({s['trace_vetoes']} by a sub-threshold trace alone)"
-                     if s.get("trace_vetoes") else "")
-                  + (f", {s['visits']} candidate{'s' * (s['visits'] != 1)} visited for want "
-                     "of plume seen near"
-                     + (f" ({s['visits_ended']} held back, the visit timed out)"
-                        if s.get("visits_ended") else "")
-                     if s.get("visits") else "")
-                  + (f", {s['unchecked']} declared unchecked (a check leg timed out, or no "
-                     "flow direction)"
-                     if s["unchecked"] else ""))
+        check = upflow_check_line(s)
+        if check:
+            print(check)
         if s["criterion"] == "maintain":
             print(f"  first detection {fmt(s['t1'], ' s')}; maintain time T_M "
                   f"{fmt(s['T_M'], ' s')} (AB eq. 3); closest to the source "

@@ -8,6 +8,7 @@ from pathlib import Path
 from cptbt.batch.scenario import Environment
 from cptbt.batch.summary import where
 from cptbt.cli.output import fmt, fresh_folder, place, time_share
+from cptbt.cli.run_cmd import upflow_check_line
 from cptbt.loader import load_mission
 from cptbt.registry import default_registry
 from cptbt.types import Point
@@ -41,3 +42,15 @@ def test_a_planning_frame_summary_point_has_no_north() -> None:
     assert where(ab, Point(20, 5)) == {"x": 20, "y": 5}
     tro = load_mission(root / "missions/oblique_flow.yaml", default_registry(), Environment)
     assert {"x", "y", "north", "east"} == set(where(tro, Point(20, 5)) or {})
+
+
+def test_the_up_flow_check_line_names_each_count_it_has() -> None:
+    none = {"upflow_checks": 0, "upflow_vetoes": 0, "unchecked": 0, "visits": 0}
+    assert upflow_check_line(none) is None
+    line = upflow_check_line({**none, "upflow_checks": 1, "upflow_vetoes": 2, "trace_vetoes": 1,
+                              "visits": 2, "visits_ended": 1, "unchecked": 1})
+    assert line == ("  up-flow check: 1 check leg flown, 2 candidates vetoed by plume seen "
+                    "up-flow of them (1 by a sub-threshold trace alone), 2 candidates visited "
+                    "for want of plume seen near (1 held back, the visit timed out), 1 declared "
+                    "unchecked (a check leg timed out, or no flow direction)")
+    assert "held back" not in str(upflow_check_line({**none, "visits": 1, "visits_ended": 0}))
