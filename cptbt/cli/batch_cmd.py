@@ -19,6 +19,7 @@ from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import Environment, environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
 from cptbt.batch.study import (
+    Config,
     Study,
     Sweep,
     configurations,
@@ -219,6 +220,23 @@ def _planner_record(configs: list[Any], n_starts: int, source: str) -> dict[str,
                     "else one py_trees planner per vehicle (groups with a logged run: py_trees)"}
 
 
+def _warn_swept(mission: MissionBase, configs: list[Config], source: str) -> None:
+    """A swept configuration's advisories the mission file's own do not already show (those
+    were printed at their lines when it was loaded), one ``FILE [sweep ...]: path: warning:``
+    line each."""
+    from cptbt.loader import loads_mission
+    from cptbt.mission import dotted
+    from cptbt.registry import default_registry
+
+    shown = set(mission.advisories())
+    for c in configs:
+        m = loads_mission(c.mission_yaml, source, default_registry(), Environment)
+        sweep = ", ".join(f"{k}={v}" for k, v in c.coords.items())
+        for loc, msg in m.advisories():
+            if (loc, msg) not in shown:
+                print(f"{source} [sweep {sweep}]: {dotted(loc)}: warning: {msg}", file=sys.stderr)
+
+
 def cmd_batch(args: argparse.Namespace) -> int:
     """Fly a mission from many starts and plume realisations; resumable, reproducible.
 
@@ -246,6 +264,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         raise UsageError(f"batch: {exc}") from None
     for note in variant_sweep_notes(mission, sweeps):
         print(f"cptbt: note: {note}", file=sys.stderr)
+    if sweeps and not args.quiet:
+        _warn_swept(mission, configs, args.mission)
     starts = _starts(args, mission, spec)
     _check_starts(mission, starts)
     runs_per_start = args.runs_per_start or (spec.runs_per_start if spec else 1)

@@ -76,6 +76,13 @@ def test_settings_unlikely_meant_for_a_small_oparea_are_warned_of(tmp_path: Path
     assert cptbt("validate", str(small)).stderr == ""
     quiet = cptbt("run", str(small), "--quiet", "--no-figure", "--out", str(tmp_path / "o"))
     assert quiet.returncode == 0 and quiet.stderr == "" and quiet.stdout == ""
+    # a batch's swept values are checked too: each warning names its sweep
+    res = cptbt("batch", str(small), "--runs-per-start", "1", "--workers", "1", "--out",
+                str(tmp_path / "b"), "--sweep", "evaluation.success_radius_m=5,15")
+    assert res.returncode == 0, res.stderr
+    (warned,) = [ln for ln in res.stderr.splitlines() if "warning" in ln]
+    assert warned.startswith(f"{small} [sweep evaluation.success_radius_m=15]: "
+                             "evaluation.success_radius_m: warning: 15 m: a disc"), warned
 
 
 def test_tree_prints_the_subsumption_order_and_writes_dot(tmp_path: Path) -> None:
