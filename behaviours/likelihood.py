@@ -217,7 +217,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.at_declaration: SourceBelief | None = None
         self.search_target: Point | None = None
         self.search_t = -math.inf
-        self.evidence_t = -math.inf  # the latest declaration or unexplained detection
+        # the latest declaration, withdrawal or unexplained detection (search_give_up_s's clock)
+        self.evidence_t = -math.inf
         self.evidence_count = 0  # the map's unexplained detections at evidence_t
         self.search_given_up = False
 

@@ -41,7 +41,8 @@ class UpflowCheck:
             times ``reach_m``) vetoes it.
         slack_m: how near a point counts as reached.
         memory_s: plume seen longer ago than this no longer vetoes (None: since :meth:`restart`).
-        timeout_s: a check leg not done after this long ends; the candidate passes, unchecked.
+        timeout_s: a check leg not done after this long ends, and its candidate passes,
+            unchecked; a visit not done after this long ends, and its candidate is held back.
         fan_deg: the band widens up-flow by ``tan(fan_deg)`` per metre (the flow estimate's
             direction error): at ``a`` up-flow its half-width is ``band_m + a · tan(fan_deg)``.
         trace_level: a reading above this (the sensor's units) in the band vetoes like a
@@ -198,7 +199,7 @@ class UpflowCheck:
         A visit that timed out holds its candidate back (no target: the tree searches on)
         until plume is seen near it; a candidate more than ``veto_beyond_m`` from it is a new
         visit. A candidate no plume was seen near is not declared at all: the two-source
-        study's one corner declaration (seed 2026, replicate 159, 47 m from either source) was
+        study's one corner declaration (seed 2026, replicate 159, 62 m from either source) was
         a visit the vehicle never made, passed unchecked."""
         if self.near_m is None:
             return True

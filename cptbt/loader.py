@@ -325,9 +325,12 @@ def located_errors(
     return out
 
 
-def format_problems(problems: list[Problem], lines: dict[Loc, int], source: str) -> list[str]:
-    """One ``FILE:LINE: path: message`` line per cross-field problem of a mission."""
-    return _render(list(problems), lines, source)
+def format_problems(problems: list[Problem], lines: dict[Loc, int], source: str,
+                    by_line: bool = False) -> list[str]:
+    """One ``FILE:LINE: path: message`` line per cross-field problem of a mission (with
+    ``by_line``, in the file's line order)."""
+    ordered = sorted(problems, key=lambda p: _line(p[0], lines)) if by_line else list(problems)
+    return _render(ordered, lines, source)
 
 
 def validate_data(

@@ -60,8 +60,8 @@ def load(path: str, simulate: bool = False, warn: bool = True) -> MissionBase:
     advice = mission.advisories() if warn else []
     if advice:
         _, lines = parse_yaml(Path(path).read_text(encoding="utf-8"), path)
-        shown = format_problems([(loc, f"warning: {msg}") for loc, msg in advice], lines, path)
-        for line in sorted(shown, key=lambda s: int(s[len(path) + 1:].split(":", 1)[0])):
+        for line in format_problems([(loc, f"warning: {msg}") for loc, msg in advice], lines,
+                                    path, by_line=True):
             print(line, file=sys.stderr)
     return mission
 

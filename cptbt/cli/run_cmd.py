@@ -215,16 +215,15 @@ def cmd_run(args: argparse.Namespace) -> int:
               f"ended at {fmt(s['sim_time_s'], ' s')} "
               f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
         points = [q for q in s["declared_sources"] if q]
-        if s["declared_source"] and s.get("search_given_up"):
-            print(f"  the search for more sources gave up at t3 = {fmt(s['t3'], ' s')} with "
-                  f"{len(points)} point{'s' * (len(points) != 1)}, the last "
-                  f"{place(s['declared_source'])}; worst error {fmt(s['error_m'], ' m')} (each "
-                  "declared point against its nearest true source)")
-        elif s["declared_source"] and len(points) > 1:
+        if s["declared_source"] and (s.get("search_given_up") or len(points) > 1):
             # the error is the worst point's (summary.py): not the last point's alone
-            print(f"  declared at t3 = {fmt(s['t3'], ' s')}: the last of {len(points)} points "
-                  f"{place(s['declared_source'])}; worst error {fmt(s['error_m'], ' m')} (each "
-                  "declared point against its nearest true source)")
+            lead = (f"the search for more sources gave up at t3 = {fmt(s['t3'], ' s')} with "
+                    f"{len(points)} point{'s' * (len(points) != 1)}, the last"
+                    if s.get("search_given_up") else
+                    f"declared at t3 = {fmt(s['t3'], ' s')}: the last of {len(points)} points")
+            print(f"  {lead} {place(s['declared_source'])}; worst error "
+                  f"{fmt(s['error_m'], ' m')} (each declared point against its nearest true "
+                  "source)")
         elif s["declared_source"]:
             print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source "
                   f"{place(s['declared_source'])}; error {fmt(s['error_m'], ' m')}")

@@ -21,7 +21,7 @@ within 10 m: 14 m up-flow of a source the vehicle had overshot, and against the 
 47 m from either source. With ``upflow_seen_near`` the vehicle visits such a candidate first,
 and both sources must be found. Two-source replicate 159 of root seed 2026 visited a
 candidate in the OpArea's corner that the vehicle never reached (the map's confidence dipped
-while it circled the real source) and, the visit timed out, declared it unchecked 47 m from
+while it circled the real source) and, the visit timed out, declared it unchecked 62 m from
 either source: a timed-out visit now holds its candidate back, and both sources are found.
 """
 
