@@ -29,9 +29,9 @@ from cptbt.batch.study import (
 )
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
-from cptbt.cli.inspect_cmds import load
+from cptbt.cli.inspect_cmds import load, print_advisories
 from cptbt.loader import parse_yaml
-from cptbt.mission import MissionBase
+from cptbt.mission import Loc, MissionBase
 from cptbt.study_spec import StudySpec
 
 
@@ -221,20 +221,31 @@ def _planner_record(configs: list[Any], n_starts: int, source: str) -> dict[str,
 
 
 def _warn_swept(mission: MissionBase, configs: list[Config], source: str) -> None:
-    """A swept configuration's advisories the mission file's own do not already show (those
-    were printed at their lines when it was loaded), one ``FILE [sweep ...]: path: warning:``
-    line each."""
+    """The advisories of the configurations a batch flies: the mission file's own at their
+    lines (``FILE:LINE: path: warning:``) if some configuration keeps them (not those every
+    sweep overrides), then each swept configuration's others, one ``FILE [sweep ...]: path:
+    warning:`` line each."""
     from cptbt.loader import loads_mission
     from cptbt.mission import dotted
     from cptbt.registry import default_registry
 
-    shown = set(mission.advisories())
+    own = mission.advisories()
+    if not configs:
+        print_advisories(source, own)
+        return
+    kept: set[tuple[Loc, str]] = set()
+    extra: list[str] = []
     for c in configs:
         m = loads_mission(c.mission_yaml, source, default_registry(), Environment)
         sweep = ", ".join(f"{k}={v}" for k, v in c.coords.items())
         for loc, msg in m.advisories():
-            if (loc, msg) not in shown:
-                print(f"{source} [sweep {sweep}]: {dotted(loc)}: warning: {msg}", file=sys.stderr)
+            if (loc, msg) in own:
+                kept.add((loc, msg))
+            else:
+                extra.append(f"{source} [sweep {sweep}]: {dotted(loc)}: warning: {msg}")
+    print_advisories(source, [a for a in own if a in kept])
+    for line in extra:
+        print(line, file=sys.stderr)
 
 
 def cmd_batch(args: argparse.Namespace) -> int:
@@ -243,7 +254,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     The mission's ``study:`` section says where, how often and what to sweep; each flag
     overrides the matching key.
     """
-    mission = load(args.mission, simulate=True, warn=not args.quiet)
+    mission = load(args.mission, simulate=True, warn=False)  # warned of below, as flown
     if mission.mission_a is not None:
         if not args.amp_only:
             raise UsageError(
@@ -264,8 +275,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         raise UsageError(f"batch: {exc}") from None
     for note in variant_sweep_notes(mission, sweeps):
         print(f"cptbt: note: {note}", file=sys.stderr)
-    if sweeps and not args.quiet:
-        _warn_swept(mission, configs, args.mission)
+    if not args.quiet:
+        _warn_swept(mission, configs if sweeps else [], args.mission)
     starts = _starts(args, mission, spec)
     _check_starts(mission, starts)
     runs_per_start = args.runs_per_start or (spec.runs_per_start if spec else 1)

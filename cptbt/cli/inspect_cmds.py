@@ -11,7 +11,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from cptbt.loader import MissionError, format_errors, format_problems, load_mission, parse_yaml
-from cptbt.mission import MissionBase
+from cptbt.mission import Loc, MissionBase
 from cptbt.planner import Planner
 from cptbt.registry import default_registry
 from cptbt.schema import mission_json_schema
@@ -57,13 +57,19 @@ def load(path: str, simulate: bool = False, warn: bool = True) -> MissionBase:
 
             raise MissionError(format_errors(error, section, lines, path, ("environment",),
                                              model=EnvironmentParams))
-    advice = mission.advisories() if warn else []
+    if warn:
+        print_advisories(path, mission.advisories())
+    return mission
+
+
+def print_advisories(path: str, advice: list[tuple[Loc, str]]) -> None:
+    """Print a mission file's advisories to stderr, one ``FILE:LINE: path: warning: message``
+    line each, in the file's line order."""
     if advice:
         _, lines = parse_yaml(Path(path).read_text(encoding="utf-8"), path)
         for line in format_problems([(loc, f"warning: {msg}") for loc, msg in advice], lines,
                                     path, by_line=True):
             print(line, file=sys.stderr)
-    return mission
 
 
 def add_parsers(sub: Any) -> None:

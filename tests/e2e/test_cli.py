@@ -83,6 +83,21 @@ def test_settings_unlikely_meant_for_a_small_oparea_are_warned_of(tmp_path: Path
     (warned,) = [ln for ln in res.stderr.splitlines() if "warning" in ln]
     assert warned.startswith(f"{small} [sweep evaluation.success_radius_m=15]: "
                              "evaluation.success_radius_m: warning: 15 m: a disc"), warned
+    # the file's own warning is shown at its line while some sweep flies it, not when every
+    # sweep overrides it
+    text = text.replace("likelihood_map}", "likelihood_map, radius_m: 5}")
+    small.write_text(text.replace("success_radius_m: 5", "success_radius_m: 15"),
+                     encoding="utf-8")
+    res = cptbt("batch", str(small), "--runs-per-start", "1", "--workers", "1", "--out",
+                str(tmp_path / "c"), "--sweep", "evaluation.success_radius_m=4,5")
+    assert res.returncode == 0 and "warning" not in res.stderr, res.stderr
+    res = cptbt("batch", str(small), "--runs-per-start", "1", "--workers", "1", "--out",
+                str(tmp_path / "d"), "--sweep", "declare_source.radius_m=4,5")
+    assert res.returncode == 0, res.stderr
+    (warned,) = [ln for ln in res.stderr.splitlines() if "warning" in ln]
+    line = text.count("\n")  # the evaluation line, appended last
+    assert warned.startswith(f"{small}:{line}: evaluation.success_radius_m: warning: 15 m: "), \
+        warned
 
 
 def test_tree_prints_the_subsumption_order_and_writes_dot(tmp_path: Path) -> None:
