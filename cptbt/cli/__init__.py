@@ -139,7 +139,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         for line in exc.problems:
             print(line, file=sys.stderr)
         return EXIT_USAGE
-    except (RegistryError, UsageError) as exc:
+    except UsageError as exc:  # worded as argparse's own: PROG: error: MESSAGE
+        command, text = _command_of(argv), _one_line(str(exc))
+        if command and text.startswith(f"{command}: "):
+            text = text[len(command) + 2:]
+        print(f"cptbt{f' {command}' if command else ''}: error: {text}", file=sys.stderr)
+        return EXIT_USAGE
+    except RegistryError as exc:
         print(f"cptbt: {_one_line(str(exc))}", file=sys.stderr)
         return EXIT_USAGE
     except BatchError as exc:

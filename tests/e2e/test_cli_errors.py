@@ -80,7 +80,18 @@ def test_bad_arguments_of_other_commands_are_one_usage_line() -> None:
 
 def test_a_sweep_path_that_names_nothing_is_a_usage_error(tmp_path: Path) -> None:
     res = cptbt("batch", MISSION, "--amp-only", "--sweep", "nope=1,2", "--out", str(tmp_path))
-    assert "sweep path 'nope': no such mission field" in one_line(res, 2)
+    line = one_line(res, 2)
+    # found after parsing, worded as argparse's own usage errors (PROG: error: MESSAGE)
+    assert line.startswith("cptbt batch: error: sweep path 'nope': no such mission field"), line
+
+
+def test_usage_errors_found_after_parsing_read_as_argparse_ones(tmp_path: Path) -> None:
+    res = cptbt("batch", MISSION, "--out", str(tmp_path / "o"))
+    line = one_line(res, 2)
+    assert line.startswith(f"cptbt batch: error: {MISSION} has a mission_a section"), line
+    res = cptbt("run", "missions/small_oparea.yaml", "--log", str(tmp_path / "x.mcap"),
+                "--out", str(tmp_path / "r"))
+    assert one_line(res, 2).startswith("cptbt run: error: --log records the AMP session")
 
 
 def test_version_is_the_installed_distribution() -> None:
