@@ -104,11 +104,13 @@ def apply_setting(data: dict[str, Any], path: str, value: Any) -> None:
 
 def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
     """What a ``<family>.variant`` sweep drops: the behaviour's settings in the mission that a
-    swept variant also has, with another default.
+    swept variant flies otherwise, one note per such variant.
 
     Each swept variant flies with its own defaults (its parameters need not be the mission's
-    variant's), so the settings the mission gave that behaviour are not carried over — said
-    once per sweep, so it is never silent. Parameters another sweep sets are kept (variants are
+    variant's), so the settings the mission gave that behaviour are not carried over: those the
+    variant also has fly at its default, and those it has no parameter for (a likelihood map's
+    ``max_sources`` swept against a one-source rule) do not apply at all. Said once per swept
+    variant, so it is never silent. Parameters another sweep sets are kept (variants are
     applied first).
     """
     data = mission_to_data(mission)
@@ -122,21 +124,31 @@ def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
             body = next((e[family] for e in data["behaviours"] if family in e), None) or {}
             also = {q.partition(".")[2] for other in sweeps for q in other.paths
                     if q.startswith(family + ".")}
-            lost: dict[str, Any] = {}
-            for value in sweep.values:
+            given = {k: v for k, v in body.items() if k != "variant" and k not in also}
+            try:  # the mission's variant's own defaults: a setting it leaves so is no choice
+                own = registry.get(family, str(body.get("variant"))).params().model_dump(
+                    mode="json")
+            except RegistryError:
+                own = {}
+            for value in dict.fromkeys(sweep.values):
                 if value == body.get("variant"):
                     continue
                 try:
                     defaults = registry.get(family, str(value)).params().model_dump(mode="json")
                 except RegistryError:  # an unknown variant fails in configurations()
                     continue
-                lost |= {k: v for k, v in body.items() if k != "variant" and k not in also
-                         and k in defaults and defaults[k] != v}
-            if lost:
-                listed = ", ".join(f"{k}={v}" for k, v in lost.items())
-                notes.append(f"sweep {path}: each variant flies with its own defaults; the "
-                             f"mission's {family} settings {listed} are not carried over "
-                             f"(give them with another --sweep {family}.<param>=...)")
+                other = [f"{k}={v} (its default {defaults[k]})" for k, v in given.items()
+                         if k in defaults and defaults[k] != v]
+                absent = [f"{k}={v}" for k, v in given.items()
+                          if k not in defaults and (k not in own or own[k] != v)]
+                parts = ([f"flies {', '.join(other)}"] if other else []) + (
+                    [f"has no parameter for {', '.join(absent)}"] if absent else [])
+                hint = (f" (give a setting both have with another --sweep "
+                        f"{family}.<param>=...)") if other else ""
+                if parts:
+                    notes.append(
+                        f"sweep {path}: {value} flies with its own defaults, not the mission's "
+                        f"{family} settings: it {'; it '.join(parts)}{hint}")
     return notes
 
 

@@ -86,6 +86,7 @@ class RunSummary:
     sources_found: int = 0
     false_declarations: int = 0
     declared_sources: list[dict[str, float] | None] = field(default_factory=list)
+    true_sources: list[dict[str, float] | None] = field(default_factory=list)
     flybys: int | None = None
     withdrawn: int | None = None
     superseded: int | None = None
@@ -142,6 +143,13 @@ def summarise(
     made unchecked (a check leg that timed out, or no flow direction to check along);
     ``search_given_up`` that the search for another source ended (``search_give_up_s``) before
     ``max_sources`` were declared.
+    With several sources or declared points, the single-source fields keep their single
+    meaning: ``true_source`` is the mission's ``source``, ``declared_source`` the last declared
+    point (which may be another source's), and ``error_m`` the worst declared point's distance
+    to its nearest true source; ``true_sources`` lists every true source (the mission's
+    ``source`` first), and each entry of ``declared_sources`` carries its own ``error_m`` (to its
+    nearest true source). D0, ``closest_approach_m``, ``start_to_source_m`` and
+    ``path_efficiency`` are about the last declared point and the mission's ``source``.
     ``closest_approach_m`` is the vehicle's closest true approach to the true source while the
     AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
     maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before
@@ -224,7 +232,8 @@ def summarise(
         sources_declared=len(declared_all),
         sources_found=found,
         false_declarations=len(declared_all) - found,
-        declared_sources=[where(mission, p) for p in declared_all],
+        declared_sources=[_with_error(where(mission, p), p, truth) for p in declared_all],
+        true_sources=[where(mission, q) for q in truth],
         flybys=report.get("flybys"),
         withdrawn=report.get("withdrawn"),
         superseded=report.get("superseded"),
@@ -243,6 +252,14 @@ def summarise(
         path_efficiency=(straight / path_m if verdict.success and path_m and straight is not None
                          and mission.evaluation.criterion != "maintain" else None),
     )
+
+
+def _with_error(out: dict[str, float] | None, p: Point,
+                truth: Sequence[Point]) -> dict[str, float] | None:
+    """A declared point's entry with ``error_m``, its distance to the nearest true source."""
+    if out is None:
+        return None
+    return out | {"error_m": min(math.hypot(p.x - q.x, p.y - q.y) for q in truth)}
 
 
 def _maintain_time(run: VehicleRun) -> float | None:

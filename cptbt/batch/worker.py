@@ -81,7 +81,7 @@ def flatten(summary: dict[str, Any]) -> dict[str, Any]:
     """One flat row of a run summary (nested places become ``<name>_<axis>`` columns)."""
     row: dict[str, Any] = {}
     for key, value in summary.items():
-        if key in ("time_in_behaviour_s", "time_share", "declared_sources"):
+        if key in ("time_in_behaviour_s", "time_share", "declared_sources", "true_sources"):
             continue
         if isinstance(value, dict):
             for sub, v in value.items():

@@ -31,6 +31,24 @@ if TYPE_CHECKING:
 # are used: a plain `cptbt run` needs none of them (issue 15: imports are part of a run's cost).
 
 
+def verdict_text(s: dict[str, Any]) -> str:
+    """The run's verdict as ``cptbt run`` words it: what a success needs, and how a failure
+    missed it (a false declaration's error beside the radius it is beyond)."""
+    radius = f"{s['success_radius_m']:g} m"
+    if s["criterion"] == "maintain":
+        return ("success: came" if s["success"] else "no success: never came") + \
+            f" within {radius} of the source"
+    every = " of every source" if s.get("sources_true", 1) > 1 else ""
+    if s["success"]:
+        return f"success: {s['criterion']} within {radius}{every}"
+    if s["false_declaration"]:
+        worst = "the worst point " if s.get("sources_declared", 1) > 1 else ""
+        return (f"FALSE DECLARATION: {worst}{fmt(s['error_m'], ' m')} off, beyond the "
+                f"{radius} a success needs")
+    article = "an" if s["criterion"][:1] in "aeiou" else "a"
+    return f"no success: needs {article} {s['criterion']} within {radius}{every}"
+
+
 def upflow_check_line(s: dict[str, Any]) -> str | None:
     """The run summary's up-flow check counts as one line (None: the check did nothing)."""
     if not (s["upflow_checks"] or s["upflow_vetoes"] or s["unchecked"] or s.get("visits")):
@@ -205,13 +223,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                           sources=sources, flow_deg=params.flow.mean_dir_deg)
     if not args.quiet:
         s = summary
-        verdict = "success" if s["success"] else (
-            "FALSE DECLARATION" if s["false_declaration"] else "no success")
-        judged = f"{s['criterion']} within {s['success_radius_m']:g} m"
-        if s["criterion"] == "maintain":
-            judged = ("came" if s["success"] else "never came") + \
-                f" within {s['success_radius_m']:g} m of the source"
-        print(f"{mission.name}, seed {seed}: {s['outcome']} ({verdict}: {judged}); the AMP "
+        print(f"{mission.name}, seed {seed}: {s['outcome']} ({verdict_text(s)}); the AMP "
               f"ended at {fmt(s['sim_time_s'], ' s')} "
               f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
         points = [q for q in s["declared_sources"] if q]

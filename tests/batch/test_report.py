@@ -72,6 +72,23 @@ def test_a_grid_of_two_configs_gives_maps_rates_and_counts_false_declarations(
         assert cells[1:4] == ["12", "66.7% (39.1%–86.2%)", "1"], cells
 
 
+def test_a_two_source_study_counts_the_sources_found(tmp_path: Path) -> None:
+    # A rule that can declare one source alone: every run fails with no false declaration;
+    # the sources-found column says why (1 of 2 each time), and a one-source study has none.
+    rows = [{**BASE, "configuration": "variant=one", "start": 0, "start_x": 0.0, "replicate": r,
+             "success": False, "false_declaration": False, "t3": 50.0, "error_m": 2.0,
+             "sources_true": 2, "sources_found": 1} for r in range(3)]
+    rows += [{**r, "configuration": "variant=map", "success": True, "sources_found": 2}
+             for r in rows]
+    write_report(rows, tmp_path)
+    table = (tmp_path / "tables.md").read_text()
+    assert "| sources found / true | false declarations (runs) |" in table
+    assert "| variant=one | 3 | 0.0% (0.0%–56.2%) | 3 / 6 | 0 |" in table, table
+    assert "| variant=map | 3 | 100.0% (43.8%–100.0%) | 6 / 6 | 0 |" in table, table
+    write_report(line_rows(), tmp_path)
+    assert "sources found" not in (tmp_path / "tables.md").read_text()
+
+
 def test_arrival_runs_get_no_error_histogram(tmp_path: Path) -> None:
     rows = [{**r, "criterion": "arrival", "t3": None} for r in line_rows()]
     names = {p.name for p in write_report(rows, tmp_path)}

@@ -105,6 +105,26 @@ def test_a_variant_sweep_says_which_mission_settings_it_drops() -> None:
     assert variant_sweep_notes(mission, [same]) == []
 
 
+def test_a_variant_sweep_names_the_settings_the_other_variant_has_no_parameter_for() -> None:
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.study import variant_sweep_notes
+    from cptbt.loader import loads_mission
+    from cptbt.registry import default_registry
+
+    # A two-source likelihood map swept against one-source rules: max_sources and the fly-by
+    # do not apply to them (the comparison is not like for like, and is said so); the map's
+    # settings left at its own defaults are no choice of the mission's, and not listed.
+    path = Path(__file__).resolve().parents[2] / "missions/two_sources.yaml"
+    text = path.read_text(encoding="utf-8").replace("max_sources: 2", "max_sources: 2, flyby: true")
+    assert "flyby: true" in text
+    mission = loads_mission(text, str(path), default_registry(), Environment)
+    notes = variant_sweep_notes(
+        mission, [Sweep.parse("declare_source.variant=likelihood_map,upflow_cluster")])
+    assert notes == ["sweep declare_source.variant: upflow_cluster flies with its own defaults, "
+                     "not the mission's declare_source settings: it has no parameter for "
+                     "max_sources=2, flyby=True"], notes
+
+
 OBLIQUE = Path(__file__).resolve().parents[2] / "missions/oblique_flow.yaml"
 
 

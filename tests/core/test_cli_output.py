@@ -54,3 +54,25 @@ def test_the_up_flow_check_line_names_each_count_it_has() -> None:
                     "for want of plume seen near (1 held back, the visit timed out), 1 declared "
                     "unchecked (a check leg timed out, or no flow direction)")
     assert "held back" not in str(upflow_check_line({**none, "visits": 1, "visits_ended": 0}))
+
+
+def test_the_verdict_says_what_a_success_needs_and_how_a_failure_missed_it() -> None:
+    from cptbt.cli.run_cmd import verdict_text
+
+    one = {"criterion": "declaration", "success_radius_m": 15.0, "sources_true": 1,
+           "sources_declared": 1, "success": False, "false_declaration": True, "error_m": 16.4}
+    # not "FALSE DECLARATION: declaration within 15 m", which read as the opposite
+    assert verdict_text(one) == "FALSE DECLARATION: 16.4 m off, beyond the 15 m a success needs"
+    assert verdict_text({**one, "success": True, "false_declaration": False, "error_m": 3.0}) \
+        == "success: declaration within 15 m"
+    assert verdict_text({**one, "false_declaration": False, "error_m": None}) \
+        == "no success: needs a declaration within 15 m"
+    two = {**one, "sources_true": 2, "sources_declared": 2}
+    assert verdict_text(two) == ("FALSE DECLARATION: the worst point 16.4 m off, beyond the "
+                                 "15 m a success needs")
+    assert verdict_text({**two, "false_declaration": False, "sources_declared": 1}) \
+        == "no success: needs a declaration within 15 m of every source"
+    arrival = {**one, "criterion": "arrival", "success_radius_m": 1.0, "false_declaration": False}
+    assert verdict_text(arrival) == "no success: needs an arrival within 1 m"
+    maintain = {**arrival, "criterion": "maintain", "success": True}
+    assert verdict_text(maintain) == "success: came within 1 m of the source"

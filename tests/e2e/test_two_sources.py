@@ -36,6 +36,15 @@ def test_the_shipped_run_declares_both_sources_and_draws_the_map(tmp_path: Path)
     assert summary["sources_found"] == 2 and summary["false_declarations"] == 0
     assert len(summary["declared_sources"]) == 2
     assert (tmp_path / "trajectory.png").stat().st_size > 10_000
+    # every true source is listed (the mission's own first), each declared point with its
+    # error to its nearest true source; error_m is the worst of those
+    truth = [Point(q["x"], q["y"]) for q in summary["true_sources"]]
+    assert len(truth) == 2 and truth[0] == Point(summary["true_source"]["x"],
+                                                 summary["true_source"]["y"])
+    errors = [q["error_m"] for q in summary["declared_sources"]]
+    for q, e in zip(summary["declared_sources"], errors, strict=True):
+        assert e == pytest.approx(min(Point(q["x"], q["y"]).distance_to(t) for t in truth))
+    assert summary["error_m"] == pytest.approx(max(errors))
 
 
 def test_the_printed_run_names_every_declared_point(tmp_path: Path,
