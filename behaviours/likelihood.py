@@ -33,7 +33,7 @@ from cptbt.behaviours.likelihood_params import (
 )
 from cptbt.behaviours.map_guided import MapGuidedReacquire, best_target
 from cptbt.behaviours.source_map import SOURCE_MAP_KEY, SourceMap
-from cptbt.behaviours.upflow_check import UpflowCheck
+from cptbt.behaviours.upflow_check import UpflowCheck, room
 from cptbt.node import BehaviourParams, Contract
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept, Point, SourceBelief
@@ -364,9 +364,15 @@ class LikelihoodMapDeclare(SourceDeclaration):
         a = self.context.op_area
         fx, fy = unit(p.flow.toward_deg)
         off, hw = self.params.flyby_offset_m, self.params.flyby_half_width_m
-        cx, cy = candidate.x + off * fx, candidate.y + off * fy
-        ends = [Point(min(max(cx + s * hw * -fy, a.xmin), a.xmax),
-                      min(max(cy + s * hw * fx, a.ymin), a.ymax)) for s in (1, -1)]
+        inset = self.params.flyby_wall_inset_m
+        # the pass's centre kept inset inside the walls, each half shortened to stay so: still
+        # straight across the flow (clamping each end's x and y apart bent it in an oblique
+        # flow, and ends on a wall sent the turn outside, where safety took over)
+        centre = a.clamp(candidate.x + off * fx, candidate.y + off * fy, inset)
+        ends = []
+        for s in (1.0, -1.0):
+            half = min(hw, room(a, centre, -s * fy, s * fx, inset))
+            ends.append(Point(centre.x - s * half * fy, centre.y + s * half * fx))
         here = p.pose.point
         ends.sort(key=here.distance_to)  # start at the nearer end
         self.route = tuple(ends[i % 2] for i in range(self.params.flyby_passes + 1))

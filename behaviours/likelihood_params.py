@@ -268,6 +268,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=15.0, gt=0, description="Half the length of a pass, across the flow, m"
     )
     flyby_passes: int = Field(default=2, ge=1, le=10, description="Passes across the flow")
+    flyby_wall_inset_m: float = Field(
+        default=10.0, ge=0, description="A pass is kept this far inside the OpArea's walls "
+        "(shortened, still across the flow): the turn at its end (REMUS: 7.5 m radius) then "
+        "stays inside, m"
+    )
     flyby_min_expected: float = Field(
         default=1.0, ge=0, description="A pass that saw nothing withdraws the declaration only "
         "if the map expected at least this many detections on it"

@@ -19,10 +19,15 @@ from cptbt.frames import OpArea
 from cptbt.types import Percept, Point
 
 
-def room(area: OpArea, at: Point, dx: float, dy: float) -> float:
-    """How far from ``at`` (inside the OpArea) along the unit direction (dx, dy) the wall is."""
+def room(area: OpArea, at: Point, dx: float, dy: float, inset_m: float = 0.0) -> float:
+    """How far from ``at`` (inside the OpArea) along the unit direction (dx, dy) the wall is,
+    or the OpArea shrunk by ``inset_m`` (limited to half its width on each axis, as
+    :meth:`~cptbt.frames.OpArea.clamp`) if given."""
     out = math.inf
-    for c, d, lo, hi in ((at.x, dx, area.xmin, area.xmax), (at.y, dy, area.ymin, area.ymax)):
+    ix = min(inset_m, 0.5 * (area.xmax - area.xmin))
+    iy = min(inset_m, 0.5 * (area.ymax - area.ymin))
+    for c, d, lo, hi in ((at.x, dx, area.xmin + ix, area.xmax - ix),
+                         (at.y, dy, area.ymin + iy, area.ymax - iy)):
         if d > 1e-12:
             out = min(out, (hi - c) / d)
         elif d < -1e-12:

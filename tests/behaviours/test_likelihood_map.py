@@ -316,6 +316,28 @@ def test_the_search_for_another_source_gives_up_after_a_while_without_new_plume(
     assert harness.get("declared_source") == Point(40.0, 0.0)
 
 
+@pytest.mark.parametrize("flow", [(1.0, 0.0), (0.6, -0.8), (-0.5, 0.5)])
+def test_a_fly_by_near_a_wall_stays_inside_and_across_the_flow(flow: tuple[float, float]) -> None:
+    # A candidate 4 m from the x wall and 6 m from the y wall (x 0..100, y -50..50): the
+    # pass's ends stay 10 m (flyby_wall_inset_m) inside every wall, and the pass still runs
+    # straight across the flow (ends clamped x and y apart bent it, and lay on the wall).
+    node, _ = declaring(flyby=True)
+    at = ScriptedPerception(AREA, flow=flow).step(30, 50.0, 0.0)
+    node._start_flyby(at, Point(96.0, 44.0))
+    a, b = node.route[0], node.route[1]
+    for q in node.route:
+        assert 10.0 - 1e-9 <= q.x <= 90.0 + 1e-9 and -40.0 - 1e-9 <= q.y <= 40.0 + 1e-9, q
+    norm = math.hypot(*flow)
+    assert abs((b.x - a.x) * flow[0] + (b.y - a.y) * flow[1]) / norm < 1e-6  # across the flow
+    assert a.distance_to(b) > 0.0
+    # far from the walls, the pass is the full 30 m, 8 m down-flow of the candidate
+    node._start_flyby(at, Point(50.0, 0.0))
+    a, b = node.route[0], node.route[1]
+    assert a.distance_to(b) == pytest.approx(30.0)
+    mid = Point((a.x + b.x) / 2, (a.y + b.y) / 2)
+    assert mid.distance_to(Point(50.0 + 8 * flow[0] / norm, 8 * flow[1] / norm)) < 1e-6
+
+
 def test_a_withdrawn_fly_by_restarts_the_give_up_clock() -> None:
     node, harness = declaring(max_sources=2, search_give_up_s=50.0, flyby=True,
                               flyby_timeout_s=5.0)
