@@ -11,9 +11,9 @@
 
 Blackboard keys (STYLE 4): the declaration writes ``source_map`` (a
 :class:`~cptbt.types.SourceBelief`, every cycle), ``source_map_at_declaration`` (the belief at the
-latest declaration), ``declared_sources`` (every source declared so far) and
-``declaration_report`` (fly-bys, withdrawals, up-flow checks and vetoes), besides the
-planner's ``declared_source``; map-guided reacquire reads ``source_map``.
+latest declaration, or when the search for more sources gave up), ``declared_sources`` (every
+source declared so far) and ``declaration_report`` (fly-bys, withdrawals, up-flow checks and
+vetoes), besides the planner's ``declared_source``; map-guided reacquire reads ``source_map``.
 """
 
 from __future__ import annotations
@@ -279,6 +279,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.bb.declared_source = source
         self.heading_home = True
         self.search_given_up = True
+        assert self.map is not None
+        self.at_declaration = self.map.belief()  # the map the search ended on (t3)
+        self.bb.set("source_map_at_declaration", self.at_declaration)
         self._report()
         return True
 

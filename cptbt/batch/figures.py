@@ -122,8 +122,9 @@ def trajectory_figure(
     true source (default: ``source``); ``goal`` is the run's move-to-field goal when it is not
     the mission's start point (a study row's start); ``flow_deg`` (planning angle the mean
     current flows toward) draws an arrow in the OpArea's corner. When the run's declaration kept a
-    source-likelihood map, a second panel draws its posterior at the (last) declaration with the
-    declared points, the withdrawn fly-by candidates and the true sources.
+    source-likelihood map, a second panel draws its posterior at the (last) declaration (or when
+    the search for more sources gave up) with the declared points, the withdrawn fly-by
+    candidates and the true sources.
     """
     plt = pyplot()
     area = mission.op_area_geometry()
@@ -147,7 +148,9 @@ def trajectory_figure(
         vmax = max(float(np.percentile(snap.conc, 99.7)), (threshold or 0.0) * 2, 1e-9)
         mesh = ax.pcolormesh(snap.xs, snap.ys, snap.conc, cmap="Greys", shading="auto",
                              vmin=0, vmax=vmax, alpha=0.75, rasterized=True)
-        when = "declaration" if run.t3 is not None and abs(snap.t_s - run.t3) < 1e-6 else "end"
+        given_up = bool((run.declaration_report or {}).get("search_given_up"))
+        when = (("the search gave up" if given_up else "declaration")
+                if run.t3 is not None and abs(snap.t_s - run.t3) < 1e-6 else "end")
         bar = fig.colorbar(mesh, ax=ax, location="bottom", shrink=0.5, aspect=40, pad=0.02)
         label = f"plume concentration at t = {snap.t_s:.0f} s ({when})"
         if threshold is not None:
@@ -241,8 +244,9 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
         mesh = ax.pcolormesh(belief.xs, belief.ys, shown, cmap="viridis", shading="auto",
                              norm=LogNorm(vmin=top * 1e-4, vmax=top), rasterized=True)
         bar = plt.colorbar(mesh, ax=ax, location="bottom", shrink=0.5, aspect=40, pad=0.02)
-        bar.set_label(f"source-likelihood posterior per cell at t = {belief.t:.0f} s (last "
-                      "declaration), log scale", fontsize=8)
+        when = "the search gave up" if report.get("search_given_up") else "last declaration"
+        bar.set_label(f"source-likelihood posterior per cell at t = {belief.t:.0f} s ({when}), "
+                      "log scale", fontsize=8)
     ax.add_patch(plt.Rectangle((area.xmin, area.ymin), area.xmax - area.xmin,
                                area.ymax - area.ymin, fill=False, lw=1.5, ec="black"))
     withdrawn = report.get("withdrawn_at") or []

@@ -49,6 +49,21 @@ def verdict_text(s: dict[str, Any]) -> str:
     return f"no success: needs {article} {s['criterion']} within {radius}{every}"
 
 
+def short_verdict(s: dict[str, Any]) -> str:
+    """The verdict in a few words, for the figure's title: a run's outcome alone ("declared")
+    does not say whether the declaration was right, or how many sources it found."""
+    if s["criterion"] != "maintain" and s.get("sources_true", 1) > 1:
+        false = s.get("false_declarations") or 0
+        return (f"{s['sources_found']} of {s['sources_true']} sources found"
+                + (f", {false} false" if false else ""))
+    if s["success"]:
+        return "success" + (f", error {fmt(s['error_m'], ' m')}"
+                            if s["criterion"] == "declaration" else "")
+    if s["false_declaration"]:
+        return f"false declaration, {fmt(s['error_m'], ' m')} off"
+    return "no success"
+
+
 def upflow_check_line(s: dict[str, Any]) -> str | None:
     """The run summary's up-flow check counts as one line (None: the check did nothing)."""
     if not (s["upflow_checks"] or s["upflow_vetoes"] or s["unchecked"] or s.get("visits")):
@@ -218,7 +233,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                              if e.family in ("declare_source", "maintain_plume",
                                              "reacquire_plume", "find_plume"))
         trajectory_figure(figure, run, mission, source,
-                          f"{mission.name} (seed {seed}): {summary['outcome']}\n{variants}",
+                          f"{mission.name} (seed {seed}): {summary['outcome']}, "
+                          f"{short_verdict(summary)}\n{variants}",
                           threshold=mission.perception.threshold, waypoints=waypoints,
                           sources=sources, flow_deg=params.flow.mean_dir_deg)
     if not args.quiet:

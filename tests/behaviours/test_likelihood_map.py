@@ -314,6 +314,8 @@ def test_the_search_for_another_source_gives_up_after_a_while_without_new_plume(
     assert node.declared == Point(40.0, 0.0) and node.heading_home  # home, not back to it
     assert harness.get("declaration_report")["search_given_up"]
     assert harness.get("declared_source") == Point(40.0, 0.0)
+    # the map kept for the figure is the one the search ended on, not the declaration's
+    assert harness.get("source_map_at_declaration").t == 129
 
 
 @pytest.mark.parametrize("flow", [(1.0, 0.0), (0.6, -0.8), (-0.5, 0.5)])

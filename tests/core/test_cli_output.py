@@ -76,3 +76,17 @@ def test_the_verdict_says_what_a_success_needs_and_how_a_failure_missed_it() -> 
     assert verdict_text(arrival) == "no success: needs an arrival within 1 m"
     maintain = {**arrival, "criterion": "maintain", "success": True}
     assert verdict_text(maintain) == "success: came within 1 m of the source"
+
+
+def test_the_figure_title_says_whether_the_declaration_was_right() -> None:
+    from cptbt.cli.run_cmd import short_verdict
+
+    one = {"criterion": "declaration", "success_radius_m": 15.0, "sources_true": 1,
+           "success": True, "false_declaration": False, "error_m": 3.04}
+    assert short_verdict(one) == "success, error 3.0 m"
+    assert short_verdict({**one, "success": False, "false_declaration": True,
+                          "error_m": 16.4}) == "false declaration, 16.4 m off"
+    three = {**one, "success": False, "sources_true": 3, "sources_found": 2,
+             "false_declarations": 0}
+    assert short_verdict(three) == "2 of 3 sources found"
+    assert short_verdict({**three, "false_declarations": 1}) == "2 of 3 sources found, 1 false"
