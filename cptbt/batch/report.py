@@ -176,8 +176,10 @@ def protocol_table(groups: dict[str, Rows]) -> list[str]:
     return lines
 
 
-def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None) -> list[Path]:
-    """Write every figure and table that means something for the study; the paths written.
+def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
+                 figures: bool = True) -> list[Path]:
+    """Write every figure and table that means something for the study; the paths written
+    (without ``figures``, the tables alone: matplotlib is not needed).
 
     Skipped where they would mislead: maps need starts spread in x and y, the start-x line
     needs starts along one line, the rate chart needs two configurations or more, and the
@@ -195,6 +197,8 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None) -
     from cptbt.batch.study_figures import _distributions, _line, _map, _rates
 
     written: list[Path | None] = [_tables(groups, out / "tables.md")]
+    if not figures:
+        return [p for p in written if p is not None]
     plt = pyplot()
     written.append(_map(groups, out / "time_to_source_map.png", plt, geometry))
     written.append(_line(groups, out / "time_vs_start.png", plt))

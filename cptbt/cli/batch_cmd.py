@@ -104,7 +104,8 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--log-runs", type=argtypes.non_negative_int, default=0, metavar="K",
                    help="write an MCAP cycle log for K runs drawn at random (seeded by the root "
                    "seed) to DIR/logs (needs cptbt[logs]); cptbt log summary / replay read them")
-    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.add_argument("--no-plots", action="store_true",
+                   help="skip the figures (tables.md is still written)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     p.set_defaults(func=cmd_batch)
 
@@ -402,8 +403,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
             print(f"  cycle logs of {n_logs} run{'s' if n_logs != 1 else ''} in "
                   f"{Path(args.out) / 'logs'} ({len(logged)} file"
                   f"{'s' if len(logged) != 1 else ''}{note})")
-    if not args.no_plots:
-        _plots(table, Path(args.out), args.quiet, geometry)
+    _plots(table, Path(args.out), args.quiet, geometry, figures=not args.no_plots)
     return 0
 
 
@@ -435,10 +435,11 @@ def _next_replicates(n: int, rel_sem: float, target: float, step: int,
     return min(max_n, n + rounds * step)
 
 
-def _plots(results: Path, out: Path, quiet: bool, geometry: StudyGeometry | None) -> None:
+def _plots(results: Path, out: Path, quiet: bool, geometry: StudyGeometry | None,
+           figures: bool = True) -> None:
     from cptbt.batch.report import write_report
 
-    written = write_report(load_results(results), out, geometry)
+    written = write_report(load_results(results), out, geometry, figures)
     if not quiet:
         for path in written:
             print(f"  wrote {path}")

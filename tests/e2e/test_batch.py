@@ -58,6 +58,8 @@ def test_two_workers_give_the_same_table(tmp_path: Path, reference: list[dict]) 
     res = batch(tmp_path, "--workers", "2", "--no-plots")
     assert res.returncode == 0, res.stderr
     assert table(tmp_path) == reference
+    # --no-plots skips the figures, not the tables
+    assert (tmp_path / "tables.md").is_file() and not list(tmp_path.glob("*.png"))
 
 
 def test_killed_study_resumes_without_losing_or_repeating_runs(
