@@ -266,20 +266,23 @@ class LikelihoodMapDeclare(SourceDeclaration):
 
     def _give_up(self, p: Percept) -> bool:
         """``search_give_up_s`` since the latest declaration or unexplained detection, with no
-        check leg or visit under way: the search ends with the sources found, and the vehicle
-        heads home (each source was reached when it was declared)."""
+        check leg or visit under way, or no cell left outside the declared sources' masks
+        (``mask_radius_m`` covering the OpArea): the search ends with the sources found, and
+        the vehicle heads home (each source was reached when it was declared)."""
         if self.search_given_up:
             return True
+        assert self.map is not None
         limit = self.params.search_give_up_s
-        if (limit is None or not self.sources or self.upflow.target is not None
-                or p.t - self.evidence_t < limit):
+        if not self.sources:
+            return False
+        if not self.map.exhausted and (limit is None or self.upflow.target is not None
+                                       or p.t - self.evidence_t < limit):
             return False
         source = self.sources[-1]
         self.declared = source
         self.bb.declared_source = source
         self.heading_home = True
         self.search_given_up = True
-        assert self.map is not None
         self.at_declaration = self.map.belief()  # the map the search ended on (t3)
         self.bb.set("source_map_at_declaration", self.at_declaration)
         self._report()

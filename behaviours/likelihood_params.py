@@ -303,6 +303,9 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
 
 DISC_SHARE = 0.1
 """A declaration disc (``radius_m``) covering more of the OpArea than this is warned of."""
+MASK_SHARE = 0.25
+"""With several sources to find, a declared source's mask (``mask_radius_m``) covering more of
+the OpArea than this is warned of."""
 
 
 def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
@@ -310,7 +313,8 @@ def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
     posterior mass within it starts at its share of the area, a uniform prior, so
     ``confidence`` is reached on little evidence, and the declared point, the disc's posterior
     mean, can be off by up to about ``radius_m``: a 30 x 30 m box with the default 10 m, a disc
-    of 35%, declared one of six runs 9.7 m off); a give-up time with one source to find."""
+    of 35%, declared one of six runs 9.7 m off); with several sources to find, a mask ruling out
+    much of the OpArea for the next; a give-up time with one source to find."""
     assert isinstance(params, LikelihoodMapParams)
     out = []
     share = area.disc_share(params.radius_m)
@@ -320,6 +324,11 @@ def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
                     "in it on little evidence, and the declared point (the disc's mean) can be "
                     f"off by up to about {params.radius_m:g} m (a radius of "
                     f"{area.disc_radius(DISC_SHARE):.1f} m covers a tenth)"))
+    mask = area.disc_share(params.mask_radius_m)
+    if params.max_sources > 1 and mask > MASK_SHARE:
+        out.append(("mask_radius_m", f"{params.mask_radius_m:g} m: a declared source rules "
+                    f"out a disc covering {100 * mask:.0f}% of the OpArea as the place of "
+                    "another (the search ends when no cell is left)"))
     if params.search_give_up_s is not None and params.max_sources == 1:
         out.append(("search_give_up_s", "has no effect with max_sources 1 (it bounds the "
                     "search for a further source)"))

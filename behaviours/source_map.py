@@ -161,8 +161,15 @@ class SourceMap:
         if p.detected and not self.explained_by_known(self._n - 1, x, y):
             self.unexplained += 1
         self._fold(obs)
-        self._log -= self._log[~self._excluded].max()
+        if not self.exhausted:  # every cell masked: nothing to normalise (nor to search)
+            self._log -= self._log[~self._excluded].max()
         return True
+
+    @property
+    def exhausted(self) -> bool:
+        """Every cell lies within ``mask_radius_m`` of a declared source: nowhere is left
+        where another source could be."""
+        return not bool((~self._excluded).any())
 
     def _reset_meander(self) -> None:
         self._last_k = -1
@@ -225,7 +232,7 @@ class SourceMap:
         for obs in self._obs:
             self._fold(obs)
         self._log[self._excluded] = -np.inf
-        if (~self._excluded).any():
+        if not self.exhausted:
             self._log -= self._log[~self._excluded].max()
 
     # -- the model -----------------------------------------------------------------------

@@ -141,8 +141,8 @@ def summarise(
     traces alone), ``visits`` the candidates it flew to for want of plume seen near them
     (``visits_ended`` of those visits timed out, the candidate held back), and the declarations
     made unchecked (a check leg that timed out, or no flow direction to check along);
-    ``search_given_up`` that the search for another source ended (``search_give_up_s``) before
-    ``max_sources`` were declared.
+    ``search_given_up`` that the search for another source ended (``search_give_up_s``, or no
+    cell left outside the declared sources' masks) before ``max_sources`` were declared.
     With several sources or declared points, the single-source fields keep their single
     meaning: ``true_source`` is the mission's ``source``, ``declared_source`` the last declared
     point (which may be another source's), and ``error_m`` the worst declared point's distance

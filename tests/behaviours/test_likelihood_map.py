@@ -359,6 +359,27 @@ def test_a_withdrawn_fly_by_restarts_the_give_up_clock() -> None:
     assert node.search_given_up
 
 
+def test_a_mask_covering_the_whole_oparea_ends_the_search_rather_than_crash() -> None:
+    # mask_radius_m past the OpArea's corners: after the first declaration no cell is left
+    # where another source could be; the next detection used to crash the map (the maximum
+    # of an empty array); now the search ends there, and the vehicle heads home.
+    node, harness = declaring(max_sources=2, mask_radius_m=200.0)
+    node._accept(Point(40.0, 0.0))
+    assert node.map is not None and node.map.exhausted
+    script = ScriptedPerception(AREA, flow=FLOW)
+    harness.tick(script.step(30, 60.0, 0.0, conc=1.0))  # a detection: no crash
+    assert node.search_given_up and node.declared == Point(40.0, 0.0) and node.heading_home
+    assert harness.get("declaration_report")["search_given_up"]
+
+
+def test_a_mask_that_leaves_cells_keeps_searching() -> None:
+    node, harness = declaring(max_sources=2, mask_radius_m=30.0)
+    node._accept(Point(40.0, 0.0))
+    assert node.map is not None and not node.map.exhausted
+    harness.tick(ScriptedPerception(AREA, flow=FLOW).step(30, 60.0, 0.0, conc=1.0))
+    assert not node.search_given_up and node.declared is None
+
+
 def test_without_a_give_up_time_the_search_goes_on() -> None:
     node, harness = declaring(max_sources=2)
     node._accept(Point(40.0, 0.0))
@@ -874,3 +895,7 @@ def test_advice_for_settings_valid_but_unlikely_meant() -> None:
     ((key, why),) = advise(LikelihoodMapParams(search_give_up_s=300.0), AREA)
     assert key == "search_give_up_s" and "max_sources 1" in why
     assert advise(LikelihoodMapParams(search_give_up_s=300.0, max_sources=2), AREA) == []
+    # with several sources to find, a mask ruling out much of the OpArea for the next one
+    ((key, why),) = advise(LikelihoodMapParams(max_sources=2, mask_radius_m=40.0), AREA)
+    assert key == "mask_radius_m" and "covering 50% of the OpArea" in why, why
+    assert advise(LikelihoodMapParams(max_sources=1, mask_radius_m=40.0), AREA) == []
