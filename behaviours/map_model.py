@@ -23,7 +23,9 @@ class MapModelParams(BehaviourParams):
         "(long by default: see the module docstring)"
     )
     false_alarm_prob: float = Field(
-        default=0.02, gt=0, lt=1, description="ε: chance of a detection with no plume, per cycle"
+        default=0.02, ge=1e-9, lt=1, description="ε: chance of a detection with no plume, per "
+        "cycle (at least 1e-9: below 1e-16, 1 - ε is 1 in floating point and a detection "
+        "rules out every cell)"
     )
     near_spread_m: float = Field(
         default=3.0, gt=0, description="σ0: cross-flow spread at the source (navigation error, "
@@ -71,8 +73,8 @@ class MapModelParams(BehaviourParams):
         "falls by a factor e, m"
     )
     strong_false_alarm_prob: float = Field(
-        default=0.002, gt=0, lt=1, description="ε3: chance of a strong detection with no plume, "
-        "per cycle"
+        default=0.002, ge=1e-9, lt=1, description="ε3: chance of a strong detection with no "
+        "plume, per cycle (at least 1e-9, as false_alarm_prob)"
     )
     trajectory_points: int = Field(
         default=200, ge=2, le=10_000, description="Back-trajectory samples per observation"

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 import py_trees
+import pydantic
 import pytest
 from py_trees.common import Status
 
@@ -899,3 +900,12 @@ def test_advice_for_settings_valid_but_unlikely_meant() -> None:
     ((key, why),) = advise(LikelihoodMapParams(max_sources=2, mask_radius_m=40.0), AREA)
     assert key == "mask_radius_m" and "covering 50% of the OpArea" in why, why
     assert advise(LikelihoodMapParams(max_sources=1, mask_radius_m=40.0), AREA) == []
+
+
+@pytest.mark.parametrize("key", ["false_alarm_prob", "strong_false_alarm_prob"])
+def test_a_false_alarm_chance_too_small_to_compute_with_is_refused(key: str) -> None:
+    # below ~1e-16, 1 - ε is 1 in floating point: a detection's likelihood was log(0) and the
+    # planner crashed at the first detection of a mission that validated
+    with pytest.raises(pydantic.ValidationError, match=key):
+        LikelihoodMapParams(**{key: 1e-20})
+    LikelihoodMapParams(**{key: 1e-9})
