@@ -406,9 +406,13 @@ def load_mission(
     """
     source = str(path)
     try:
-        raw = Path(path).read_bytes()
+        with Path(path).open("rb") as f:  # no more than a mission's size: /dev/zero is endless
+            raw = f.read(MAX_BYTES + 1)
     except OSError as exc:
         raise MissionError([f"{source}:0: (file): {exc.strerror or exc}"]) from None
+    if len(raw) > MAX_BYTES:
+        raise MissionError([f"{source}:1: (file): more than {MAX_BYTES} bytes; a mission file "
+                            f"may have at most {MAX_BYTES}"])
     return loads_mission(decode(raw, source), source, registry, environment)
 
 

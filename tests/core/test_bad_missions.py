@@ -268,6 +268,19 @@ def test_a_file_not_in_utf8_is_reported_at_the_bad_bytes_line_and_column(
     assert line.startswith(f"{path}:2: (file): byte 0xe9 at column 17 is not UTF-8"), line
 
 
+def test_an_endless_file_is_refused_after_a_missions_size(
+    capsys: pytest.CaptureFixture[str]
+) -> None:
+    # /dev/zero was read whole before its size was checked: 6.9 GB in 10 s, and no answer
+    import resource
+
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    assert main(["validate", "/dev/zero"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("/dev/zero:1: (file): more than ") and "at most" in line, line
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000  # KiB
+
+
 def test_whole_floats_for_counts_and_integers_for_floats_stay_valid(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
