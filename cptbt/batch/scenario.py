@@ -140,6 +140,12 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
         return [(("environment", "source"), why)]
     area = mission.op_area_geometry()
     out: list[Problem] = []
+    for key, inner in (("flow_speed_mps", "mean_speed_mps"), ("flow_toward_deg", "mean_dir_deg")):
+        # the short key overrides the flow section's: its value (even NaN) would go unread,
+        # and a sweep of it would fly the same flow in every configuration
+        if getattr(env, key) is not None and inner in env.flow:
+            out.append((("environment", "flow", inner), f"given with environment.{key}, which "
+                        "sets it: give one of them"))
     if env.launch is not None and mission.mission_a is None:
         if mission.frame == "geodetic" and (why := latlon_problem(env.launch)):
             out.append((("environment", "launch"), why))

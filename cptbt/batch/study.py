@@ -201,9 +201,12 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
             # The simulator's own limits (environment.dt_s, flow overrides...), as `load` checks
             # them for the mission file: a swept value must not first fail in a worker. (Imported
             # here: studies are planned, and the CLI inspects missions, without the simulator.)
-            from cptbt.batch.scenario import check
+            from cptbt.batch.scenario import check, problems
             from cptbt.sim.world import EnvironmentParams
 
+            found = problems(validated, simulate=False)
+            if found:
+                raise _swept_error(found, source, lines, swept)
             error = check(validated)
             if error is not None:
                 located = located_errors(error, data.get("environment") or {}, ("environment",),

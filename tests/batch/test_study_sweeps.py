@@ -138,6 +138,11 @@ OBLIQUE = Path(__file__).resolve().parents[2] / "missions/oblique_flow.yaml"
     # the simulator's limits are checked before any run, as for the file itself
     ("environment.dt_s=1e-7", " [sweep environment.dt_s=1e-07]: environment.dt_s: Input should "
      "be greater than or equal to 0.005"),
+    # a flow speed the mission's flow_speed_mps overrides: every configuration would fly the
+    # same flow (the sweep compared nothing)
+    ("environment.flow.mean_speed_mps=0.1,0.2", " [sweep environment.flow.mean_speed_mps=0.1]: "
+     "environment.flow.mean_speed_mps: given with environment.flow_speed_mps, which sets it: "
+     "give one of them"),
 ])
 def test_a_bad_swept_value_is_reported_at_the_files_key_or_without_a_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], sweep: str, where: str

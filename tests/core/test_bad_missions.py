@@ -105,6 +105,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      "environment.flow_speed_mps", "less than or equal to 10"),
     ("a flow grid too fine to step", sub("  seed: 3", "  seed: 3\n  flow: {diffusivity_m2ps: 1e6}"),
      26, "environment", "the flow model would step every"),
+    ("a flow speed given twice (the short key overrides: NaN went unread)",
+     sub("  seed: 3", "  seed: 3\n  flow: {mean_speed_mps: .nan}"), 32,
+     "environment.flow.mean_speed_mps", "given with environment.flow_speed_mps"),
     ("a billion puffs", sub("  seed: 3", "  seed: 3\n  plume: {max_puffs: 1000000000}"), 32,
      "environment.plume.max_puffs", "less than or equal to 200000"),
     ("too many sources", sub("  seed: 3", "  seed: 3\n  extra_sources: [" +
