@@ -171,6 +171,46 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
     return out
 
 
+def advisories(mission: MissionBase) -> list[Problem]:
+    """The mission's advisories (:meth:`~cptbt.mission.MissionBase.advisories`) and those only
+    its simulated world shows, as (key path, message): a run is judged a success only when
+    every true source has a declared point within the success radius, so a declaration that
+    can declare fewer points than the world has sources, or two sources within that radius of
+    each other (one point matches one source), makes success impossible."""
+    out = list(mission.advisories())
+    if mission.environment is None or mission.evaluation.criterion != "declaration":
+        return out
+    try:
+        truth = true_sources(mission)
+    except (ValueError, TypeError):  # an unusable place is a problem, reported as one
+        return out
+    if len(truth) < 2:
+        return out
+    r = mission.evaluation.success_radius_m
+    for i, e in enumerate(mission.entries()):
+        if e.family != "declare_source":
+            continue
+        most = int(getattr(e.params, "max_sources", 1))
+        if most < len(truth):
+            key = ("behaviours", i, e.family) + (("max_sources",)
+                                                  if hasattr(e.params, "max_sources") else ())
+            can = (f"max_sources {most}" if hasattr(e.params, "max_sources")
+                   else f"the {e.variant} rule declares one source")
+            out.append((key, f"{can}, but the world has {len(truth)} sources and a run "
+                        "succeeds only when every one is found: no run can succeed"
+                        + ("" if hasattr(e.params, "max_sources") else
+                           " (the likelihood_map variant takes max_sources)")))
+    for j in range(1, len(truth)):
+        near = min(range(j), key=lambda k: truth[k].distance_to(truth[j]))
+        d = truth[near].distance_to(truth[j])
+        if d <= r:
+            out.append((("environment", "extra_sources", j - 1),
+                        f"{d:.1f} m from {'source' if near == 0 else f'extra_sources[{near - 1}]'}"
+                        f", within the success radius ({r:g} m): a declared point counts for one "
+                        "source only, so both must be declared apart"))
+    return out
+
+
 def to_sim_params(mission: MissionBase, seed: int | None = None) -> EnvironmentParams:
     """Simulator settings for a mission, in the planning frame.
 

@@ -29,7 +29,7 @@ from cptbt.batch.study import (
 )
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
-from cptbt.cli.inspect_cmds import load, print_advisories
+from cptbt.cli.inspect_cmds import advisories_of, load, print_advisories
 from cptbt.loader import parse_yaml
 from cptbt.mission import Loc, MissionBase
 from cptbt.study_spec import StudySpec
@@ -230,7 +230,7 @@ def _warn_swept(mission: MissionBase, configs: list[Config], source: str) -> Non
     from cptbt.mission import dotted
     from cptbt.registry import default_registry
 
-    own = mission.advisories()
+    own = advisories_of(mission)
     if not configs:
         print_advisories(source, own)
         return
@@ -239,7 +239,7 @@ def _warn_swept(mission: MissionBase, configs: list[Config], source: str) -> Non
     for c in configs:
         m = loads_mission(c.mission_yaml, source, default_registry(), Environment)
         sweep = ", ".join(f"{k}={v}" for k, v in c.coords.items())
-        for loc, msg in m.advisories():
+        for loc, msg in advisories_of(m):
             if (loc, msg) in own:
                 kept.add((loc, msg))
             else:

@@ -58,8 +58,17 @@ def load(path: str, simulate: bool = False, warn: bool = True) -> MissionBase:
             raise MissionError(format_errors(error, section, lines, path, ("environment",),
                                              model=EnvironmentParams))
     if warn:
-        print_advisories(path, mission.advisories())
+        print_advisories(path, advisories_of(mission))
     return mission
+
+
+def advisories_of(mission: MissionBase) -> list[tuple[Loc, str]]:
+    """The mission's advisories, with its simulated world's when the simulator is installed."""
+    if environment_model() is None:
+        return mission.advisories()
+    from cptbt.batch.scenario import advisories
+
+    return advisories(mission)
 
 
 def print_advisories(path: str, advice: list[tuple[Loc, str]]) -> None:

@@ -103,3 +103,25 @@ def test_an_extra_source_outside_the_op_area_is_one_line_at_its_key(tmp_path: Pa
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1 and "environment.extra_sources[1]" in lines[0]
     assert "outside the OpArea" in lines[0]
+
+
+@pytest.mark.parametrize(("edit", "where", "says"), [
+    (("max_sources: 2}", "max_sources: 1}"), "behaviours[1].declare_source.max_sources",
+     "max_sources 1, but the world has 2 sources"),
+    (("variant: likelihood_map, max_sources: 2}", "variant: upflow_cluster}"),
+     "behaviours[1].declare_source", "the upflow_cluster rule declares one source"),
+    (("extra_sources: [[-10, -25]]", "extra_sources: [[-65, 20]]"),
+     "environment.extra_sources[0]", "7.1 m from source, within the success radius (15 m)"),
+])
+def test_a_world_no_run_can_succeed_in_is_warned_of(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], edit: tuple[str, str], where: str,
+    says: str
+) -> None:
+    text = TWO.read_text(encoding="utf-8")
+    assert edit[0] in text
+    path = tmp_path / "m.yaml"
+    path.write_text(text.replace(*edit), encoding="utf-8")
+    assert main(["validate", str(path)]) == 0  # valid: a warning, exit 0
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert f": {where}: warning: " in line and says in line, line
+    assert main(["validate", str(TWO)]) == 0 and capsys.readouterr().err == ""
