@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import signal
+import threading
+from types import FrameType
 
 from cptbt.batch.study import MAX_STARTS, line_xs
 
@@ -103,3 +106,13 @@ def starts(text: str) -> list[Start]:
 
 class UsageError(Exception):
     """A command line that parsed but makes no sense (found after parsing); exit status 2."""
+
+
+def sigterm_as_interrupt() -> None:
+    """Make SIGTERM (``kill``, a scheduler's stop) end the command as Ctrl-C does: it says
+    what it kept and exits 130, rather than dying silently."""
+    def raise_interrupt(signum: int, frame: FrameType | None) -> None:
+        raise KeyboardInterrupt
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, raise_interrupt)

@@ -28,7 +28,7 @@ from cptbt.batch.study import (
     variant_sweep_notes,
 )
 from cptbt.cli import argtypes
-from cptbt.cli.argtypes import UsageError
+from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
 from cptbt.cli.inspect_cmds import advisories_of, load, print_advisories
 from cptbt.loader import parse_yaml
 from cptbt.mission import Loc, MissionBase
@@ -350,6 +350,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
             _mcap()  # one clear error before any run if mcap is missing
             tasks = log_sample(tasks, args.log_runs, seed, str(Path(args.out) / "logs"))
+        sigterm_as_interrupt()
         try:
             stats = run_study(tasks, store, workers=args.workers, scheduler=args.scheduler,
                               scheduler_timeout_s=args.scheduler_timeout, quiet=args.quiet,
@@ -357,8 +358,10 @@ def cmd_batch(args: argparse.Namespace) -> int:
         except KeyboardInterrupt:
             saved = sum(store.path(t.key).exists() for t in tasks)
             raise KeyboardInterrupt(
-                f"{saved} of {len(tasks)} groups of runs are saved in {args.out}; the same "
-                "command carries on from them") from None
+                f"{saved} of {len(tasks)} groups of runs are saved in {args.out} (a group, one "
+                "replicate of one configuration from every start, is saved when all its runs "
+                "are done: the runs of a group under way are flown again); the same command "
+                "carries on from them") from None
         wall += stats["wall_time_s"]
         flown_groups += stats["groups_run"]
         flown_runs += stats["runs"] - stats["runs_resumed"]

@@ -5,11 +5,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import sys
-import threading
 from pathlib import Path
-from types import FrameType
 from typing import Any
 
 from cptbt.batch.frontseat import BackseatCodec, Codec, FrontSeatDouble, WireFaults
@@ -17,6 +14,7 @@ from cptbt.batch.scenario import environment_of
 from cptbt.batch.served import AmpCycles, served_summary
 from cptbt.bridge import LinkURIError, open_link, parse_uri
 from cptbt.bridge.serve import ServeOptions, serve
+from cptbt.cli.argtypes import sigterm_as_interrupt
 from cptbt.cli.inspect_cmds import load
 from cptbt.cli.output import fmt, fresh_folder, place, time_share
 from cptbt.mission import MissionBase
@@ -76,14 +74,6 @@ def add_parsers(sub: Any) -> None:
     f.set_defaults(func=cmd_frontseat)
 
 
-def _sigterm_as_interrupt() -> None:
-    def raise_interrupt(signum: int, frame: FrameType | None) -> None:
-        raise KeyboardInterrupt
-
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, raise_interrupt)
-
-
 def cmd_serve(args: argparse.Namespace) -> int:
     """Run the AMP in real time against a vehicle: take control at Mission A's trigger, plan at
     the mission's rate, give back on declaring home, time limit, OpArea, watchdog, Ctrl-C, link
@@ -119,7 +109,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
             return EXIT_USAGE
         planner = cycle_log.planner
         observers.append(cycle_log)
-    _sigterm_as_interrupt()
+    sigterm_as_interrupt()
     if not args.quiet:
         print(f"{mission.name}: serving on {args.link} at {args.clock_scale:g}x real time; "
               "Ctrl-C gives control back", flush=True)
@@ -224,7 +214,7 @@ def cmd_frontseat(args: argparse.Namespace) -> int:
     h, p = double.address
     print(f"{mission.name}: simulated vehicle speaking {protocol} on {h}:{p} at "
           f"{args.clock_scale:g}x real time; waiting for the AMP", flush=True)
-    _sigterm_as_interrupt()
+    sigterm_as_interrupt()
     try:
         report = double.run(connect_timeout_s=3600.0)
     except KeyboardInterrupt:

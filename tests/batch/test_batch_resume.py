@@ -250,7 +250,8 @@ def test_workers_die_when_the_study_is_killed(tmp_path: Path) -> None:
                 os.kill(pid, signal.SIGKILL)
 
 
-def test_ctrl_c_stops_the_study_and_its_workers_at_once(tmp_path: Path) -> None:
+@pytest.mark.parametrize("how", ["ctrl-c", "sigterm"])
+def test_ctrl_c_stops_the_study_and_its_workers_at_once(tmp_path: Path, how: str) -> None:
     proc = subprocess.Popen(
         [str(SCRIPT), "batch", MISSION, "--amp-only", "--grid", "3x1", "--runs-per-start", "20",
          "--time-limit", "900", "--workers", "2", "--out", str(tmp_path), "--no-plots"],
@@ -264,12 +265,17 @@ def test_ctrl_c_stops_the_study_and_its_workers_at_once(tmp_path: Path) -> None:
             time.sleep(0.05)
         time.sleep(1.0)  # into the groups
         t0 = time.monotonic()
-        os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C: the whole process group
+        if how == "ctrl-c":
+            os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C: the whole process group
+        else:  # kill, or a scheduler's stop: the study's process alone (it died silently)
+            os.kill(proc.pid, signal.SIGTERM)
         _, err = proc.communicate(timeout=60)
         assert time.monotonic() - t0 < 5, "waited for the queued groups (seconds each)"
-        # One line that says what is kept and how to go on.
+        # One line that says what is kept (whole groups only) and how to go on.
         assert proc.returncode == 130 and re.fullmatch(
-            r"cptbt: interrupted: \d+ of 20 groups of runs are saved in .+; the same command "
+            r"cptbt: interrupted: \d+ of 20 groups of runs are saved in .+ \(a group, one "
+            r"replicate of one configuration from every start, is saved when all its runs are "
+            r"done: the runs of a group under way are flown again\); the same command "
             r"carries on from them\n", err), err
         assert not [pid for pid in workers if _running(pid)]
     finally:
