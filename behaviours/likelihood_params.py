@@ -318,11 +318,12 @@ def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
     assert isinstance(params, LikelihoodMapParams)
     out = []
     share = area.disc_share(params.radius_m)
+    off = min(params.radius_m, area.diagonal_m)  # no farther than across the OpArea
     if share > DISC_SHARE:
         out.append(("radius_m", f"{params.radius_m:g} m: the declaration disc covers "
                     f"{100 * share:.0f}% of the OpArea, so the map holds the confidence mass "
                     "in it on little evidence, and the declared point (the disc's mean) can be "
-                    f"off by up to about {params.radius_m:g} m (a radius of "
+                    f"off by up to about {off:.3g} m (a radius of "
                     f"{area.disc_radius(DISC_SHARE):.1f} m covers a tenth)"))
     mask = area.disc_share(params.mask_radius_m)
     if params.max_sources > 1 and mask > MASK_SHARE:

@@ -174,6 +174,12 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         MissionError: a combination is not a valid mission.
         ValueError: a sweep path names nothing in the mission.
     """
+    for sweep in sweeps:  # a value twice flies one configuration twice, as if two
+        seen: list[Any] = []
+        for v in sweep.values:
+            if any(v == w and type(v) is type(w) for w in seen):
+                raise ValueError(f"sweep {sweep.name}: {v!r} is given twice")
+            seen.append(v)
     out = []
     combos = itertools.product(*(s.values for s in sweeps)) if sweeps else [()]
     for i, combo in enumerate(combos):
@@ -196,7 +202,7 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         except MissionError as exc:
             if not swept or exc.located is None:
                 raise
-            raise _swept_error(exc.located, source, lines, swept) from None
+            raise _swept_error(exc.located, source, lines, swept, sweeps) from None
         if swept and validated.environment is not None:
             # The simulator's own limits (environment.dt_s, flow overrides...), as `load` checks
             # them for the mission file: a swept value must not first fail in a worker. (Imported
@@ -206,26 +212,32 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
 
             found = problems(validated, simulate=False)
             if found:
-                raise _swept_error(found, source, lines, swept)
+                raise _swept_error(found, source, lines, swept, sweeps)
             error = check(validated)
             if error is not None:
                 located = located_errors(error, data.get("environment") or {}, ("environment",),
                                          EnvironmentParams)
-                raise _swept_error(located, source, lines, swept)
+                raise _swept_error(located, source, lines, swept, sweeps)
         out.append(Config(i, coords, dump_mission(validated)))
     return out
 
 
 def _swept_error(located: list[tuple[Loc, str]], source: str, lines: dict[Loc, int] | None,
-                 swept: str) -> MissionError:
-    """A swept mission's problems: at the key's line in the file with the sweep named, or
-    without a line for a key the file does not have."""
-    return MissionError([
-        f"{source}:{lines[loc]}: {dotted(loc)}: {msg} (with sweep {swept})"
-        if lines is not None and loc in lines
-        else f"{source} [sweep {swept}]: {dotted(loc)}: {msg}"
-        for loc, msg in located
-    ])
+                 swept: str, sweeps: Sequence[Sweep] = ()) -> MissionError:
+    """A swept mission's problems: at the key's line in the file with the sweep named; for a
+    key the file does not have, at the line of the file's own ``study.sweeps`` entry that set
+    it, or without a line (a sweep given on the command line)."""
+    out = []
+    for loc, msg in located:
+        where = lines.get(loc) if lines is not None else None
+        if where is None and lines is not None:
+            path = dotted(loc)
+            where = next((lines[("study", "sweeps", s.name)] for s in sweeps
+                          if ("study", "sweeps", s.name) in lines
+                          and any(path == p or path.endswith("." + p) for p in s.paths)), None)
+        out.append(f"{source}:{where}: {dotted(loc)}: {msg} (with sweep {swept})"
+                   if where is not None else f"{source} [sweep {swept}]: {dotted(loc)}: {msg}")
+    return MissionError(out)
 
 
 def grid_starts(mission: MissionBase, nx: int, ny: int) -> list[tuple[float, float]]:

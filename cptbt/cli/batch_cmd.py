@@ -19,7 +19,6 @@ from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import Environment, environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
 from cptbt.batch.study import (
-    Config,
     Study,
     Sweep,
     configurations,
@@ -29,9 +28,9 @@ from cptbt.batch.study import (
 )
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
-from cptbt.cli.inspect_cmds import advisories_of, load, print_advisories
+from cptbt.cli.inspect_cmds import load, study_sweeps, warn_swept
 from cptbt.loader import parse_yaml
-from cptbt.mission import Loc, MissionBase
+from cptbt.mission import MissionBase
 from cptbt.study_spec import StudySpec
 
 
@@ -221,34 +220,6 @@ def _planner_record(configs: list[Any], n_starts: int, source: str) -> dict[str,
                     "else one py_trees planner per vehicle (groups with a logged run: py_trees)"}
 
 
-def _warn_swept(mission: MissionBase, configs: list[Config], source: str) -> None:
-    """The advisories of the configurations a batch flies: the mission file's own at their
-    lines (``FILE:LINE: path: warning:``) if some configuration keeps them (not those every
-    sweep overrides), then each swept configuration's others, one ``FILE [sweep ...]: path:
-    warning:`` line each."""
-    from cptbt.loader import loads_mission
-    from cptbt.mission import dotted
-    from cptbt.registry import default_registry
-
-    own = advisories_of(mission)
-    if not configs:
-        print_advisories(source, own)
-        return
-    kept: set[tuple[Loc, str]] = set()
-    extra: list[str] = []
-    for c in configs:
-        m = loads_mission(c.mission_yaml, source, default_registry(), Environment)
-        sweep = ", ".join(f"{k}={v}" for k, v in c.coords.items())
-        for loc, msg in advisories_of(m):
-            if (loc, msg) in own:
-                kept.add((loc, msg))
-            else:
-                extra.append(f"{source} [sweep {sweep}]: {dotted(loc)}: warning: {msg}")
-    print_advisories(source, [a for a in own if a in kept])
-    for line in extra:
-        print(line, file=sys.stderr)
-
-
 def cmd_batch(args: argparse.Namespace) -> int:
     """Fly a mission from many starts and plume realisations; resumable, reproducible.
 
@@ -264,10 +235,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         mission = mission.model_copy(update={"mission_a": None})
     _check_planner(mission)
     spec = mission.study
-    sweeps: list[Sweep] = args.sweep or [
-        Sweep(tuple(p.strip() for p in path.split("+")), tuple(values))
-        for path, values in (spec.sweeps.items() if spec is not None else [])
-    ]
+    sweeps: list[Sweep] = args.sweep or study_sweeps(mission)
     try:
         lines = parse_yaml(Path(args.mission).read_text(encoding="utf-8"), args.mission)[1] \
             if sweeps else None
@@ -277,7 +245,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     for note in variant_sweep_notes(mission, sweeps):
         print(f"cptbt: note: {note}", file=sys.stderr)
     if not args.quiet:
-        _warn_swept(mission, configs if sweeps else [], args.mission)
+        warn_swept(mission, configs if sweeps else [], args.mission)
     starts = _starts(args, mission, spec)
     _check_starts(mission, starts)
     runs_per_start = args.runs_per_start or (spec.runs_per_start if spec else 1)

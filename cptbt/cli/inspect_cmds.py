@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel
 
@@ -16,6 +16,9 @@ from cptbt.planner import Planner
 from cptbt.registry import default_registry
 from cptbt.schema import mission_json_schema
 from cptbt.tree import render_ascii, render_dot
+
+if TYPE_CHECKING:
+    from cptbt.batch.study import Config, Sweep
 
 
 def environment_model() -> type[BaseModel] | None:
@@ -71,6 +74,46 @@ def advisories_of(mission: MissionBase) -> list[tuple[Loc, str]]:
     return advisories(mission)
 
 
+def study_sweeps(mission: MissionBase) -> list[Sweep]:
+    """The sweeps of the mission's own ``study:`` section."""
+    from cptbt.batch.study import Sweep
+
+    spec = mission.study
+    return [Sweep(tuple(p.strip() for p in path.split("+")), tuple(values))
+            for path, values in (spec.sweeps.items() if spec is not None else [])]
+
+
+def warn_swept(mission: MissionBase, configs: list[Config], source: str,
+               own: bool = True) -> None:
+    """The advisories of the configurations a study flies: the mission file's own at their
+    lines (``FILE:LINE: path: warning:``) if some configuration keeps them (not those every
+    sweep overrides; ``own=False``: none, they were printed already), then each swept
+    configuration's others, one ``FILE [sweep ...]: path: warning:`` line each."""
+    from cptbt.loader import loads_mission
+    from cptbt.mission import dotted
+
+    env = environment_model()
+    shown = advisories_of(mission)
+    if not configs:
+        if own:
+            print_advisories(source, shown)
+        return
+    kept: set[tuple[Loc, str]] = set()
+    extra: list[str] = []
+    for c in configs:
+        m = loads_mission(c.mission_yaml, source, default_registry(), env)
+        sweep = ", ".join(f"{k}={v}" for k, v in c.coords.items())
+        for loc, msg in advisories_of(m):
+            if (loc, msg) in shown:
+                kept.add((loc, msg))
+            else:
+                extra.append(f"{source} [sweep {sweep}]: {dotted(loc)}: warning: {msg}")
+    if own:
+        print_advisories(source, [a for a in shown if a in kept])
+    for line in dict.fromkeys(extra):
+        print(line, file=sys.stderr)
+
+
 def print_advisories(path: str, advice: list[tuple[Loc, str]]) -> None:
     """Print a mission file's advisories to stderr, one ``FILE:LINE: path: warning: message``
     line each, in the file's line order."""
@@ -114,6 +157,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
     for path in args.missions:
         try:
             mission = load(path)
+            _check_study_sweeps(mission, path)
         except MissionError as exc:
             problems.extend(exc.problems)
             continue
@@ -125,6 +169,28 @@ def cmd_validate(args: argparse.Namespace) -> int:
     if problems:
         raise MissionError(problems)
     return 0
+
+
+def _check_study_sweeps(mission: MissionBase, path: str) -> None:
+    """Fly nothing, but make every configuration of the mission's own ``study:`` sweeps, as
+    ``cptbt batch`` would: a swept value that is no valid mission is a problem at its line;
+    a swept value likely not meant, a warning naming its sweep.
+
+    Raises:
+        MissionError: a configuration is no valid mission, or a sweep path names nothing.
+    """
+    sweeps = study_sweeps(mission)
+    if not sweeps:
+        return
+    from cptbt.batch.study import configurations
+
+    lines = parse_yaml(Path(path).read_text(encoding="utf-8"), path)[1]
+    try:
+        configs = configurations(mission, sweeps, path, lines)
+    except ValueError as exc:
+        where = lines.get(("study", "sweeps"), lines.get(("study",), 1))
+        raise MissionError([f"{path}:{where}: study.sweeps: {exc}"]) from None
+    warn_swept(mission, configs, path, own=False)
 
 
 def cmd_tree(args: argparse.Namespace) -> int:

@@ -154,3 +154,45 @@ def test_a_bad_swept_value_is_reported_at_the_files_key_or_without_a_line(
     err = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and err == [f"{OBLIQUE}{where}"], err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(("sweeps", "expected"), [
+    # a key the file lacks: at the study section's own line for that sweep
+    ("declare_source.radius_m: [10, .nan]", ":{line}: behaviours[1].declare_source.radius_m: "
+     "Input should be a finite number (with sweep declare_source.radius_m=nan)"),
+    ("infotaxis.cell_m: [1, 2]", ":{study}: study.sweeps: sweep path 'infotaxis.cell_m': the "
+     "mission has no 'infotaxis' behaviour"),
+    ("declare_source.radius_m: [10, 10]", ":{study}: study.sweeps: sweep "
+     "declare_source.radius_m: 10 is given twice"),
+])
+def test_validate_makes_the_missions_own_study_configurations(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], sweeps: str, expected: str
+) -> None:
+    # `cptbt validate` said "ok" to a study that `cptbt batch` then refused
+    from cptbt.cli import main
+
+    text = (Path(__file__).resolve().parents[2] / "missions/two_sources.yaml").read_text(
+        encoding="utf-8")
+    study = text.count("\n") + 1
+    path = tmp_path / "m.yaml"
+    path.write_text(text + f"study:\n  sweeps:\n    {sweeps}\n", encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line == f"{path}" + expected.format(line=study + 2, study=study + 1), line
+
+
+def test_validate_warns_of_a_swept_value_likely_not_meant(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from cptbt.cli import main
+
+    text = (Path(__file__).resolve().parents[2] / "missions/two_sources.yaml").read_text(
+        encoding="utf-8")
+    path = tmp_path / "m.yaml"
+    path.write_text(text + "study:\n  sweeps:\n    declare_source.radius_m: [10, 500]\n",
+                    encoding="utf-8")
+    assert main(["validate", str(path)]) == 0
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"{path} [sweep declare_source.radius_m=500]: "
+                           "behaviours[1].declare_source.radius_m: warning: 500 m"), line
+    assert "off by up to about 278 m" in line  # not 500 m: no farther than across the area
