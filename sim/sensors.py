@@ -221,7 +221,10 @@ class NavigationParams(BaseModel):
         default=0.5, ge=0.0, description="Error just after a fix, per axis, m."
     )
     heading_noise_std_deg: float = Field(
-        default=0.0, ge=0.0, description="Heading estimate noise, deg."
+        default=0.0, ge=0.0, description="Noise of the heading the planner is told, deg. The "
+        "vehicle steers to a commanded heading by its true heading (its autopilot's compass is "
+        "not modelled), so behaviours that command absolute headings, as the papers' do, fly "
+        "the same; only what reads the pose's heading sees it."
     )
 
 
