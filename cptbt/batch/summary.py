@@ -144,12 +144,14 @@ def summarise(
     ``search_given_up`` that the search for another source ended (``search_give_up_s``, or no
     cell left outside the declared sources' masks) before ``max_sources`` were declared.
     With several sources or declared points, the single-source fields keep their single
-    meaning: ``true_source`` is the mission's ``source``, ``declared_source`` the last declared
-    point (which may be another source's), and ``error_m`` the worst declared point's distance
-    to its nearest true source; ``true_sources`` lists every true source (the mission's
-    ``source`` first), and each entry of ``declared_sources`` carries its own ``error_m`` (to its
-    nearest true source). D0, ``closest_approach_m``, ``start_to_source_m`` and
-    ``path_efficiency`` are about the last declared point and the mission's ``source``.
+    meaning: ``true_source`` is the mission's ``source``, ``declared_source`` the declaration
+    that ended the search, the last point (which may be another source's; None when the run
+    ended still searching for more, ``declared_sources`` then listing those found), and
+    ``error_m`` the worst declared point's distance to its nearest true source;
+    ``true_sources`` lists every true source (the mission's ``source`` first), and each entry
+    of ``declared_sources`` carries its own ``error_m`` (to its nearest true source). D0,
+    ``closest_approach_m``, ``start_to_source_m`` and ``path_efficiency`` are about the last
+    declared point and the mission's ``source``.
     ``closest_approach_m`` is the vehicle's closest true approach to the true source while the
     AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
     maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ctypes
+import json
 import os
 import signal
 import sys
@@ -91,6 +92,10 @@ def flatten(summary: dict[str, Any]) -> dict[str, Any]:
                 row[f"{key}_{sub}"] = None
         else:
             row[key] = value
+    # Every declared point (planning x, y and its error to the nearest true source), as JSON
+    # text: declared_source_* is the last one alone, and a multi-source study needs them all.
+    row["declared_points"] = json.dumps(
+        [[q["x"], q["y"], q.get("error_m")] for q in summary.get("declared_sources") or [] if q])
     # Seconds in each behaviour leaf (time_maintain_plume.track_in_s) and in each family
     # (time_maintain_plume_s: track-in and track-out together).
     for name, seconds in summary.get("time_in_behaviour_s", {}).items():

@@ -159,6 +159,20 @@ def test_flat_rows_keep_each_behaviour_leaf_and_family_totals() -> None:
                                            "maintain_plume.track_out": 33.0, "none": 1.0}})
     assert row["time_maintain_plume.track_in_s"] == 40.0
     assert row["time_maintain_plume_s"] == 73.0 and row["time_none_s"] == 1.0
+    assert row["declared_points"] == "[]"
+
+
+def test_a_flat_row_keeps_every_declared_point() -> None:
+    # declared_source_* is the last point alone: a two-source row lost the first
+    import json
+
+    from cptbt.batch.worker import flatten
+
+    row = flatten({"declared_source": {"x": 3.0, "y": 4.0},
+                   "declared_sources": [{"x": 1.0, "y": 2.0, "error_m": 0.5},
+                                        {"x": 3.0, "y": 4.0, "error_m": 7.0}]})
+    assert json.loads(row["declared_points"]) == [[1.0, 2.0, 0.5], [3.0, 4.0, 7.0]]
+    assert row["declared_source_x"] == 3.0 and "declared_sources" not in row
 
 
 @pytest.mark.parametrize(("args", "says"), [
