@@ -78,6 +78,11 @@ class MissionError(Exception):
         self.located = located
 
 
+_OTHER_TYPES = frozenset(f"tag:yaml.org,2002:{t}" for t in ("set", "binary", "omap", "pairs"))
+"""YAML's types beyond a mission's: a set has no order (a point read from one could come out
+either way round), and bytes, ordered maps and pairs are nothing a mission holds."""
+
+
 class _Walk:
     """Maps every key path to its line, refusing what could make the loader explode."""
 
@@ -105,6 +110,9 @@ class _Walk:
                             "aliases are expanded: refused (an alias bomb?)")
         if len(path) > MAX_DEPTH:
             raise self.fail(line, path, f"nested deeper than {MAX_DEPTH} levels")
+        if node.tag in _OTHER_TYPES:  # !!set {100, 0} read as the point (0, 100)
+            raise self.fail(line, path, f"!!{node.tag.rsplit(':', 1)[1]}: a mission value is "
+                            "a number, text, true/false, a list or a mapping")
         if not isinstance(node, yaml.MappingNode | yaml.SequenceNode):
             return
         if id(node) in self.on_path:

@@ -310,9 +310,10 @@ class World:
             return crossing
         if (mean, diagonal) not in _CAP_WARNED:  # once per setting and process, not per group
             _CAP_WARNED.add((mean, diagonal))
-            log.warning("plume spin-up capped at %g s: a mean flow of %.3g m/s would take %.3g s "
-                        "to cross the %.0f m domain (set environment.warm_up_s to choose)",
-                        DEFAULT_WARM_UP_CAP_S, mean, crossing, diagonal)
+            took = f"would take {crossing:.3g} s to cross" if mean >= 1e-3 else "never crosses"
+            log.warning("plume spin-up capped at %g s: a mean flow of %.3g m/s %s the "
+                        "%.0f m domain (set environment.warm_up_s to choose)",
+                        DEFAULT_WARM_UP_CAP_S, mean, took, diagonal)
         return DEFAULT_WARM_UP_CAP_S
 
     def warm_up(self, seconds: float | None = None) -> None:

@@ -108,6 +108,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("a flow speed given twice (the short key overrides: NaN went unread)",
      sub("  seed: 3", "  seed: 3\n  flow: {mean_speed_mps: .nan}"), 32,
      "environment.flow.mean_speed_mps", "given with environment.flow_speed_mps"),
+    ("a point as a YAML set (unordered: read as (0, 100))",
+     sub("  seed: 3", "  seed: 3\n  launch: !!set {100, 0}"), 32, "environment.launch",
+     "!!set: a mission value is"),
     ("a billion puffs", sub("  seed: 3", "  seed: 3\n  plume: {max_puffs: 1000000000}"), 32,
      "environment.plume.max_puffs", "less than or equal to 200000"),
     ("too many sources", sub("  seed: 3", "  seed: 3\n  extra_sources: [" +
