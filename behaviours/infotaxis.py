@@ -92,9 +92,9 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
 
-from cptbt.behaviours.source_map import MapModelParams, SourceMap
+from cptbt.behaviours.source_map import MapModelParams, SourceMap, grid_advice
 from cptbt.frames import OpArea
-from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept
 
@@ -108,6 +108,12 @@ SHAPE_FLOOR_LOG = -60.0
 
 NOMINAL_CYCLE_S = 1.0
 """Cycle length assumed before two cycles have been seen (TRO's 1 Hz), s."""
+
+
+def _advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
+    """The belief grid's warning (:func:`~cptbt.behaviours.source_map.grid_advice`)."""
+    assert isinstance(params, MapModelParams)
+    return grid_advice(params, area)
 
 
 class InfotaxisParams(MapModelParams):
@@ -292,6 +298,7 @@ class _InfotaxisBase(PlanBehaviour):
     """Keeps the Poisson source map every cycle and steers by the move score."""
 
     Params: ClassVar[type[BehaviourParams]] = InfotaxisParams
+    contract: ClassVar[Contract] = Contract(advise=_advise)
     params: InfotaxisParams
     space_aware: ClassVar[bool] = False
     persistent_state: ClassVar[tuple[str, ...]] = ("map",)

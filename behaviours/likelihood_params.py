@@ -10,6 +10,7 @@ from pydantic import Field
 
 from cptbt.behaviours.declare_source import DeclareParams
 from cptbt.behaviours.map_model import MapModelParams
+from cptbt.behaviours.source_map import grid_advice
 from cptbt.frames import OpArea
 from cptbt.node import BehaviourParams
 
@@ -316,7 +317,7 @@ def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
     of 35%, declared one of six runs 9.7 m off); with several sources to find, a mask ruling out
     much of the OpArea for the next; a give-up time with one source to find."""
     assert isinstance(params, LikelihoodMapParams)
-    out = []
+    out = grid_advice(params, area)
     share = area.disc_share(params.radius_m)
     off = min(params.radius_m, area.diagonal_m)  # no farther than across the OpArea
     if share > DISC_SHARE:

@@ -94,6 +94,17 @@ Array = NDArray[np.float64]
 MAX_CELLS = 250_000
 """A finer grid is coarsened to this many cells (per-cycle cost grows with the cell count)."""
 
+def grid_advice(params: MapModelParams, area: OpArea) -> list[tuple[str, str]]:
+    """A warning, ``(parameter, why)``, when ``cell_m`` would give more than :data:`MAX_CELLS`
+    cells over the OpArea, so the grid is coarsened (:class:`SourceMap` does it unsaid)."""
+    w, h = area.xmax - area.xmin, area.ymax - area.ymin
+    cells = math.ceil(w / params.cell_m) * math.ceil(h / params.cell_m)
+    if cells <= MAX_CELLS:
+        return []
+    return [("cell_m", f"{params.cell_m:g} m: {cells} cells over the OpArea; the map is "
+             f"coarsened to {math.sqrt(w * h / MAX_CELLS):.2f} m cells (at most {MAX_CELLS})")]
+
+
 SOURCE_MAP_KEY = "source_map"
 """Blackboard key of the published :class:`~cptbt.types.SourceBelief`."""
 

@@ -119,6 +119,11 @@ def environment_of(mission: MissionBase) -> Environment:
     return env if isinstance(env, Environment) else Environment.model_validate(env)
 
 
+def _metres(v: float) -> str:
+    """A distance for a message: 0.1 m, or three digits past a million (not 309 of them)."""
+    return f"{v:.1f}" if v < 1e6 else f"{v:.3g}"
+
+
 def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
     """What stops the mission's environment from being simulated, as (key path, message).
 
@@ -154,7 +159,7 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
             outside = area.distance_outside(at.x, at.y)
             if outside > RELINQUISH_OUTSIDE_M:
                 out.append((("environment", "launch"),
-                            f"{outside:.1f} m outside the OpArea: without a mission_a the AMP "
+                            f"{_metres(outside)} m outside the OpArea: without a mission_a the AMP "
                             f"drives from the launch, and it gives control back "
                             f"{RELINQUISH_OUTSIDE_M:g} m outside the OpArea (TRO II); launch "
                             "within that distance, or add a mission_a that brings the vehicle in"))
@@ -166,7 +171,7 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
             continue
         src = mission.to_xy(coord)
         if "source" not in mission.allow_outside and not area.contains(src.x, src.y):
-            out.append((loc, f"{area.distance_outside(src.x, src.y):.1f} m outside the OpArea "
+            out.append((loc, f"{_metres(area.distance_outside(src.x, src.y))} m outside the OpArea "
                              "(list 'source' in allow_outside if that is intended)"))
     return out
 

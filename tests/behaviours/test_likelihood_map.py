@@ -909,3 +909,15 @@ def test_a_false_alarm_chance_too_small_to_compute_with_is_refused(key: str) -> 
     with pytest.raises(pydantic.ValidationError, match=key):
         LikelihoodMapParams(**{key: 1e-20})
     LikelihoodMapParams(**{key: 1e-9})
+
+
+def test_a_cell_size_past_the_grid_limit_is_warned_of() -> None:
+    from cptbt.behaviours.infotaxis import InfotaxisParams, _advise
+    from cptbt.behaviours.likelihood_params import advise
+
+    # 100 x 100 m at 0.1 m: 1e6 cells, coarsened to 0.2 m (250 000) without a word before
+    ((key, why),) = advise(LikelihoodMapParams(cell_m=0.15), AREA)
+    assert key == "cell_m" and "coarsened to 0.20 m cells" in why, why
+    assert advise(LikelihoodMapParams(cell_m=0.2), AREA) == []
+    ((key, _),) = _advise(InfotaxisParams(cell_m=0.15), AREA)
+    assert key == "cell_m"
