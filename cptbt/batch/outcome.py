@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from cptbt.evaluation import EvaluationSpec
+from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.types import Point
 
 
@@ -41,6 +42,20 @@ class Outcome(StrEnum):
     """The run stopped before the AMP took over."""
     AMP_RUNNING = "amp_running"
     """The run stopped (simulation cap) with the AMP still in control."""
+
+
+WHY_ENDED = {
+    Outcome.TIMEOUT: "the AMP's time limit came with no declaration",
+    Outcome.RELINQUISHED: f"the vehicle's estimated position was more than "
+                          f"{RELINQUISH_OUTSIDE_M:g} m outside the OpArea, where the AMP gives "
+                          "control back (TRO II; a navigation error counts as much as a real "
+                          "excursion)",
+    Outcome.WATCHDOG: "the vehicle heard no accepted command for its watchdog time",
+    Outcome.MISSION_ENDED: "the vehicle's own mission ended during the override",
+    Outcome.ABORTED: "the AMP stopped driving and gave control back",
+    Outcome.CONTACT_LOST: "contact, once made, was lost for good",
+}
+"""Why a run ended, for the outcomes that are not a declaration or an arrival."""
 
 
 _BY_TRIGGER = {

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 from cptbt.batch.engine import PlumeSnapshot, VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.figures import plume_grid, trajectory_figure
+from cptbt.batch.outcome import WHY_ENDED
 from cptbt.batch.phased import phase_summary, simulate_phased
 from cptbt.batch.scenario import Environment, launch_pose, to_sim_params, true_sources
 from cptbt.batch.summary import summarise
@@ -242,6 +243,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"{mission.name}, seed {seed}: {s['outcome']} ({verdict_text(s)}); the AMP "
               f"ended at {fmt(s['sim_time_s'], ' s')} "
               f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
+        why = WHY_ENDED.get(s["outcome"])  # a StrEnum: its members are their strings
+        if why:
+            print(f"  {s['outcome']}: {why}")
         points = [q for q in s["declared_sources"] if q]
         if s["declared_source"] and (s.get("search_given_up") or len(points) > 1):
             # the error is the worst point's (summary.py): not the last point's alone

@@ -90,3 +90,22 @@ def test_run_folders_never_overwrite_and_stay_inside_runs(tmp_path: Path) -> Non
     assert second != first and second.parent == tmp_path and second.name.endswith("-2")
     other = mission.model_copy(update={"speed_mps": 1.2})  # a different setting: its own folder
     assert run_folder(other, 7, tmp_path).name.split("-")[1] != first.name.split("-")[1]
+
+
+def test_a_run_that_ends_without_a_declaration_says_why(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A navigation error of 100 km: the AMP gives control back at once, and the run said
+    # only "relinquished"
+    from cptbt.cli import main
+
+    text = (ROOT / "missions/two_sources.yaml").read_text(encoding="utf-8")
+    path = tmp_path / "nav.yaml"
+    path.write_text(text.replace("environment:\n", "environment:\n  navigation: {drift_std_m: "
+                                 "100000, drift_tau_s: 1, fix_rate_per_s: 0.5}\n", 1),
+                    encoding="utf-8")
+    assert main(["run", str(path), "--out", str(tmp_path / "o"), "--no-figure"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert ": relinquished (" in out[0], out
+    assert out[1].startswith("  relinquished: the vehicle's estimated position was more than "
+                             "30 m outside the OpArea"), out
