@@ -206,7 +206,10 @@ def _flow_arrow(ax: Any, area: OpArea, flow_deg: float) -> None:
     the meander bends it)."""
     from matplotlib import patheffects
 
-    size = 0.12 * min(area.xmax - area.xmin, area.ymax - area.ymin)
+    w, h = area.xmax - area.xmin, area.ymax - area.ymin
+    short, long = min(w, h), max(w, h)
+    # a thin area's short side alone made a speck of it (3.6 m in a 200 x 30 m box)
+    size = min(max(0.12 * short, 0.05 * long), 0.3 * short)
     th = math.radians(flow_deg)
     cx, cy = area.xmin + 1.4 * size, area.ymax - 1.4 * size
     halo = [patheffects.withStroke(linewidth=3.0, foreground="white")]
