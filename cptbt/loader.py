@@ -413,15 +413,26 @@ def load_mission(
         MissionError: with one ``FILE:LINE: path: message`` line per problem.
     """
     source = str(path)
+    return loads_mission(read_mission_text(path), source, registry, environment)
+
+
+def read_mission_text(path: str | Path) -> str:
+    """A mission file's text, read once and no further than a mission's size (/dev/zero is
+    endless; a pipe cannot be read twice).
+
+    Raises:
+        MissionError: the file cannot be read, is too large or is not UTF-8.
+    """
+    source = str(path)
     try:
-        with Path(path).open("rb") as f:  # no more than a mission's size: /dev/zero is endless
+        with Path(path).open("rb") as f:
             raw = f.read(MAX_BYTES + 1)
     except OSError as exc:
         raise MissionError([f"{source}:0: (file): {exc.strerror or exc}"]) from None
     if len(raw) > MAX_BYTES:
         raise MissionError([f"{source}:1: (file): more than {MAX_BYTES} bytes; a mission file "
                             f"may have at most {MAX_BYTES}"])
-    return loads_mission(decode(raw, source), source, registry, environment)
+    return decode(raw, source)
 
 
 def decode(raw: bytes, source: str) -> str:

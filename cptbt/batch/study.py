@@ -174,13 +174,7 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         MissionError: a combination is not a valid mission.
         ValueError: a sweep path names nothing in the mission.
     """
-    for sweep in sweeps:  # a value twice flies one configuration twice, as if two
-        seen: list[Any] = []
-        for v in sweep.values:
-            if any(v == w and type(v) is type(w) for w in seen):
-                raise ValueError(f"sweep {sweep.name}: {v!r} is given twice")
-            seen.append(v)
-    out = []
+    out: list[Config] = []
     combos = itertools.product(*(s.values for s in sweeps)) if sweeps else [()]
     for i, combo in enumerate(combos):
         data = mission_to_data(mission)
@@ -218,7 +212,13 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
                 located = located_errors(error, data.get("environment") or {}, ("environment",),
                                          EnvironmentParams)
                 raise _swept_error(located, source, lines, swept, sweeps)
-        out.append(Config(i, coords, dump_mission(validated)))
+        text = dump_mission(validated)
+        twin = next((c for c in out if c.mission_yaml == text), None)
+        if twin is not None:  # 10 and 10.0, or a value twice: one configuration flown as two
+            same = ", ".join(f"{k}={v}" for k, v in twin.coords.items())
+            raise ValueError(f"sweep {swept} flies the same mission as {same}: give each "
+                             "value once")
+        out.append(Config(i, coords, text))
     return out
 
 

@@ -28,7 +28,7 @@ from cptbt.batch.study import (
 )
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
-from cptbt.cli.inspect_cmds import load, study_sweeps, warn_swept
+from cptbt.cli.inspect_cmds import load, mission_text, study_sweeps, warn_swept
 from cptbt.loader import parse_yaml
 from cptbt.mission import MissionBase
 from cptbt.study_spec import StudySpec
@@ -237,7 +237,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     spec = mission.study
     sweeps: list[Sweep] = args.sweep or study_sweeps(mission)
     try:
-        lines = parse_yaml(Path(args.mission).read_text(encoding="utf-8"), args.mission)[1] \
+        lines = parse_yaml(mission_text(args.mission), args.mission)[1] \
             if sweeps else None
         configs = configurations(mission, sweeps, args.mission, lines)
     except ValueError as exc:

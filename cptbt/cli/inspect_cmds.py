@@ -10,7 +10,14 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel
 
-from cptbt.loader import MissionError, format_errors, format_problems, load_mission, parse_yaml
+from cptbt.loader import (
+    MissionError,
+    format_errors,
+    format_problems,
+    loads_mission,
+    parse_yaml,
+    read_mission_text,
+)
 from cptbt.mission import Loc, MissionBase
 from cptbt.planner import Planner
 from cptbt.registry import default_registry
@@ -30,6 +37,17 @@ def environment_model() -> type[BaseModel] | None:
     return Environment
 
 
+_TEXTS: dict[str, str] = {}
+"""The text of each mission file :func:`load` read, by path: a pipe (/dev/stdin) reads once."""
+
+
+def mission_text(path: str) -> str:
+    """The text :func:`load` read from ``path`` (read now if it did not)."""
+    if path not in _TEXTS:
+        _TEXTS[path] = read_mission_text(path)
+    return _TEXTS[path]
+
+
 def load(path: str, simulate: bool = False, warn: bool = True) -> MissionBase:
     """Load a mission with the installed behaviours and check its simulator settings too.
 
@@ -44,14 +62,15 @@ def load(path: str, simulate: bool = False, warn: bool = True) -> MissionBase:
         MissionError: one ``FILE:LINE: path: message`` line per problem.
     """
     env = environment_model()
-    mission = load_mission(path, default_registry(), env)
+    text = _TEXTS[path] = read_mission_text(path)
+    mission = loads_mission(text, path, default_registry(), env)
     if env is not None:
         from cptbt.batch.scenario import check, problems
 
         found = problems(mission, simulate)
         error = check(mission) if mission.environment is not None and not found else None
         if found or error is not None:
-            data, lines = parse_yaml(Path(path).read_text(encoding="utf-8"), path)
+            data, lines = parse_yaml(text, path)
             if found:
                 raise MissionError(format_problems(found, lines, path))
             assert error is not None
@@ -118,7 +137,7 @@ def print_advisories(path: str, advice: list[tuple[Loc, str]]) -> None:
     """Print a mission file's advisories to stderr, one ``FILE:LINE: path: warning: message``
     line each, in the file's line order."""
     if advice:
-        _, lines = parse_yaml(Path(path).read_text(encoding="utf-8"), path)
+        _, lines = parse_yaml(mission_text(path), path)
         for line in format_problems([(loc, f"warning: {msg}") for loc, msg in advice], lines,
                                     path, by_line=True):
             print(line, file=sys.stderr)
@@ -180,11 +199,11 @@ def _check_study_sweeps(mission: MissionBase, path: str) -> None:
         MissionError: a configuration is no valid mission, or a sweep path names nothing.
     """
     sweeps = study_sweeps(mission)
-    if not sweeps:
+    if not sweeps or environment_model() is None:  # the core alone: no study is flown here
         return
     from cptbt.batch.study import configurations
 
-    lines = parse_yaml(Path(path).read_text(encoding="utf-8"), path)[1]
+    lines = parse_yaml(mission_text(path), path)[1]
     try:
         configs = configurations(mission, sweeps, path, lines)
     except ValueError as exc:

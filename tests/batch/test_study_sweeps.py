@@ -162,8 +162,9 @@ def test_a_bad_swept_value_is_reported_at_the_files_key_or_without_a_line(
      "Input should be a finite number (with sweep declare_source.radius_m=nan)"),
     ("infotaxis.cell_m: [1, 2]", ":{study}: study.sweeps: sweep path 'infotaxis.cell_m': the "
      "mission has no 'infotaxis' behaviour"),
-    ("declare_source.radius_m: [10, 10]", ":{study}: study.sweeps: sweep "
-     "declare_source.radius_m: 10 is given twice"),
+    ("declare_source.radius_m: [10, 10.0]", ":{study}: study.sweeps: sweep "
+     "declare_source.radius_m=10.0 flies the same mission as declare_source.radius_m=10: give "
+     "each value once"),
 ])
 def test_validate_makes_the_missions_own_study_configurations(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], sweeps: str, expected: str
@@ -196,3 +197,25 @@ def test_validate_warns_of_a_swept_value_likely_not_meant(
     assert line.startswith(f"{path} [sweep declare_source.radius_m=500]: "
                            "behaviours[1].declare_source.radius_m: warning: 500 m"), line
     assert "off by up to about 278 m" in line  # not 500 m: no farther than across the area
+
+
+def test_validate_reads_a_piped_mission_once() -> None:
+    # the study's sweeps and the warnings re-read the file: a pipe was empty by then
+    import subprocess
+    import sys
+
+    ab = Path(__file__).resolve().parents[2] / "missions/ab2001_fig9.yaml"
+    res = subprocess.run([sys.executable, "-m", "cptbt", "validate", "/dev/stdin"],
+                         input=ab.read_text(encoding="utf-8"), capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 0 and res.stdout.startswith("/dev/stdin: ok"), res.stderr
+
+
+def test_a_sweep_whose_values_make_the_same_mission_is_refused(tmp_path: Path) -> None:
+    # 10 and 10.0 are one radius: two identical configurations flew as if two
+    from cptbt.cli import main
+
+    two = Path(__file__).resolve().parents[2] / "missions/two_sources.yaml"
+    res = main(["batch", str(two), "--grid", "1x1", "--sweep", "declare_source.radius_m=10,10.0",
+                "--out", str(tmp_path / "o")])
+    assert res == 2 and not (tmp_path / "o").exists()
