@@ -43,9 +43,13 @@ def verdict_text(s: dict[str, Any]) -> str:
     if s["success"]:
         return f"success: {s['criterion']} within {radius}{every}"
     if s["false_declaration"]:
-        worst = "the worst point " if s.get("sources_declared", 1) > 1 else ""
-        return (f"FALSE DECLARATION: {worst}{fmt(s['error_m'], ' m')} off, beyond the "
-                f"{radius} a success needs")
+        if s.get("sources_true", 1) > 1 or s.get("sources_declared", 1) > 1:
+            # a point is false when no true source is left for it, at whatever distance
+            n = s.get("false_declarations") or 0
+            return (f"FALSE DECLARATION: {n} of {s.get('sources_declared')} declared points "
+                    f"matched to no source within {radius}")
+        return (f"FALSE DECLARATION: {fmt(s['error_m'], ' m')} off, beyond the {radius} a "
+                "success needs")
     article = "an" if s["criterion"][:1] in "aeiou" else "a"
     return f"no success: needs {article} {s['criterion']} within {radius}{every}"
 
@@ -61,7 +65,8 @@ def short_verdict(s: dict[str, Any]) -> str:
         return "success" + (f", error {fmt(s['error_m'], ' m')}"
                             if s["criterion"] == "declaration" else "")
     if s["false_declaration"]:
-        return f"false declaration, {fmt(s['error_m'], ' m')} off"
+        return (f"false declaration, {fmt(s['error_m'], ' m')} off (success within "
+                f"{s['success_radius_m']:g} m)")
     return "no success"
 
 
@@ -244,6 +249,11 @@ def cmd_run(args: argparse.Namespace) -> int:
               f"ended at {fmt(s['sim_time_s'], ' s')} "
               f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
         why = WHY_ENDED.get(s["outcome"])  # a StrEnum: its members are their strings
+        if s["outcome"] == "timeout":  # what the limit came before
+            why = "the AMP's time limit came " + (
+                "before the vehicle reached the source" if s["criterion"] == "arrival" else
+                "while it searched for more sources" if any(s["declared_sources"]) else
+                "with no declaration")
         if why:
             print(f"  {s['outcome']}: {why}")
         points = [q for q in s["declared_sources"] if q]

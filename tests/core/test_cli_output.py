@@ -67,9 +67,12 @@ def test_the_verdict_says_what_a_success_needs_and_how_a_failure_missed_it() -> 
         == "success: declaration within 15 m"
     assert verdict_text({**one, "false_declaration": False, "error_m": None}) \
         == "no success: needs a declaration within 15 m"
-    two = {**one, "sources_true": 2, "sources_declared": 2}
-    assert verdict_text(two) == ("FALSE DECLARATION: the worst point 16.4 m off, beyond the "
-                                 "15 m a success needs")
+    # with several points a point is false when matching leaves it no source, whatever its
+    # distance to the nearest (two points 10 m either side of one source: one is false)
+    two = {**one, "sources_true": 2, "sources_declared": 2, "false_declarations": 1,
+           "error_m": 10.0}
+    assert verdict_text(two) == ("FALSE DECLARATION: 1 of 2 declared points matched to no "
+                                 "source within 15 m")
     assert verdict_text({**two, "false_declaration": False, "sources_declared": 1}) \
         == "no success: needs a declaration within 15 m of every source"
     arrival = {**one, "criterion": "arrival", "success_radius_m": 1.0, "false_declaration": False}
@@ -85,7 +88,7 @@ def test_the_figure_title_says_whether_the_declaration_was_right() -> None:
            "success": True, "false_declaration": False, "error_m": 3.04}
     assert short_verdict(one) == "success, error 3.0 m"
     assert short_verdict({**one, "success": False, "false_declaration": True,
-                          "error_m": 16.4}) == "false declaration, 16.4 m off"
+                          "error_m": 16.4}) == "false declaration, 16.4 m off (success within 15 m)"
     three = {**one, "success": False, "sources_true": 3, "sources_found": 2,
              "false_declarations": 0}
     assert short_verdict(three) == "2 of 3 sources found"

@@ -109,3 +109,17 @@ def test_a_run_that_ends_without_a_declaration_says_why(
     assert ": relinquished (" in out[0], out
     assert out[1].startswith("  relinquished: the vehicle's estimated position was more than "
                              "30 m outside the OpArea"), out
+
+
+def test_a_time_limit_during_the_search_for_more_sources_is_said_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # one of two sources declared when the limit came: not "with no declaration"
+    from cptbt.cli import main
+
+    text = (ROOT / "missions/two_sources.yaml").read_text(encoding="utf-8")
+    path = tmp_path / "tl.yaml"
+    path.write_text(text.replace("time_limit_s: 3600", "time_limit_s: 300"), encoding="utf-8")
+    assert main(["run", str(path), "--out", str(tmp_path / "o"), "--no-figure"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[1] == "  timeout: the AMP's time limit came while it searched for more sources", out
