@@ -122,14 +122,13 @@ def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
             if rest != "variant":
                 continue
             body = next((e[family] for e in data["behaviours"] if family in e), None) or {}
+            entry = next((e for e in mission.entries() if e.family == family), None)
             also = {q.partition(".")[2] for other in sweeps for q in other.paths
                     if q.startswith(family + ".")}
-            given = {k: v for k, v in body.items() if k != "variant" and k not in also}
-            try:  # the mission's variant's own defaults: a setting it leaves so is no choice
-                own = registry.get(family, str(body.get("variant"))).params().model_dump(
-                    mode="json")
-            except RegistryError:
-                own = {}
+            # the settings the mission made: its variant's own defaults are no choice of it
+            made = entry.params.model_fields_set if entry is not None else set()
+            given = {k: v for k, v in body.items()
+                     if k != "variant" and k not in also and k in made}
             for value in dict.fromkeys(sweep.values):
                 if value == body.get("variant"):
                     continue
@@ -139,8 +138,7 @@ def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
                     continue
                 other = [f"{k}={v} (its default {defaults[k]})" for k, v in given.items()
                          if k in defaults and defaults[k] != v]
-                absent = [f"{k}={v}" for k, v in given.items()
-                          if k not in defaults and (k not in own or own[k] != v)]
+                absent = [f"{k}={v}" for k, v in given.items() if k not in defaults]
                 parts = ([f"flies {', '.join(other)}"] if other else []) + (
                     [f"has no parameter for {', '.join(absent)}"] if absent else [])
                 hint = (f" (give a setting both have with another --sweep "

@@ -219,3 +219,26 @@ def test_a_sweep_whose_values_make_the_same_mission_is_refused(tmp_path: Path) -
     res = main(["batch", str(two), "--grid", "1x1", "--sweep", "declare_source.radius_m=10,10.0",
                 "--out", str(tmp_path / "o")])
     assert res == 2 and not (tmp_path / "o").exists()
+
+
+def test_validate_names_what_a_studys_variant_sweep_drops(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # only the settings the mission made: max_spread_m = 20 is the likelihood map's own
+    # default (and means another spread there), not a setting upflow_spread drops
+    from cptbt.cli import main
+
+    text = (Path(__file__).resolve().parents[2] / "missions/two_sources.yaml").read_text(
+        encoding="utf-8")
+    path = tmp_path / "m.yaml"
+    path.write_text(text + "study:\n  sweeps:\n    declare_source.variant: [likelihood_map, "
+                    "upflow_spread]\n", encoding="utf-8")
+    assert main(["validate", str(path)]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    (note,) = [ln for ln in err if ": note: " in ln]
+    assert note == (f"{path}: note: sweep declare_source.variant: upflow_spread flies with its "
+                    "own defaults, not the mission's declare_source settings: it has no "
+                    "parameter for max_sources=2"), note
+    # and the world no run of that configuration can succeed in is warned of, named
+    assert any("[sweep declare_source.variant=upflow_spread]" in ln and "declares one source"
+               in ln for ln in err), err
