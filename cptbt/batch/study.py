@@ -222,17 +222,18 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
 
 def _swept_error(located: list[tuple[Loc, str]], source: str, lines: dict[Loc, int] | None,
                  swept: str, sweeps: Sequence[Sweep] = ()) -> MissionError:
-    """A swept mission's problems: at the key's line in the file with the sweep named; for a
-    key the file does not have, at the line of the file's own ``study.sweeps`` entry that set
-    it, or without a line (a sweep given on the command line)."""
+    """A swept mission's problems, the sweep named: at the line of the file's own
+    ``study.sweeps`` entry that set the value, else at the key's line in the file, or without a
+    line (a key the file lacks, swept from the command line)."""
     out = []
     for loc, msg in located:
-        where = lines.get(loc) if lines is not None else None
-        if where is None and lines is not None:
+        where = None
+        if lines is not None:  # the study entry that set the value, else the key's own line
             path = dotted(loc)
             where = next((lines[("study", "sweeps", s.name)] for s in sweeps
                           if ("study", "sweeps", s.name) in lines
-                          and any(path == p or path.endswith("." + p) for p in s.paths)), None)
+                          and any(path == p or path.endswith("." + p) for p in s.paths)),
+                         lines.get(loc))
         out.append(f"{source}:{where}: {dotted(loc)}: {msg} (with sweep {swept})"
                    if where is not None else f"{source} [sweep {swept}]: {dotted(loc)}: {msg}")
     return MissionError(out)

@@ -160,6 +160,9 @@ def test_a_bad_swept_value_is_reported_at_the_files_key_or_without_a_line(
     # a key the file lacks: at the study section's own line for that sweep
     ("declare_source.radius_m: [10, .nan]", ":{line}: behaviours[1].declare_source.radius_m: "
      "Input should be a finite number (with sweep declare_source.radius_m=nan)"),
+    # a key the file has too: at the sweep's line, where the bad value is
+    ("environment.flow_speed_mps: [0.1, -1]", ":{line}: environment.flow_speed_mps: Input "
+     "should be greater than or equal to 0 (with sweep environment.flow_speed_mps=-1)"),
     ("infotaxis.cell_m: [1, 2]", ":{study}: study.sweeps: sweep path 'infotaxis.cell_m': the "
      "mission has no 'infotaxis' behaviour"),
     ("declare_source.radius_m: [10, 10.0]", ":{study}: study.sweeps: sweep "
