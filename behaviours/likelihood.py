@@ -186,7 +186,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         "route_index", "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn",
         "withdrawn_at", "superseded", "superseded_at", "upflow",
         "detections_used", "at_declaration", "search_target", "search_t",
-        "evidence_t", "evidence_count", "search_given_up",
+        "evidence_t", "evidence_count", "search_given_up", "search_end",
     )
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
@@ -221,6 +221,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.evidence_t = -math.inf
         self.evidence_count = 0  # the map's unexplained detections at evidence_t
         self.search_given_up = False
+        self.search_end: str | None = None  # why the search for more sources ended early
 
     def setup(self, **kwargs: Any) -> None:
         """Bind the context and lay the grid over its OpArea."""
@@ -241,7 +242,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
             "withdrawn_at": [(q.x, q.y) for q in self.withdrawn_at],
             "superseded": self.superseded,
             "superseded_at": [(q.x, q.y) for q in self.superseded_at], **self.upflow.report(),
-            "search_given_up": self.search_given_up,
+            "search_given_up": self.search_given_up, "search_end": self.search_end,
         }
 
     def watch(self, p: Percept) -> None:
@@ -283,6 +284,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.bb.declared_source = source
         self.heading_home = True
         self.search_given_up = True
+        self.search_end = ("no cell left outside the declared sources' masks (mask_radius_m)"
+                           if self.map.exhausted else f"{limit:g} s without plume the declared "
+                           "sources do not explain (search_give_up_s)")
         self.at_declaration = self.map.belief()  # the map the search ended on (t3)
         self.bb.set("source_map_at_declaration", self.at_declaration)
         self._report()

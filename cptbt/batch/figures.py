@@ -249,8 +249,12 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
         bar = plt.colorbar(mesh, ax=ax, location="bottom", shrink=0.5, aspect=40, pad=0.02)
         when = "the search gave up" if report.get("search_given_up") else "last declaration"
         bar.set_label(f"source-likelihood posterior per cell at t = {belief.t:.0f} s ({when}), "
-                      "log scale; white inside the OpArea: below 1e-4 of the peak (ruled out)",
+                      "log scale;\nwhite inside the OpArea: below 1e-4 of the peak (ruled out)",
                       fontsize=8)
+    else:  # every cell masked by a declared source: a blank panel said nothing
+        ax.text(0.5 * (area.xmin + area.xmax), 0.5 * (area.ymin + area.ymax),
+                f"t = {belief.t:.0f} s: every cell ruled out\n(within mask_radius_m of a "
+                "declared source)", ha="center", va="center", fontsize=9, color="#444444")
     ax.add_patch(plt.Rectangle((area.xmin, area.ymin), area.xmax - area.xmin,
                                area.ymax - area.ymin, fill=False, lw=1.5, ec="black"))
     withdrawn = report.get("withdrawn_at") or []

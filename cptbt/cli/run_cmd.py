@@ -274,7 +274,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if s["sources_true"] > 1 or s["sources_declared"] > 1 or s["withdrawn"] or s["flybys"]:
             print(f"  sources: {s['sources_found']} of {s['sources_true']} found, "
                   f"{s['false_declarations']} false"
-                  + ("; the search for more gave up (t3 is when)"
+                  + (f"; the search for more ended (t3 is when): {s.get('search_end')}"
                      if s.get("search_given_up") else "")
                   + (f"; fly-bys {s['flybys']}, withdrawn {s['withdrawn']}"
                      if s["flybys"] is not None else "")
