@@ -98,11 +98,12 @@ def grid_advice(params: MapModelParams, area: OpArea) -> list[tuple[str, str]]:
     """A warning, ``(parameter, why)``, when ``cell_m`` would give more than :data:`MAX_CELLS`
     cells over the OpArea, so the grid is coarsened (:class:`SourceMap` does it unsaid)."""
     w, h = area.xmax - area.xmin, area.ymax - area.ymin
-    cells = math.ceil(w / params.cell_m) * math.ceil(h / params.cell_m)
-    if cells <= MAX_CELLS:
+    cell = math.sqrt(w * h / MAX_CELLS)  # SourceMap's rule: the larger of the two
+    if cell <= params.cell_m:
         return []
+    cells = math.ceil(w / params.cell_m) * math.ceil(h / params.cell_m)
     return [("cell_m", f"{params.cell_m:g} m: {cells} cells over the OpArea; the map is "
-             f"coarsened to {math.sqrt(w * h / MAX_CELLS):.2f} m cells (at most {MAX_CELLS})")]
+             f"coarsened to {cell:.3g} m cells (about {MAX_CELLS})")]
 
 
 SOURCE_MAP_KEY = "source_map"

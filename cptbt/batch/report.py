@@ -237,6 +237,15 @@ _SUCCESS = {"declaration": "success: declared within the radius (95% CI)",
             "maintain": "came within the radius (95% CI)"}
 
 
+def success_label(rows: Rows) -> str:
+    """What a success is in these runs, as the tables and the rate chart head it (several true
+    sources: every one declared)."""
+    criterion = _criterion(rows)
+    if criterion == "declaration" and any((r.get("sources_true") or 1) > 1 for r in rows):
+        return "success: every source declared within the radius (95% CI)"
+    return _SUCCESS.get(criterion, "success (95% CI)")
+
+
 def _criterion(rows: Rows) -> str:
     """The study's evaluation criterion (its rows share one)."""
     found = {r.get("criterion") or "declaration" for r in rows}
@@ -257,7 +266,7 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
     # how many sources were found says what the success rate does not.
     multi = any((r.get("sources_true") or 1) > 1 for r in every)
     lines += ["## Per configuration", "",
-              f"| configuration | runs | {_SUCCESS.get(criterion, 'success (95% CI)')} "
+              f"| configuration | runs | {success_label(every)} "
               + ("| sources found / true | " if multi else "| ")
               + "false declarations (runs) | mean time to source (s) | sd (s) "
               f"| mean search time, a failure at its end (s) | {mean_col} | {max_col} |",

@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 
 from cptbt.batch.report import (
-    _SUCCESS,
     Rows,
     StudyGeometry,
     _criterion,
@@ -23,6 +22,7 @@ from cptbt.batch.report import (
     _search_time,
     _sem,
     _td_share,
+    success_label,
     wilson,
 )
 
@@ -210,7 +210,7 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
             tick.set_horizontalalignment("right")
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("rate")
-    judged = _SUCCESS.get(_criterion(every), "success").removesuffix(" (95% CI)")
+    judged = success_label(every).removesuffix(" (95% CI)")
     ax.set_title(f"{judged}, per configuration", fontsize=10)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # off the bars
     ax.grid(axis="y", alpha=0.3)

@@ -82,7 +82,8 @@ def test_a_two_source_study_counts_the_sources_found(tmp_path: Path) -> None:
              for r in rows]
     write_report(rows, tmp_path)
     table = (tmp_path / "tables.md").read_text()
-    assert "| sources found / true | false declarations (runs) |" in table
+    assert ("| success: every source declared within the radius (95% CI) | sources found / true "
+            "| false declarations (runs) |") in table
     assert "| variant=one | 3 | 0.0% (0.0%–56.2%) | 3 / 6 | 0 |" in table, table
     assert "| variant=map | 3 | 100.0% (43.8%–100.0%) | 6 / 6 | 0 |" in table, table
     write_report(line_rows(), tmp_path)

@@ -917,7 +917,7 @@ def test_a_cell_size_past_the_grid_limit_is_warned_of() -> None:
 
     # 100 x 100 m at 0.1 m: 1e6 cells, coarsened to 0.2 m (250 000) without a word before
     ((key, why),) = advise(LikelihoodMapParams(cell_m=0.15), AREA)
-    assert key == "cell_m" and "coarsened to 0.20 m cells" in why, why
+    assert key == "cell_m" and "coarsened to 0.2 m cells" in why, why
     assert advise(LikelihoodMapParams(cell_m=0.2), AREA) == []
     ((key, _),) = _advise(InfotaxisParams(cell_m=0.15), AREA)
     assert key == "cell_m"
