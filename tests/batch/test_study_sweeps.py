@@ -156,6 +156,18 @@ def test_a_bad_swept_value_is_reported_at_the_files_key_or_without_a_line(
     assert not (tmp_path / "out").exists()
 
 
+TWO = Path(__file__).resolve().parents[2] / "missions/two_sources.yaml"
+
+
+def with_study(tmp_path: Path, sweeps: str) -> tuple[Path, int]:
+    """The shipped two-source mission with a study section sweeping ``sweeps`` (one YAML
+    line); its path and the study line's number."""
+    text = TWO.read_text(encoding="utf-8")
+    path = tmp_path / "m.yaml"
+    path.write_text(text + f"study:\n  sweeps:\n    {sweeps}\n", encoding="utf-8")
+    return path, text.count("\n") + 1
+
+
 @pytest.mark.parametrize(("sweeps", "expected"), [
     # a key the file lacks: at the study section's own line for that sweep
     ("declare_source.radius_m: [10, .nan]", ":{line}: behaviours[1].declare_source.radius_m: "
@@ -175,11 +187,7 @@ def test_validate_makes_the_missions_own_study_configurations(
     # `cptbt validate` said "ok" to a study that `cptbt batch` then refused
     from cptbt.cli import main
 
-    text = (Path(__file__).resolve().parents[2] / "missions/two_sources.yaml").read_text(
-        encoding="utf-8")
-    study = text.count("\n") + 1
-    path = tmp_path / "m.yaml"
-    path.write_text(text + f"study:\n  sweeps:\n    {sweeps}\n", encoding="utf-8")
+    path, study = with_study(tmp_path, sweeps)
     assert main(["validate", str(path)]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line == f"{path}" + expected.format(line=study + 2, study=study + 1), line
@@ -190,11 +198,7 @@ def test_validate_warns_of_a_swept_value_likely_not_meant(
 ) -> None:
     from cptbt.cli import main
 
-    text = (Path(__file__).resolve().parents[2] / "missions/two_sources.yaml").read_text(
-        encoding="utf-8")
-    path = tmp_path / "m.yaml"
-    path.write_text(text + "study:\n  sweeps:\n    declare_source.radius_m: [10, 500]\n",
-                    encoding="utf-8")
+    path, _ = with_study(tmp_path, "declare_source.radius_m: [10, 500]")
     assert main(["validate", str(path)]) == 0
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith(f"{path} [sweep declare_source.radius_m=500]: "
@@ -218,8 +222,7 @@ def test_a_sweep_whose_values_make_the_same_mission_is_refused(tmp_path: Path) -
     # 10 and 10.0 are one radius: two identical configurations flew as if two
     from cptbt.cli import main
 
-    two = Path(__file__).resolve().parents[2] / "missions/two_sources.yaml"
-    res = main(["batch", str(two), "--grid", "1x1", "--sweep", "declare_source.radius_m=10,10.0",
+    res = main(["batch", str(TWO), "--grid", "1x1", "--sweep", "declare_source.radius_m=10,10.0",
                 "--out", str(tmp_path / "o")])
     assert res == 2 and not (tmp_path / "o").exists()
 
@@ -231,11 +234,7 @@ def test_validate_names_what_a_studys_variant_sweep_drops(
     # default (and means another spread there), not a setting upflow_spread drops
     from cptbt.cli import main
 
-    text = (Path(__file__).resolve().parents[2] / "missions/two_sources.yaml").read_text(
-        encoding="utf-8")
-    path = tmp_path / "m.yaml"
-    path.write_text(text + "study:\n  sweeps:\n    declare_source.variant: [likelihood_map, "
-                    "upflow_spread]\n", encoding="utf-8")
+    path, _ = with_study(tmp_path, "declare_source.variant: [likelihood_map, upflow_spread]")
     assert main(["validate", str(path)]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     (note,) = [ln for ln in err if ": note: " in ln]
