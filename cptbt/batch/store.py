@@ -304,7 +304,7 @@ def load_results(path: Path) -> Rows:
     """
     path = Path(path)
     if not path.exists():
-        raise BatchError(f"{path} does not exist")
+        raise BatchError(f"{path}: No such file or directory")  # as the system words it
     if path.is_dir():
         for fmt in _FORMATS.values():
             if (path / f"results{fmt.suffix}").exists():

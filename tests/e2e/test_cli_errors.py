@@ -182,7 +182,9 @@ def test_plot_of_a_folder_without_results_is_one_line_exit_1(tmp_path: Path) -> 
     line = one_line(cptbt("plot", str(tmp_path)), 1)
     assert line == f"cptbt: {tmp_path} holds no results table (results.parquet or " \
                    "results.csv) and no parts/"
-    assert "does not exist" in one_line(cptbt("plot", str(tmp_path / "nope")), 1)
+    # worded as every other missing file ("cptbt: PATH: No such file or directory")
+    nope = tmp_path / "nope"
+    assert one_line(cptbt("plot", str(nope)), 1) == f"cptbt: {nope}: No such file or directory"
     assert list(tmp_path.iterdir()) == []
 
 
