@@ -102,7 +102,11 @@ class OpAreaSafety(PlanBehaviour):
         if a.depth_inside(x, y) >= release:
             self._report(p.t)
             return None
-        self.walls = (*self.walls, *(w for w in a.walls_beyond(x, y) if w not in self.walls))
+        now = a.walls_beyond(x, y)
+        if any(w[0] + v[0] == 0.0 and w[1] + v[1] == 0.0 for w in now for v in self.walls):
+            self.walls = now  # beyond the opposite wall: a navigation jump, the walls start anew
+        else:
+            self.walls = (*self.walls, *(w for w in now if w not in self.walls))
         goal = a.clamp(x, y, self.params.inset_m)
         return self.command(p.pose.point.bearing_to(goal))
 
@@ -172,7 +176,12 @@ class OpAreaSafetyFleet(FleetRule):
         drive = ~release
         if np.count_nonzero(drive):
             k, xd, yd = ids[drive], x[drive], y[drive]
-            self.walls[k] |= a.walls_beyond_bits(xd, yd)
+            now = a.walls_beyond_bits(xd, yd)
+            # beyond the wall opposite one already crossed (bits 1|2, 4|8): a navigation jump,
+            # and the walls start anew, as in the per-vehicle form
+            swapped = ((now & 1) << 1 | (now & 2) >> 1 | (now & 4) << 1 | (now & 8) >> 1)
+            jumped = (swapped & self.walls[k]) != 0
+            self.walls[k] = np.where(jumped, now, self.walls[k] | now)
             gx, gy = a.clamp_array(xd, yd, self.params.inset_m)
             out[pos[drive]] = bearing_deg_array(gx - xd, gy - yd)
         return out

@@ -97,6 +97,8 @@ def boundary_role(area: OpArea, point: Point, ref_deg: float) -> tuple[str, int]
 def _mean_normal(walls: tuple[Normal, ...]) -> Normal:
     sx, sy = sum(w[0] for w in walls), sum(w[1] for w in walls)
     norm = math.hypot(sx, sy)
+    if norm < 1e-9:  # opposite walls (a navigation jump across the area): the latest one
+        return walls[-1]
     return sx / norm, sy / norm
 
 

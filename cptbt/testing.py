@@ -426,6 +426,9 @@ def _differential(
         px = np.array([v.x for v in vehicles]) + np.where(rng.random(n) < 0.02,
                                                           rng.normal(0.0, 0.1 * w, n), 0.0)
         py = np.array([v.y for v in vehicles])
+        # a fix across the area, beyond the far wall (safety's walls then face each other)
+        across = rng.random(n) < 0.005
+        py[across] = np.where(py[across] < cy, area.ymax + 15.0, area.ymin - 15.0)
         heading = np.array([v.heading_deg for v in vehicles])
         py[rng.random(n) < 0.01] = np.nan  # a bad fix: the last one is kept
         for i, sc in enumerate(scalars):

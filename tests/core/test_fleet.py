@@ -8,6 +8,7 @@ bit. The engine tests fly real AB groups both ways.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -164,3 +165,46 @@ def test_safety_array_form_stands_aside_homeward_like_the_leaf() -> None:
     spec = default_registry().get("safety", "oparea")
     drove = check_fleet_rule(spec, home=(50.0, -70.0), homeward_rate=0.02, ticks=600)
     assert drove.get(spec.key, 0) > 100
+
+
+@pytest.mark.parametrize("path", [AB[2], ROOT / "missions/tro2006_msn007.yaml"],
+                         ids=["ab", "tro"])
+def test_a_navigation_jump_across_the_oparea_during_safety_is_survived_alike(
+    path: Path
+) -> None:
+    """The estimate goes beyond one wall (safety takes over), then beyond the opposite one in
+    the same excursion, then back inside: safety reported both walls, whose mean normal is zero,
+    and find-plume's reflection divided by it (a whole batch died). Now the walls start anew at
+    such a jump; the py_trees planner and the fleet planner command the same, and both turn
+    back in from the wall the vehicle is beyond."""
+    from cptbt.fleet import FleetPlanner
+    from cptbt.planner import Planner
+
+    mission = load(str(path))
+    mission = mission.model_copy(update={"mission_a": None})
+    area = mission.op_area_geometry()
+    cx = area.centre.x
+    tree, ids = Planner(mission), np.arange(1)
+    fleet = FleetPlanner.for_mission(mission, 1) if fleet_support(mission).ok else None
+    out = []
+    t = 0.0
+    for y, n in ((area.centre.y, 10), (area.ymin - 30, 5), (area.ymax + 30, 5),
+                 (area.centre.y, 5)):
+        for _ in range(n):
+            t += 1.0
+            tree.add_flow(t, 0.1, 0.0), tree.add_sample(t, 0.0), tree.set_pose(cx, y, 0.0)
+            cmd = tree.tick(t)
+            assert cmd is not None
+            if fleet is not None:  # the AB mission: its array forms too
+                fleet.add_flows(t, ids, np.array([0.1]), np.array([0.0]))
+                fleet.add_samples(ids, np.array([0.0]))
+                fleet.set_poses(ids, np.array([cx]), np.array([y]), np.array([0.0]))
+                tick = fleet.tick(t, ids)
+                assert bool(tick.has_command[0]) and (
+                    float(tick.heading[0]), float(tick.speed[0])) == (cmd.heading_deg,
+                                                                      cmd.speed_mps)
+            out.append((y, tree.active, cmd.heading_deg))
+    y, active, heading = out[-1]  # back inside, find-plume: heading away from the north wall
+    assert active is not None and active.startswith("find_plume")
+    assert math.sin(math.radians(heading)) <= 0.0, out[-6:]
+    tree.close()
