@@ -28,11 +28,11 @@ class MapModelParams(BehaviourParams):
         "rules out every cell)"
     )
     near_spread_m: float = Field(
-        default=3.0, gt=0, description="σ0: cross-flow spread at the source (navigation error, "
-        "puff size), m"
+        default=3.0, ge=1e-3, description="σ0: cross-flow spread at the source (navigation "
+        "error, puff size; at least 1 mm: 1e-300 squared is 0), m"
     )
     behind_spread_m: float | None = Field(
-        default=None, gt=0, description="How fast K falls off for sources down-flow of the "
+        default=None, ge=1e-3, description="How fast K falls off for sources down-flow of the "
         "observer (None: near_spread_m), m"
     )
     spread_deg: float = Field(
@@ -43,7 +43,7 @@ class MapModelParams(BehaviourParams):
         default=250.0, gt=0, description="Detections are not traced back farther than this, m"
     )
     max_spread_m: float | None = Field(
-        default=None, gt=0, description="σmax: the meander's cross-flow spread stops growing "
+        default=None, ge=1e-3, description="σmax: the meander's cross-flow spread stops growing "
         "at this (None: it grows with range without bound), m"
     )
     detection_weight: float = Field(
@@ -89,7 +89,7 @@ class MapModelParams(BehaviourParams):
         "instantaneous axis grows as σi(a)² = σ0² + this · a (relative dispersion, 2 K_c / U), m"
     )
     instant_near_spread_m: float | None = Field(
-        default=None, gt=0, description="With meander_memory_s: σi(0), the plume's width about "
+        default=None, ge=1e-3, description="With meander_memory_s: σi(0), the plume's width about "
         "its instantaneous axis at the source; the rest of σ0 persists like the meander (None: "
         "σ0, all of it instantaneous), m"
     )

@@ -17,7 +17,7 @@ Coord = tuple[float, float]
 class VehicleLimits(BaseModel):
     """Commands the vehicle accepts; any other command is refused (OMAE "AMP-REMUS protocols")."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     min_speed_mps: float = Field(default=0.25, ge=0, description="Slowest speed accepted, m/s")
     max_speed_mps: float = Field(default=2.8, gt=0, description="Fastest speed accepted, m/s")
@@ -44,7 +44,7 @@ class VehicleLimits(BaseModel):
 class MissionASpec(BaseModel):
     """Mission A (waypoints) and the hand-over settings between it and the AMP."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 
     waypoints: list[Coord] = Field(
         min_length=1, description="Waypoints in the mission frame, followed in order"

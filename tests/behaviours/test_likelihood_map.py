@@ -921,3 +921,12 @@ def test_a_cell_size_past_the_grid_limit_is_warned_of() -> None:
     assert advise(LikelihoodMapParams(cell_m=0.2), AREA) == []
     ((key, _),) = _advise(InfotaxisParams(cell_m=0.15), AREA)
     assert key == "cell_m"
+
+
+def test_a_spread_too_small_to_square_is_refused() -> None:
+    # near_spread_m 1e-300 squared is 0: infotaxis divided by it at its first cycle
+    from cptbt.behaviours.infotaxis import InfotaxisParams
+
+    with pytest.raises(pydantic.ValidationError, match="near_spread_m"):
+        InfotaxisParams(near_spread_m=1e-300)
+    assert InfotaxisParams(near_spread_m=1e-3).near_spread_m == 1e-3

@@ -111,6 +111,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("a point as a YAML set (unordered: read as (0, 100))",
      sub("  seed: 3", "  seed: 3\n  launch: !!set {100, 0}"), 32, "environment.launch",
      "!!set: a mission value is"),
+    ("a watchdog that never fires (infinite numbers in mission_a were let through)",
+     sub("  amp_depth_m: 3", "  amp_depth_m: 3\n  watchdog_s: .inf"), 25,
+     "mission_a.watchdog_s", "finite number"),
     ("a billion puffs", sub("  seed: 3", "  seed: 3\n  plume: {max_puffs: 1000000000}"), 32,
      "environment.plume.max_puffs", "less than or equal to 200000"),
     ("too many sources", sub("  seed: 3", "  seed: 3\n  extra_sources: [" +
