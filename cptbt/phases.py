@@ -15,7 +15,10 @@ command to go to a depth greater than some preset vehicle maximum"): the refusal
 timeline as an internal transition of ``amp.override`` (the AMP keeps control and the vehicle
 keeps its last accepted command). A refused command is not an accepted one, so it does not feed
 the vehicle's command watchdog: an AMP that only sends commands the vehicle refuses loses control
-at the watchdog timeout (trigger ``watchdog_timeout``), exactly as a silent one does.
+at the watchdog timeout (trigger ``watchdog_timeout``), exactly as a silent one does. The AMP
+also fires ``watchdog_timeout`` itself when the vehicle's reported mode has not been
+``override`` for ``watchdog_s``: a take it never granted (the take is sent again every 2 s
+meanwhile), or an override it left without an ``ended`` message.
 """
 
 from __future__ import annotations

@@ -41,6 +41,10 @@ from cptbt.types import Command
 log = logging.getLogger(__name__)
 
 
+RETAKE_S = 2.0
+"""A take the vehicle has not granted is sent again this often (vehicle clock), s."""
+
+
 class AmpSession:
     """One AMP run on one vehicle.
 
@@ -74,6 +78,8 @@ class AmpSession:
         self._last_refusal = ""
         self._period = 1.0 / mission.cycle_hz
         self._next_tick = math.inf
+        self._take_t = math.nan  # when the take was last sent
+        self._control_t: float | None = None  # the vehicle's latest report in override
 
     @property
     def t(self) -> float:
@@ -97,8 +103,11 @@ class AmpSession:
         if self.phases.state == "mission_a.waypoints" and self._enable_due():
             self.link.send(OverrideRequest())
             self.phases.fire("amp_enable", t)
-            self.t_amp_start = t
+            self.t_amp_start = self._take_t = t
+            self._control_t = None
             self._next_tick = t
+        if self.in_override and not self._in_control(t):
+            return
         if self.in_override and t + self._period < self._next_tick - 1e-6:
             # The vehicle's clock stepped back (a reset or correction): cycle on from now rather
             # than stay silent until the old schedule comes round again. (The tolerance: a
@@ -116,6 +125,34 @@ class AmpSession:
             self._give_back_due()
 
     # -- internals --------------------------------------------------------------------------
+    def _in_control(self, t: float) -> bool:
+        """Whether the vehicle has the AMP driving, as its reported mode says; False once the
+        AMP has given back for want of it.
+
+        A take the vehicle has not granted is sent again every :data:`RETAKE_S` (a lost
+        datagram); a vehicle that has not been in ``override`` for ``watchdog_s`` (it never
+        granted the take, or it left the override without saying so) ends the override as its
+        own watchdog would (trigger ``watchdog_timeout``): the AMP no longer believes it drives
+        a vehicle that follows its own mission.
+        """
+        assert self.state is not None
+        if self.state.mode == "override":
+            self._control_t = t
+            return True
+        since = self._control_t if self._control_t is not None else self.t_amp_start
+        assert since is not None
+        if t - since >= self.spec.watchdog_s:
+            self.link.send(OverrideRelease())
+            what = ("did not grant the override" if self._control_t is None
+                    else "left the override without saying so")
+            self.phases.fire("watchdog_timeout", t, f"the vehicle {what}: mode "
+                             f"{self.state.mode} for {t - since:g} s")
+            return False
+        if self._control_t is None and t - self._take_t >= RETAKE_S:
+            self.link.send(OverrideRequest())  # the take may have been lost on the way
+            self._take_t = t
+        return True
+
     def _sane(self, s: VehicleState) -> VehicleState | None:
         """A state with its faults repaired from the previous one; None if nothing is usable.
 

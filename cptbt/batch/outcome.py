@@ -50,7 +50,8 @@ WHY_ENDED = {
                           f"{RELINQUISH_OUTSIDE_M:g} m outside the OpArea, where the AMP gives "
                           "control back (TRO II; a navigation error counts as much as a real "
                           "excursion)",
-    Outcome.WATCHDOG: "the vehicle heard no accepted command for its watchdog time",
+    Outcome.WATCHDOG: "the AMP had no control for the watchdog time (the vehicle heard no "
+                      "accepted command, or was not in override)",
     Outcome.MISSION_ENDED: "the vehicle's own mission ended during the override",
     Outcome.ABORTED: "the AMP stopped driving and gave control back",
     Outcome.CONTACT_LOST: "contact, once made, was lost for good",

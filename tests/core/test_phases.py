@@ -250,11 +250,42 @@ def test_a_clock_step_back_does_not_silence_the_amp() -> None:
 def test_a_forward_clock_jump_ticks_once_not_a_burst() -> None:
     s, link, planner = session()
     into_override(s, link)
-    step(s, link, state(101.0))
+    step(s, link, state(101.0, "override"))
     ticks = len(planner.ticks)
-    step(s, link, state(160.0))
-    step(s, link, state(160.2))  # same cycle: no catch-up burst of 59 ticks
+    step(s, link, state(160.0, "override"))
+    step(s, link, state(160.2, "override"))  # same cycle: no catch-up burst of 59 ticks
     assert len(planner.ticks) == ticks + 1
+
+
+def test_a_take_the_vehicle_does_not_grant_is_sent_again_then_given_up() -> None:
+    # the take was lost (or refused): the vehicle goes on reporting its own mission; the AMP
+    # sat in amp.override for the rest of the run, believing it drove
+    s, link, _ = session()
+    into_override(s, link)
+    for t in (100.5, 101.0, 101.5, 102.0, 103.0, 104.0):
+        step(s, link, state(t))
+    takes = [m for m in link.sent if isinstance(m, OverrideRequest)]
+    assert len(takes) == 3  # at 100, then every 2 s
+    assert step(s, link, state(119.9)) == "amp.override"
+    assert step(s, link, state(120.0)) == "amp.give_back"  # watchdog_s (20 s) without control
+    last = s.phases.timeline[-1]
+    assert last.trigger == "watchdog_timeout" and isinstance(link.sent[-1], OverrideRelease)
+    assert last.detail == "the vehicle did not grant the override: mode mission for 20 s"
+
+
+def test_a_vehicle_that_leaves_the_override_unsaid_is_given_back_to() -> None:
+    s, link, _ = session()
+    into_override(s, link)
+    for t in (101.0, 102.0, 103.0):
+        step(s, link, state(t, "override"))
+    takes = sum(isinstance(m, OverrideRequest) for m in link.sent)
+    step(s, link, state(104.0, "returning"))  # no 'ended' message
+    assert s.in_override and sum(isinstance(m, OverrideRequest) for m in link.sent) == takes
+    assert step(s, link, state(122.9, "returning")) == "amp.override"
+    assert step(s, link, state(123.0, "returning")) != "amp.override"
+    (gave_back,) = [c for c in s.phases.timeline if c.trigger == "watchdog_timeout"]
+    assert gave_back.detail == ("the vehicle left the override without saying so: mode "
+                                "returning for 20 s")
 
 
 @pytest.mark.parametrize("bad", [math.inf, math.nan, -math.inf])
