@@ -58,6 +58,22 @@ def positive_float(text: str) -> float:
     return value
 
 
+def clock_scale(text: str) -> float:
+    """A pace relative to real time, 0.001 to 10 000 (1e-300 overflowed the clock)."""
+    value = positive_float(text)
+    if not 1e-3 <= value <= 1e4:
+        raise argparse.ArgumentTypeError(f"{text!r} must be between 0.001 and 10000")
+    return value
+
+
+def probability(text: str) -> float:
+    """A probability, 0 to 1."""
+    value = finite_float(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be between 0 and 1")
+    return value
+
+
 def grid(text: str) -> tuple[int, int]:
     """``NXxNY`` (or ``N`` for ``NxN``), both at least 1, at most ``MAX_STARTS`` cells."""
     nx_text, sep, ny_text = text.strip().lower().partition("x")

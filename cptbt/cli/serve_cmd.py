@@ -14,6 +14,7 @@ from cptbt.batch.scenario import environment_of
 from cptbt.batch.served import AmpCycles, served_summary
 from cptbt.bridge import LinkURIError, open_link, parse_uri
 from cptbt.bridge.serve import ServeOptions, serve
+from cptbt.cli import argtypes
 from cptbt.cli.argtypes import sigterm_as_interrupt
 from cptbt.cli.inspect_cmds import load
 from cptbt.cli.output import fmt, fresh_folder, place, time_share
@@ -31,12 +32,12 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("mission", metavar="MISSION", help="mission YAML file (with mission_a)")
     p.add_argument("--link", required=True, metavar="URI",
                    help="backseat:udp:HOST:PORT or mavlink:udp:HOST:PORT (udpin: to listen)")
-    p.add_argument("--clock-scale", type=float, default=1.0, metavar="K",
+    p.add_argument("--clock-scale", type=argtypes.clock_scale, default=1.0, metavar="K",
                    help="pace K times faster than real time (the vehicle must too)")
-    p.add_argument("--link-timeout", type=float, default=None, metavar="S",
+    p.add_argument("--link-timeout", type=argtypes.positive_float, default=None, metavar="S",
                    help="give back when nothing is heard for S vehicle seconds "
                         "(default: mission_a.watchdog_s)")
-    p.add_argument("--connect-timeout", type=float, default=30.0, metavar="S",
+    p.add_argument("--connect-timeout", type=argtypes.positive_float, default=30.0, metavar="S",
                    help="wall seconds to wait for the vehicle's first message")
     p.add_argument("--until", choices=("post_mission", "return_to_break_off"),
                    default="post_mission", help="stop at this phase (default: post_mission)")
@@ -59,14 +60,14 @@ def add_parsers(sub: Any) -> None:
     f.add_argument("--protocol", choices=("backseat", "mavlink"), default="backseat")
     f.add_argument("--listen", default="127.0.0.1:14600", metavar="HOST:PORT",
                    help="where to listen (port 0: any free port; printed on start)")
-    f.add_argument("--clock-scale", type=float, default=1.0, metavar="K",
+    f.add_argument("--clock-scale", type=argtypes.clock_scale, default=1.0, metavar="K",
                    help="fly K times faster than real time")
     f.add_argument("--seed", type=int, default=None, help="override the environment seed")
-    f.add_argument("--drop", type=float, default=0.0, metavar="P",
+    f.add_argument("--drop", type=argtypes.probability, default=0.0, metavar="P",
                    help="lose each datagram, either way, with probability P")
-    f.add_argument("--silent-from", type=float, default=None, metavar="T",
+    f.add_argument("--silent-from", type=argtypes.finite_float, default=None, metavar="T",
                    help="cut the link both ways from vehicle time T")
-    f.add_argument("--refuse-above", type=float, default=None, metavar="MPS",
+    f.add_argument("--refuse-above", type=argtypes.positive_float, default=None, metavar="MPS",
                    help="refuse commands faster than this")
     f.add_argument("--refuse-guided", action="store_true",
                    help="mavlink: deny every mode change to GUIDED (never hand over control)")

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from wire_doubles import MISSIONS
 
 MSN007 = str(MISSIONS / "tro2006_msn007.yaml")
@@ -65,3 +66,20 @@ def test_frontseat_errors_are_one_line_and_exit_2() -> None:
         lines = r.stderr.strip().splitlines()
         assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith("cptbt: "), r.stderr
         assert "internal error" not in r.stderr
+
+
+@pytest.mark.parametrize(("command", "args", "says"), [
+    ("serve", ["--clock-scale", "1e-300"], "between 0.001 and 10000"),  # overflowed the clock
+    ("serve", ["--connect-timeout", "nan"], "must be a finite number"),  # waited for ever
+    ("serve", ["--connect-timeout", "-1"], "must be more than 0"),
+    ("serve", ["--link-timeout", "0"], "must be more than 0"),
+    ("frontseat", ["--drop", "1.5"], "between 0 and 1"),
+])
+def test_serve_and_frontseat_options_out_of_range_are_usage_errors(
+    command: str, args: list[str], says: str
+) -> None:
+    r = subprocess.run(_cptbt(command, MSN007, "--link", "backseat:udp:127.0.0.1:9", *args),
+                       capture_output=True, text=True, timeout=60)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1 and says in lines[0], r.stderr
+    assert lines[0].startswith(f"cptbt {command}: error: argument ")
