@@ -79,6 +79,10 @@ SCHEMAS: dict[str, dict[str, Any]] = {
 }
 
 
+CHUNK_BYTES = 64 * 1024
+"""The cycle log's MCAP chunk size: what a killed writer can lose at most."""
+
+
 class LogError(RuntimeError):
     """A log cannot be written or read (missing ``mcap``, not a cptbt log)."""
 
@@ -200,7 +204,10 @@ class CycleLog:
                  planner: RecordingPlanner | None = None, start: Point | None = None) -> None:
         writer_cls = _mcap()
         self._stream = stream
-        self.writer = writer_cls(stream)
+        # Chunks of 64 KiB, flushed with every cycle: a process killed mid-run leaves every
+        # finished chunk on disk (1 MiB chunks left a killed serve's log empty), and
+        # :func:`read_log` reads such a log up to the damage.
+        self.writer = writer_cls(stream, chunk_size=CHUNK_BYTES)
         self.writer.start(profile=PROFILE, library="cptbt")
         self.channels: dict[str, int] = {}
         for topic in TOPICS:
@@ -251,6 +258,7 @@ class CycleLog:
         rec = cycle_record(self.planner, self.cycles, t, phase, self.planner.last_inputs)
         self._write("/cptbt/cycle", t, rec)
         self.cycles += 1
+        self._stream.flush()  # a finished chunk reaches the disk, not only Python's buffer
 
     def _write(self, topic: str, t_s: float, data: dict[str, Any]) -> None:
         if math.isfinite(t_s):
@@ -281,6 +289,7 @@ class LogData:
     mission: dict[str, Any]
     cycles: list[dict[str, Any]] = field(default_factory=list)
     phases: list[dict[str, Any]] = field(default_factory=list)
+    truncated: str | None = None  # why the log ends early (its writer never finished it)
 
 
 def _messages(stream: BinaryIO) -> Iterator[tuple[str, dict[str, Any]]]:
@@ -292,6 +301,34 @@ def _messages(stream: BinaryIO) -> Iterator[tuple[str, dict[str, Any]]]:
     for _schema, channel, message in reader.iter_messages(topics=list(TOPICS),
                                                           log_time_order=False):
         yield channel.topic, json.loads(message.data)
+
+
+def _salvage(raw: bytes) -> LogData | None:
+    """The records of a log read in order up to where it is damaged or ends unfinished (a
+    writer killed mid-run); None if not even its mission record can be read."""
+    from mcap.records import Channel, Message
+    from mcap.stream_reader import StreamReader
+
+    topics: dict[int, str] = {}
+    data: LogData | None = None
+    why = "it ends without the summary a finished log has"  # records intact to the end
+    try:
+        for record in StreamReader(io.BytesIO(raw)).records:
+            if isinstance(record, Channel):
+                topics[record.id] = record.topic
+            elif isinstance(record, Message) and topics.get(record.channel_id) in TOPICS:
+                topic, msg = topics[record.channel_id], json.loads(record.data)
+                if topic == "/cptbt/mission":
+                    data = LogData(msg)
+                elif data is not None and topic == "/cptbt/cycle":
+                    data.cycles.append(msg)
+                elif data is not None:
+                    data.phases.append(msg)
+    except Exception as exc:  # the torn or missing end
+        why = f"it ends unfinished ({type(exc).__name__})"
+    if data is not None:
+        data.truncated = why
+    return data
 
 
 def read_log(path: Path | str) -> LogData:
@@ -316,8 +353,10 @@ def read_log(path: Path | str) -> LogData:
     except LogError:
         raise
     except Exception as exc:  # the mcap reader's errors are many and unexported
-        raise LogError(f"{path}: not a readable MCAP file ({type(exc).__name__}: {exc})"
-                       ) from None
+        data = _salvage(raw)  # a log whose writer was killed: no summary, a torn last chunk
+        if data is None:
+            raise LogError(f"{path}: not a readable MCAP file ({type(exc).__name__}: {exc})"
+                           ) from None
     if data is None:
         raise LogError(f"{path}: no /cptbt/mission record: not a cptbt cycle log")
     return data

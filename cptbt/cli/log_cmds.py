@@ -7,7 +7,7 @@ import sys
 from typing import Any
 
 from cptbt.cli.inspect_cmds import load
-from cptbt.logs import LogError, read_log
+from cptbt.logs import LogData, LogError, read_log
 from cptbt.replay import replay, story
 
 EXIT_USAGE = 2
@@ -30,14 +30,33 @@ def add_parsers(sub: Any) -> None:
     r.set_defaults(func=cmd_replay)
 
 
+_BAD_RECORD = (KeyError, IndexError, ValueError, TypeError, AttributeError)
+"""What reading a record that is not what cptbt writes raises (in a valid MCAP file)."""
+
+
+def _read(path: str) -> LogData:
+    """The log, with a warning when its writer never finished it (read up to the damage)."""
+    data = read_log(path)
+    if data.truncated:
+        print(f"cptbt: warning: {path}: read up to where {data.truncated}: "
+              f"{len(data.cycles)} cycles (the process writing it was stopped short)",
+              file=sys.stderr)
+    return data
+
+
 def cmd_log_summary(args: argparse.Namespace) -> int:
     """Print a log's mission story: phases, behaviour changes, first detection, declaration."""
     try:
-        data = read_log(args.log)
+        data = _read(args.log)
+        lines = story(data)
     except LogError as exc:
         print(f"cptbt: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    print("\n".join(story(data)))
+    except _BAD_RECORD as exc:
+        print(f"cptbt: {args.log}: a record is not what cptbt writes ({type(exc).__name__}: "
+              f"{exc})", file=sys.stderr)
+        return EXIT_USAGE
+    print("\n".join(lines))
     return 0
 
 
@@ -46,12 +65,23 @@ def cmd_replay(args: argparse.Namespace) -> int:
     bit for bit for the logged mission; with another mission, where they first diverge. Exits 1
     if the logged mission itself does not replay identically."""
     try:
-        data = read_log(args.log)
+        data = _read(args.log)
     except LogError as exc:
         print(f"cptbt: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    if not data.cycles:  # "identical" would say nothing was compared
+        print(f"cptbt: {args.log}: holds no planning cycle: nothing to replay", file=sys.stderr)
+        return EXIT_USAGE
     other = load(args.mission) if args.mission else None
-    rep = replay(data, other)
+    try:
+        rep = replay(data, other)
+    except LogError as exc:
+        print(f"cptbt: {args.log}: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except _BAD_RECORD as exc:
+        print(f"cptbt: {args.log}: a record is not what cptbt writes ({type(exc).__name__}: "
+              f"{exc})", file=sys.stderr)
+        return EXIT_USAGE
     with_ = f" with {args.mission}" if args.mission else " with the logged mission"
     print(f"replayed {rep.cycles} cycles of {args.log}{with_} ({rep.mission})")
     if rep.divergence is None:

@@ -108,3 +108,52 @@ def test_a_file_that_is_not_a_log_is_one_error(tmp_path: Path) -> None:
         read_log(bad)
     with pytest.raises(LogError):
         read_log(tmp_path / "missing.mcap")
+
+
+def test_a_log_whose_writer_was_killed_is_read_up_to_the_damage(
+    msn007: MissionBase, logged: Path, tmp_path: Path
+) -> None:
+    # A log never closed (the writer killed): its flushed chunks are on disk, and they are
+    # read; a 1 MiB chunk kept a killed serve's log empty, and a torn file read as nothing.
+    path = tmp_path / "killed.mcap"
+    log = CycleLog.open(path, msn007, source="test")
+    simulate_phased(msn007, to_sim_params(msn007), planner=log.planner, observers=[log])
+    log._stream.flush()  # what the process had written when it died: no close(), no summary
+    data = read_log(path)
+    assert data.truncated and "unfinished" in data.truncated
+    full = read_log(logged)
+    assert 0 < len(data.cycles) <= len(full.cycles) and data.cycles == full.cycles[
+        :len(data.cycles)]
+    assert len(data.cycles) > len(full.cycles) - 200  # at most a 64 KiB chunk lost
+    # a file cut mid-chunk: what comes before the cut
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(logged.read_bytes()[:60_000])
+    part = read_log(cut)
+    assert part.truncated and 0 < len(part.cycles) < len(full.cycles)
+    assert replay(part).identical  # what is there replays bit for bit
+
+
+def test_bad_records_in_a_valid_log_are_one_line_errors(
+    logged: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from mcap.writer import Writer
+
+    from cptbt.cli import main
+
+    full = read_log(logged)
+    path = tmp_path / "bad.mcap"
+    with path.open("wb") as f:
+        w = Writer(f)
+        w.start(profile="cptbt", library="test")
+        sid = w.register_schema(name="x", encoding="jsonschema", data=b"{}")
+        ids = {t: w.register_channel(topic=t, message_encoding="json", schema_id=sid)
+               for t in ("/cptbt/mission", "/cptbt/cycle")}
+        for topic, rec in (("/cptbt/mission", full.mission),
+                           ("/cptbt/cycle", {k: v for k, v in full.cycles[0].items()
+                                             if k != "inputs"})):  # a cycle without inputs
+            w.add_message(channel_id=ids[topic], log_time=0, data=json.dumps(rec).encode(),
+                          publish_time=0)
+        w.finish()
+    assert main(["replay", str(path)]) == 2  # was "internal error: KeyError", exit 1
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"cptbt: {path}: a record is not what cptbt writes (KeyError"), line
