@@ -203,6 +203,33 @@ class MissionBase(BaseModel):
         for i, e in enumerate(self.entries()):
             for key, why in e.contract.advise(e.params, area) if e.contract.advise else []:
                 out.append((("behaviours", i, e.family, key), why))
+        out += self._mission_a_advice()
+        return out
+
+    def _mission_a_advice(self) -> list[Problem]:
+        """Mission A settings under which the AMP never takes over, or never hands back."""
+        a = self.mission_a
+        if a is None:
+            return []
+        out: list[Problem] = []
+        last = len(a.waypoints) - 1
+        if a.amp_enable_waypoint == last and not a.loop:
+            out.append((("mission_a", "amp_enable_waypoint"), f"{last} is the last waypoint: "
+                        "Mission A ends on reaching it, before the AMP can take over"))
+        if a.amp_enable_s is not None and a.amp_enable_s >= a.duration_limit_s:
+            out.append((("mission_a", "amp_enable_s"), f"{a.amp_enable_s:g} s is not before "
+                        f"Mission A's end (duration_limit_s {a.duration_limit_s:g} s): the "
+                        "AMP never takes over"))
+        cycle = 1.0 / self.cycle_hz
+        if a.watchdog_s <= cycle:
+            out.append((("mission_a", "watchdog_s"), f"{a.watchdog_s:g} s is no longer than a "
+                        f"planning cycle ({cycle:g} s): the vehicle's watchdog ends every "
+                        "override between two commands"))
+        step = a.speed_mps * cycle
+        if a.capture_radius_m < 0.5 * step:
+            out.append((("mission_a", "capture_radius_m"), f"{a.capture_radius_m:g} m is less "
+                        f"than half the {step:g} m Mission A covers in a cycle: the vehicle can "
+                        "pass a waypoint, or the break-off point, without coming within it"))
         return out
 
     def problems(self) -> list[Problem]:

@@ -296,3 +296,21 @@ def test_a_non_finite_fix_neither_ends_the_override_nor_reaches_the_planner(bad:
     assert s.in_override and s.state is not None and s.state.x_m == 50
     step(s, link, VehicleState(math.nan, 50, 0, 0.0, 1.5, 3.0, "override", 0))
     assert s.in_override and s.t == 101.0
+
+
+@pytest.mark.parametrize(("settings", "key", "says"), [
+    ({"amp_enable_s": None, "amp_enable_waypoint": 2}, "amp_enable_waypoint",
+     "2 is the last waypoint"),
+    ({"amp_enable_s": 8000}, "amp_enable_s", "the AMP never takes over"),
+    ({"watchdog_s": 0.5}, "watchdog_s", "no longer than a planning cycle (1 s)"),
+    ({"capture_radius_m": 1e-9}, "capture_radius_m", "without coming within it"),
+])
+def test_mission_a_settings_under_which_the_amp_never_drives_are_warned_of(
+    settings: dict[str, object], key: str, says: str
+) -> None:
+    # each validated, and each ran to the end with the AMP never driving, or never home
+    assert mission().advisories() == []
+    ((loc, why),) = mission(**settings).advisories()
+    assert loc == ("mission_a", key) and says in why, why
+    if key == "amp_enable_waypoint":  # a looping Mission A comes round to it again
+        assert mission(**settings, loop="true").advisories() == []
