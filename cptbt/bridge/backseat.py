@@ -32,6 +32,7 @@ than :data:`SEQ_RESTART_GAP` is taken as the sender restarting.
 from __future__ import annotations
 
 import json
+import logging
 import math
 from collections import Counter
 from collections.abc import Iterable, Sequence
@@ -55,11 +56,16 @@ from cptbt.link import (
 VERSION = 1
 """The protocol version this module speaks."""
 
+log = logging.getLogger(__name__)
+
 MAX_DATAGRAM = 8192
 """Datagrams larger than this many bytes are ignored (and counted as ``oversized``)."""
 
 SEQ_RESTART_GAP = 1000
 """A ``seq`` this far below the last one means the sender restarted, not a late packet."""
+RESTART_RUN = 5
+"""This many navs in a row below the last one, each above the one before, also mean the sender
+restarted (its count from a small number)."""
 
 MODES: tuple[str, ...] = get_args(VehicleMode)
 END_REASONS = ("released", "watchdog", "mission_end")
@@ -229,7 +235,7 @@ class Decoder:
     Attributes:
         counts: ``received`` (datagrams), ``messages``, and one counter per reason a datagram or
             line was ignored (``oversized``, ``malformed``, ``version``, ``unknown_type``,
-            ``invalid``, ``late``).
+            ``invalid``, ``late``), and ``restarts`` (the vehicle's nav count restarted).
         last_problem: the latest reason text (for logs).
     """
 
@@ -237,11 +243,14 @@ class Decoder:
         self.counts: Counter[str] = Counter()
         self.last_problem = ""
         self._last_nav_seq: int | None = None
+        self._late_seq: int | None = None  # the latest nav taken as late, and ...
+        self._late_run = 0  # ... how many rising such in a row
 
     @property
     def ignored(self) -> int:
         """Lines or datagrams ignored, all reasons."""
-        return sum(v for k, v in self.counts.items() if k not in ("received", "messages"))
+        return sum(v for k, v in self.counts.items()
+                   if k not in ("received", "messages", "restarts"))
 
     def feed(self, datagram: bytes) -> list[InMessage | OutMessage | Heartbeat]:
         """The messages of one datagram, in order."""
@@ -268,7 +277,17 @@ class Decoder:
     def _fresh_nav(self, seq: int) -> bool:
         last = self._last_nav_seq
         if last is not None and last - SEQ_RESTART_GAP < seq <= last:
-            return False
+            # late, unless it is the RESTART_RUN-th of a rising run of such: a sender that
+            # restarted its count (all its navs were dropped as late until the old count came
+            # round again, and the AMP's clock froze); delayed packets do not make such runs
+            rising = self._late_seq is not None and seq > self._late_seq
+            self._late_run = self._late_run + 1 if rising else 1
+            self._late_seq = seq
+            if self._late_run < RESTART_RUN:
+                return False
+            self.counts["restarts"] += 1
+            log.warning("backseat: the vehicle's nav seq restarted (%d after %d)", seq, last)
+        self._late_seq, self._late_run = None, 0
         self._last_nav_seq = seq
         return True
 

@@ -110,6 +110,22 @@ def test_a_late_nav_is_dropped_and_a_restarted_sender_is_heard() -> None:
     assert d.feed(encode(restarted, 1)) == [restarted]
 
 
+def test_a_sender_restarting_its_count_near_the_last_one_is_heard_after_a_few() -> None:
+    # a seq restart less than SEQ_RESTART_GAP below the last: every nav was dropped as late
+    # (the AMP's clock froze, it never took over); a rising run of them is a restart
+    d = Decoder()
+    d.feed(encode(VehicleState(100.0, 0, 0, 0, 1), 500))
+    heard = [d.feed(encode(VehicleState(float(k), 0, 0, 0, 1), k)) for k in range(1, 8)]
+    assert [len(h) for h in heard] == [0, 0, 0, 0, 1, 1, 1]  # from the 5th of the run on
+    assert d.counts["late"] == 4 and d.counts["restarts"] == 1 and d.ignored == 4
+    # delayed datagrams scattered among fresh ones make no run
+    d = Decoder()
+    for k in range(100, 140):
+        d.feed(encode(VehicleState(float(k), 0, 0, 0, 1), k))
+        d.feed(encode(VehicleState(0.0, 0, 0, 0, 1), k - 3))  # late: each after a fresh one
+    assert d.counts["restarts"] == 0 and d.counts["late"] == 40
+
+
 def test_pack_keeps_lines_whole_and_under_the_limit() -> None:
     lines = [encode(ConcentrationSample(float(i), 0.5), i) for i in range(500)]
     datagrams = pack(lines)
