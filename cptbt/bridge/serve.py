@@ -170,7 +170,7 @@ def _lost(last_heard: float | None, now: float, wall0: float, loss_s: float,
     return "link_lost" if now - last_heard > loss_s else None
 
 
-_DETAIL = {"interrupted": "operator stop (Ctrl-C)", "link_lost": "vehicle link lost",
+_DETAIL = {"interrupted": "operator stop (Ctrl-C or SIGTERM)", "link_lost": "vehicle link lost",
            "error": "AMP internal error", "wall_limit": "wall-clock limit",
            "stopped": "stopped by the caller", "no_vehicle": "no vehicle heard"}
 
