@@ -8,6 +8,7 @@ from typing import Any
 
 from cptbt.cli.inspect_cmds import load
 from cptbt.logs import LogData, LogError, read_log
+from cptbt.mission import MissionBase
 from cptbt.replay import replay, story
 
 EXIT_USAGE = 2
@@ -44,6 +45,28 @@ def _read(path: str) -> LogData:
     return data
 
 
+def _replay_notes(data: LogData, other: MissionBase | None) -> list[str]:
+    """What makes a replay compare unlike things: other code than the log's, or another
+    mission whose OpArea, frame or cycle rate differ (the logged inputs are fed regardless)."""
+    from cptbt import __version__
+    from cptbt.replay import logged_mission
+
+    out = []
+    made = data.mission.get("cptbt_version")
+    if made and made != __version__:
+        out.append(f"the log was written by cptbt {made}, this is {__version__}")
+    if other is not None:
+        logged = logged_mission(data)
+        differ = [what for what, a, b in (
+            ("OpArea", logged.op_area, other.op_area), ("frame", logged.frame, other.frame),
+            ("cycle rate", logged.cycle_hz, other.cycle_hz)) if a != b]
+        if differ:
+            out.append(f"{', '.join(differ)} differ from the logged mission's: "
+                       "the logged inputs are fed to it as they are, so the comparison is of "
+                       "unlike missions")
+    return out
+
+
 def cmd_log_summary(args: argparse.Namespace) -> int:
     """Print a log's mission story: phases, behaviour changes, first detection, declaration."""
     try:
@@ -73,6 +96,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
         print(f"cptbt: {args.log}: holds no planning cycle: nothing to replay", file=sys.stderr)
         return EXIT_USAGE
     other = load(args.mission) if args.mission else None
+    for note in _replay_notes(data, other):
+        print(f"cptbt: note: {note}", file=sys.stderr)
     try:
         rep = replay(data, other)
     except LogError as exc:

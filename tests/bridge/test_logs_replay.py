@@ -157,3 +157,23 @@ def test_bad_records_in_a_valid_log_are_one_line_errors(
     assert main(["replay", str(path)]) == 2  # was "internal error: KeyError", exit 1
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith(f"cptbt: {path}: a record is not what cptbt writes (KeyError"), line
+
+
+def test_a_replay_with_an_unlike_mission_says_so(
+    logged: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # another OpArea, frame and rate: "612 of 612 commands differ" was all it said
+    from cptbt.cli import main
+
+    assert main(["replay", str(logged), "--mission",
+                 str(MISSIONS / "ab2001_infotaxis.yaml")]) == 0
+    (note,) = [ln for ln in capsys.readouterr().err.splitlines() if "note:" in ln]
+    assert note.startswith("cptbt: note: OpArea, frame, cycle rate differ from the logged "
+                           "mission's"), note
+    # another variant of the same mission: no note
+    variant = tmp_path / "v.yaml"
+    variant.write_text((MISSIONS / "tro2006_msn007.yaml").read_text(encoding="utf-8").replace(
+        "{variant: cloverleaf, d_leaf_m: 15, repeats: 3}", "{variant: three_point}"),
+        encoding="utf-8")
+    assert main(["replay", str(logged), "--mission", str(variant)]) == 0
+    assert "note:" not in capsys.readouterr().err
