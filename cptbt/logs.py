@@ -303,6 +303,15 @@ def _messages(stream: BinaryIO) -> Iterator[tuple[str, dict[str, Any]]]:
         yield channel.topic, json.loads(message.data)
 
 
+def _collect(data: LogData | None, topic: str, msg: dict[str, Any]) -> LogData | None:
+    """The log read so far with one more record: a mission record starts it afresh."""
+    if topic == "/cptbt/mission":
+        return LogData(msg)
+    if data is not None:
+        (data.cycles if topic == "/cptbt/cycle" else data.phases).append(msg)
+    return data
+
+
 def _salvage(raw: bytes) -> LogData | None:
     """The records of a log read in order up to where it is damaged or ends unfinished (a
     writer killed mid-run); None if not even its mission record can be read."""
@@ -317,13 +326,7 @@ def _salvage(raw: bytes) -> LogData | None:
             if isinstance(record, Channel):
                 topics[record.id] = record.topic
             elif isinstance(record, Message) and topics.get(record.channel_id) in TOPICS:
-                topic, msg = topics[record.channel_id], json.loads(record.data)
-                if topic == "/cptbt/mission":
-                    data = LogData(msg)
-                elif data is not None and topic == "/cptbt/cycle":
-                    data.cycles.append(msg)
-                elif data is not None:
-                    data.phases.append(msg)
+                data = _collect(data, topics[record.channel_id], json.loads(record.data))
     except Exception as exc:  # the torn or missing end
         why = f"it ends unfinished ({type(exc).__name__})"
     if data is not None:
@@ -344,12 +347,7 @@ def read_log(path: Path | str) -> LogData:
         raise LogError(f"{path}: {exc.strerror or exc}") from None
     try:
         for topic, msg in _messages(io.BytesIO(raw)):
-            if topic == "/cptbt/mission":
-                data = LogData(msg)
-            elif data is not None and topic == "/cptbt/cycle":
-                data.cycles.append(msg)
-            elif data is not None:
-                data.phases.append(msg)
+            data = _collect(data, topic, msg)
     except LogError:
         raise
     except Exception as exc:  # the mcap reader's errors are many and unexported

@@ -35,6 +35,13 @@ _BAD_RECORD = (KeyError, IndexError, ValueError, TypeError, AttributeError)
 """What reading a record that is not what cptbt writes raises (in a valid MCAP file)."""
 
 
+def _bad_record(path: str, exc: Exception) -> int:
+    """Say that a record of the log at ``path`` is not one cptbt writes; the exit status."""
+    print(f"cptbt: {path}: a record is not what cptbt writes ({type(exc).__name__}: {exc})",
+          file=sys.stderr)
+    return EXIT_USAGE
+
+
 def _read(path: str) -> LogData:
     """The log, with a warning when its writer never finished it (read up to the damage)."""
     data = read_log(path)
@@ -76,9 +83,7 @@ def cmd_log_summary(args: argparse.Namespace) -> int:
         print(f"cptbt: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except _BAD_RECORD as exc:
-        print(f"cptbt: {args.log}: a record is not what cptbt writes ({type(exc).__name__}: "
-              f"{exc})", file=sys.stderr)
-        return EXIT_USAGE
+        return _bad_record(args.log, exc)
     print("\n".join(lines))
     return 0
 
@@ -104,9 +109,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
         print(f"cptbt: {args.log}: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except _BAD_RECORD as exc:
-        print(f"cptbt: {args.log}: a record is not what cptbt writes ({type(exc).__name__}: "
-              f"{exc})", file=sys.stderr)
-        return EXIT_USAGE
+        return _bad_record(args.log, exc)
     with_ = f" with {args.mission}" if args.mission else " with the logged mission"
     print(f"replayed {rep.cycles} cycles of {args.log}{with_} ({rep.mission})")
     if rep.divergence is None:
