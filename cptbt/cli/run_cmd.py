@@ -205,12 +205,17 @@ def cmd_run(args: argparse.Namespace) -> int:
     seed = params.seed
     assert seed is not None, "to_sim_params always sets the seed"
     out = Path(args.out) if args.out else run_folder(mission, seed)
+    if getattr(args, "log", None) and Path(args.log).resolve() in {
+            (out / name).resolve() for name in ("summary.json", "trace.parquet",
+                                                "trace.csv", "trajectory.png")}:
+        raise UsageError(f"run: --log {args.log} is one of the files the run writes in {out}")
+    # the log first: a bad --log leaves no empty output folder behind
+    cycle_log = _open_log(args, mission, seed)  # a bad --log: UsageError, exit 2
     out.mkdir(parents=True, exist_ok=True)
     source = Point(*params.source_xy_m)
     sources = [source, *(Point(*xy) for xy in params.extra_sources_xy_m)]
     waypoints = None
     grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
-    cycle_log = _open_log(args, mission, seed)  # a bad --log: UsageError, exit 2
     if mission.mission_a is not None:  # the AMP as a guest inside the vehicle's Mission A
         try:
             phased, world, wall = simulate_phased(

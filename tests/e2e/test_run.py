@@ -123,3 +123,19 @@ def test_a_time_limit_during_the_search_for_more_sources_is_said_so(
     assert main(["run", str(path), "--out", str(tmp_path / "o"), "--no-figure"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[1] == "  timeout: the AMP's time limit came while it searched for more sources", out
+
+
+def test_a_log_path_among_the_run_outputs_or_unwritable_leaves_nothing_behind(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # --log X/summary.json --out X: the summary overwrote the log; a --log that could not be
+    # opened left an empty output folder
+    from cptbt.cli import main
+
+    msn = str(ROOT / "missions/tro2006_msn007.yaml")
+    out = tmp_path / "x"
+    assert main(["run", msn, "--out", str(out), "--log", str(out / "summary.json")]) == 2
+    assert "is one of the files the run writes" in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["run", msn, "--out", str(out), "--log", str(tmp_path)]) != 0  # a folder
+    assert not out.exists()
