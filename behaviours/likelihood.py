@@ -136,9 +136,10 @@ class LikelihoodMapDeclare(SourceDeclaration):
     there than ``max_sources`` allows, ``search_give_up_s`` bounds the search between
     declarations: that long after the latest declaration, withdrawn fly-by or detection no
     declared source explains (and with no check leg, visit or fly-by under way), the search
-    ends, ``declared_source``
-    is the latest point, and the vehicle heads home (``search_given_up`` in
-    ``declaration_report``; t3 is then when it gave up: the AMP was declaring until then).
+    ends, ``declared_source`` is the latest point, and the vehicle heads home
+    (``search_given_up`` in ``declaration_report``; t3 is then when it gave up: the AMP was
+    declaring until then). It ends so too when the declared sources' masks cover every cell
+    (``search_end`` says which).
     Without it, the vehicle searches on to the time limit: the map's mass left over settles
     where no evidence reaches (along the walls), and the vehicle patrols them; a source lying
     in a declared one's plume is never found (its detections are explained away: three seeds

@@ -94,13 +94,20 @@ Array = NDArray[np.float64]
 MAX_CELLS = 250_000
 """A finer grid is coarsened to this many cells (per-cycle cost grows with the cell count)."""
 
+
+def grid_cell_m(cell_m: float, area: OpArea) -> float:
+    """The cell size a map over ``area`` uses: ``cell_m``, coarsened to at most about
+    :data:`MAX_CELLS` cells."""
+    return max(cell_m, math.sqrt((area.xmax - area.xmin) * (area.ymax - area.ymin) / MAX_CELLS))
+
+
 def grid_advice(params: MapModelParams, area: OpArea) -> list[tuple[str, str]]:
     """A warning, ``(parameter, why)``, when ``cell_m`` would give more than :data:`MAX_CELLS`
     cells over the OpArea, so the grid is coarsened (:class:`SourceMap` does it unsaid)."""
-    w, h = area.xmax - area.xmin, area.ymax - area.ymin
-    cell = math.sqrt(w * h / MAX_CELLS)  # SourceMap's rule: the larger of the two
+    cell = grid_cell_m(params.cell_m, area)
     if cell <= params.cell_m:
         return []
+    w, h = area.xmax - area.xmin, area.ymax - area.ymin
     cells = math.ceil(w / params.cell_m) * math.ceil(h / params.cell_m)
     return [("cell_m", f"{params.cell_m:g} m: {cells} cells over the OpArea; the map is "
              f"coarsened to {cell:.3g} m cells (about {MAX_CELLS})")]
@@ -124,7 +131,7 @@ class SourceMap:
         self.model = model
         self.strong_concentration = strong_concentration
         w, h = area.xmax - area.xmin, area.ymax - area.ymin
-        cell = max(model.cell_m, math.sqrt(w * h / MAX_CELLS))
+        cell = grid_cell_m(model.cell_m, area)
         nx, ny = max(1, math.ceil(w / cell)), max(1, math.ceil(h / cell))
         self.xs: Array = np.asarray(area.xmin + (np.arange(nx) + 0.5) * (w / nx), dtype=float)
         self.ys: Array = np.asarray(area.ymin + (np.arange(ny) + 0.5) * (h / ny), dtype=float)
@@ -145,6 +152,9 @@ class SourceMap:
         self.explored = np.zeros(self._cx.size, dtype=bool)
         self._log = np.zeros(self._cx.size)
         self._excluded = np.zeros(self._cx.size, dtype=bool)
+        # every cell within mask_radius_m of a declared source: nowhere is left where another
+        # source could be (set where the mask changes, in explain(), not on every cycle)
+        self.exhausted = False
         self.chain = (MeanderChain(model.meander_bins, model.meander_memory_s)
                       if model.meander_memory_s is not None else None)
         self._alpha: Array | None = None  # P(z | history, cell), (bins, cells), columns sum to 1
@@ -176,12 +186,6 @@ class SourceMap:
         if not self.exhausted:  # every cell masked: nothing to normalise (nor to search)
             self._log -= self._log[~self._excluded].max()
         return True
-
-    @property
-    def exhausted(self) -> bool:
-        """Every cell lies within ``mask_radius_m`` of a declared source: nowhere is left
-        where another source could be."""
-        return not bool((~self._excluded).any())
 
     def _reset_meander(self) -> None:
         self._last_k = -1
@@ -239,6 +243,7 @@ class SourceMap:
         r2 = self.model.mask_radius_m**2
         for s in self.known:
             self._excluded |= (self._cx - s.x) ** 2 + (self._cy - s.y) ** 2 <= r2
+        self.exhausted = not bool((~self._excluded).any())
         self._log = np.zeros(self._cx.size)
         self._reset_meander()
         for obs in self._obs:
@@ -409,7 +414,7 @@ class SourceMap:
     # -- reading -------------------------------------------------------------------------
     def posterior(self) -> Array:
         """Cell probabilities (flat), summing to 1 over the cells not ruled out."""
-        post = np.exp(self._log - self._log[~self._excluded].max()) if (~self._excluded).any() \
+        post = np.exp(self._log - self._log[~self._excluded].max()) if not self.exhausted \
             else np.zeros_like(self._log)
         post[self._excluded] = 0.0
         total = post.sum()

@@ -45,7 +45,6 @@ class Outcome(StrEnum):
 
 
 WHY_ENDED = {
-    Outcome.TIMEOUT: "the AMP's time limit came with no declaration",
     Outcome.RELINQUISHED: f"the vehicle's estimated position was more than "
                           f"{RELINQUISH_OUTSIDE_M:g} m outside the OpArea, where the AMP gives "
                           "control back (TRO II; a navigation error counts as much as a real "
@@ -56,7 +55,8 @@ WHY_ENDED = {
     Outcome.ABORTED: "the AMP stopped driving and gave control back",
     Outcome.CONTACT_LOST: "contact, once made, was lost for good",
 }
-"""Why a run ended, for the outcomes that are not a declaration or an arrival."""
+"""Why a run ended, for the outcomes that are not a declaration, an arrival or a time-out
+(what a time-out came before depends on the run: ``cptbt run`` words it)."""
 
 
 _BY_TRIGGER = {

@@ -237,11 +237,16 @@ _SUCCESS = {"declaration": "success: declared within the radius (95% CI)",
             "maintain": "came within the radius (95% CI)"}
 
 
+def _several_sources(rows: Rows) -> bool:
+    """Whether some run's world has more than one true source."""
+    return any((r.get("sources_true") or 1) > 1 for r in rows)
+
+
 def success_label(rows: Rows) -> str:
     """What a success is in these runs, as the tables and the rate chart head it (several true
     sources: every one declared)."""
     criterion = _criterion(rows)
-    if criterion == "declaration" and any((r.get("sources_true") or 1) > 1 for r in rows):
+    if criterion == "declaration" and _several_sources(rows):
         return "success: every source declared within the radius (95% CI)"
     return _SUCCESS.get(criterion, "success (95% CI)")
 
@@ -264,7 +269,7 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
     # Several true sources: a run succeeds only when it finds every one, and a rule that can
     # declare one source alone fails every run with no false declaration and a small error;
     # how many sources were found says what the success rate does not.
-    multi = any((r.get("sources_true") or 1) > 1 for r in every)
+    multi = _several_sources(every)
     lines += ["## Per configuration", "",
               f"| configuration | runs | {success_label(every)} "
               + ("| sources found / true | " if multi else "| ")

@@ -195,16 +195,16 @@ def advisories(mission: MissionBase) -> list[Problem]:
     for i, e in enumerate(mission.entries()):
         if e.family != "declare_source":
             continue
-        most = int(getattr(e.params, "max_sources", 1))
+        several = hasattr(e.params, "max_sources")  # a variant that can declare more
+        most = int(e.params.max_sources) if several else 1  # type: ignore[attr-defined]
         if most < len(truth):
-            key = ("behaviours", i, e.family) + (("max_sources",)
-                                                  if hasattr(e.params, "max_sources") else ())
-            can = (f"max_sources {most}" if hasattr(e.params, "max_sources")
+            key = ("behaviours", i, e.family) + (("max_sources",) if several else ())
+            can = (f"max_sources {most}" if several
                    else f"the {e.variant} rule declares one source")
             out.append((key, f"{can}, but the world has {len(truth)} sources and a run "
                         "succeeds only when every one is found: no run can succeed"
-                        + ("" if hasattr(e.params, "max_sources") else
-                           " (the likelihood_map variant takes max_sources)")))
+                        + ("" if several else " (the likelihood_map variant takes "
+                           "max_sources)")))
     for j in range(1, len(truth)):
         near = min(range(j), key=lambda k: truth[k].distance_to(truth[j]))
         d = truth[near].distance_to(truth[j])

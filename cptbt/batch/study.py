@@ -173,6 +173,7 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         ValueError: a sweep path names nothing in the mission.
     """
     out: list[Config] = []
+    by_text: dict[str, Config] = {}  # a configuration by its mission text: twins are refused
     combos = itertools.product(*(s.values for s in sweeps)) if sweeps else [()]
     for i, combo in enumerate(combos):
         data = mission_to_data(mission)
@@ -211,12 +212,13 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
                                          EnvironmentParams)
                 raise _swept_error(located, source, lines, swept, sweeps)
         text = dump_mission(validated)
-        twin = next((c for c in out if c.mission_yaml == text), None)
+        twin = by_text.get(text)
         if twin is not None:  # 10 and 10.0, or a value twice: one configuration flown as two
             same = ", ".join(f"{k}={v}" for k, v in twin.coords.items())
             raise ValueError(f"sweep {swept} flies the same mission as {same}: give each "
                              "value once")
-        out.append(Config(i, coords, text))
+        by_text[text] = Config(i, coords, text)
+        out.append(by_text[text])
     return out
 
 

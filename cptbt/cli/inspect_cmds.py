@@ -18,7 +18,7 @@ from cptbt.loader import (
     parse_yaml,
     read_mission_text,
 )
-from cptbt.mission import Loc, MissionBase
+from cptbt.mission import Loc, MissionBase, dotted
 from cptbt.planner import Planner
 from cptbt.registry import default_registry
 from cptbt.schema import mission_json_schema
@@ -108,9 +108,6 @@ def warn_swept(mission: MissionBase, configs: list[Config], source: str,
     lines (``FILE:LINE: path: warning:``) if some configuration keeps them (not those every
     sweep overrides; ``own=False``: none, they were printed already), then each swept
     configuration's others, one ``FILE [sweep ...]: path: warning:`` line each."""
-    from cptbt.loader import loads_mission
-    from cptbt.mission import dotted
-
     env = environment_model()
     shown = advisories_of(mission)
     if not configs:

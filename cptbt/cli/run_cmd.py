@@ -88,6 +88,17 @@ def upflow_check_line(s: dict[str, Any]) -> str | None:
                "flow direction)"
                if s["unchecked"] else ""))
 
+
+def why_ended(s: dict[str, Any]) -> str | None:
+    """Why a run ended without a declaration or an arrival (None when it did not)."""
+    if s["outcome"] == "timeout":  # what the limit came before
+        return "the AMP's time limit came " + (
+            "before the vehicle reached the source" if s["criterion"] == "arrival" else
+            "while it searched for more sources" if any(s["declared_sources"]) else
+            "with no declaration")
+    return WHY_ENDED.get(s["outcome"])  # a StrEnum: its members are their strings
+
+
 def add_parsers(sub: Any) -> None:
     """Register ``run``."""
     p = sub.add_parser("run", help="simulate a mission", description=cmd_run.__doc__)
@@ -253,12 +264,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"{mission.name}, seed {seed}: {s['outcome']} ({verdict_text(s)}); the AMP "
               f"ended at {fmt(s['sim_time_s'], ' s')} "
               f"({wall:.2f} s wall, {s['sim_time_s'] / max(wall, 1e-9):.0f}x real time)")
-        why = WHY_ENDED.get(s["outcome"])  # a StrEnum: its members are their strings
-        if s["outcome"] == "timeout":  # what the limit came before
-            why = "the AMP's time limit came " + (
-                "before the vehicle reached the source" if s["criterion"] == "arrival" else
-                "while it searched for more sources" if any(s["declared_sources"]) else
-                "with no declaration")
+        why = why_ended(s)
         if why:
             print(f"  {s['outcome']}: {why}")
         points = [q for q in s["declared_sources"] if q]
