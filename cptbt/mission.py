@@ -57,9 +57,6 @@ Place = Literal["start", "home", "source"]
 Loc = tuple[str | int, ...]
 Problem = tuple[Loc, str]
 
-SUCCESS_DISC_SHARE = 1 / 3
-"""A success radius whose disc covers more of the OpArea than this is warned of."""
-
 
 class OpAreaSpec(BaseModel):
     """The OpArea as written: four corners in the mission's frame."""
@@ -181,56 +178,10 @@ class MissionBase(BaseModel):
     # -- cross-field rules -------------------------------------------------------------------
     def advisories(self) -> list[Problem]:
         """What is valid but likely not what the mission means, as (key path, message): the
-        CLI prints each as a warning at its key's line. Empty for a mission with problems."""
-        try:
-            area = self.op_area_geometry()
-        except ValueError:
-            return []
-        out: list[Problem] = []
-        r = self.evaluation.success_radius_m
-        share = area.disc_share(r)
-        if share > SUCCESS_DISC_SHARE:
-            given = ("evaluation" in self.model_fields_set
-                     and "success_radius_m" in self.evaluation.model_fields_set)
-            what = ("a declaration drawn at random would count as a success" if
-                    self.evaluation.criterion == "declaration" else
-                    "a vehicle at a random point would count as having reached the source")
-            out.append((("evaluation", "success_radius_m"),
-                        f"{r:g} m{'' if given else ' (the default)'}: a disc this size covers "
-                        f"{100 * share:.0f}% of the OpArea, so {what} about that often (a "
-                        f"radius of {area.disc_radius(SUCCESS_DISC_SHARE):.1f} m covers a "
-                        "third)"))
-        for i, e in enumerate(self.entries()):
-            for key, why in e.contract.advise(e.params, area) if e.contract.advise else []:
-                out.append((("behaviours", i, e.family, key), why))
-        out += self._mission_a_advice()
-        return out
+        CLI prints each as a warning at its key's line (:mod:`cptbt.advice`)."""
+        from cptbt.advice import advisories
 
-    def _mission_a_advice(self) -> list[Problem]:
-        """Mission A settings under which the AMP never takes over, or never hands back."""
-        a = self.mission_a
-        if a is None:
-            return []
-        out: list[Problem] = []
-        last = len(a.waypoints) - 1
-        if a.amp_enable_waypoint == last and not a.loop:
-            out.append((("mission_a", "amp_enable_waypoint"), f"{last} is the last waypoint: "
-                        "Mission A ends on reaching it, before the AMP can take over"))
-        if a.amp_enable_s is not None and a.amp_enable_s >= a.duration_limit_s:
-            out.append((("mission_a", "amp_enable_s"), f"{a.amp_enable_s:g} s is not before "
-                        f"Mission A's end (duration_limit_s {a.duration_limit_s:g} s): the "
-                        "AMP never takes over"))
-        cycle = 1.0 / self.cycle_hz
-        if a.watchdog_s <= cycle:
-            out.append((("mission_a", "watchdog_s"), f"{a.watchdog_s:g} s is no longer than a "
-                        f"planning cycle ({cycle:g} s): the vehicle's watchdog ends every "
-                        "override between two commands"))
-        step = a.speed_mps * cycle
-        if a.capture_radius_m < 0.5 * step:
-            out.append((("mission_a", "capture_radius_m"), f"{a.capture_radius_m:g} m is less "
-                        f"than half the {step:g} m Mission A covers in a cycle: the vehicle can "
-                        "pass a waypoint, or the break-off point, without coming within it"))
-        return out
+        return advisories(self)
 
     def problems(self) -> list[Problem]:
         """Every cross-field problem, as (key path, message); empty for a sound mission."""

@@ -1,0 +1,70 @@
+"""Warnings for missions that are valid but likely not what their author means.
+
+:meth:`cptbt.mission.MissionBase.advisories` returns them as (key path, message) and the CLI
+prints each at its key's line, exit 0: a success radius whose disc covers much of a small
+OpArea, each behaviour's own (:attr:`cptbt.node.Contract.advise`), and Mission A settings under
+which the AMP never takes over or never gets back. Those only a simulated world shows are in
+:func:`cptbt.batch.scenario.advisories`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from cptbt.mission import MissionBase, Problem
+
+SUCCESS_DISC_SHARE = 1 / 3
+"""A success radius whose disc covers more of the OpArea than this is warned of."""
+
+
+def advisories(mission: MissionBase) -> list[Problem]:
+    """The mission's warnings, as (key path, message); empty for a mission with problems."""
+    try:
+        area = mission.op_area_geometry()
+    except ValueError:
+        return []
+    out: list[Problem] = []
+    r = mission.evaluation.success_radius_m
+    share = area.disc_share(r)
+    if share > SUCCESS_DISC_SHARE:
+        given = ("evaluation" in mission.model_fields_set
+                 and "success_radius_m" in mission.evaluation.model_fields_set)
+        what = ("a declaration drawn at random would count as a success" if
+                mission.evaluation.criterion == "declaration" else
+                "a vehicle at a random point would count as having reached the source")
+        out.append((("evaluation", "success_radius_m"),
+                    f"{r:g} m{'' if given else ' (the default)'}: a disc this size covers "
+                    f"{100 * share:.0f}% of the OpArea, so {what} about that often (a "
+                    f"radius of {area.disc_radius(SUCCESS_DISC_SHARE):.1f} m covers a third)"))
+    for i, e in enumerate(mission.entries()):
+        for key, why in e.contract.advise(e.params, area) if e.contract.advise else []:
+            out.append((("behaviours", i, e.family, key), why))
+    return out + mission_a_advice(mission)
+
+
+def mission_a_advice(mission: MissionBase) -> list[Problem]:
+    """Mission A settings under which the AMP never takes over, or never hands back."""
+    a = mission.mission_a
+    if a is None:
+        return []
+    out: list[Problem] = []
+    last = len(a.waypoints) - 1
+    if a.amp_enable_waypoint == last and not a.loop:
+        out.append((("mission_a", "amp_enable_waypoint"), f"{last} is the last waypoint: "
+                    "Mission A ends on reaching it, before the AMP can take over"))
+    if a.amp_enable_s is not None and a.amp_enable_s >= a.duration_limit_s:
+        out.append((("mission_a", "amp_enable_s"), f"{a.amp_enable_s:g} s is not before "
+                    f"Mission A's end (duration_limit_s {a.duration_limit_s:g} s): the AMP "
+                    "never takes over"))
+    cycle = 1.0 / mission.cycle_hz
+    if a.watchdog_s <= cycle:
+        out.append((("mission_a", "watchdog_s"), f"{a.watchdog_s:g} s is no longer than a "
+                    f"planning cycle ({cycle:g} s): the vehicle's watchdog ends every override "
+                    "between two commands"))
+    step = a.speed_mps * cycle
+    if a.capture_radius_m < 0.5 * step:
+        out.append((("mission_a", "capture_radius_m"), f"{a.capture_radius_m:g} m is less than "
+                    f"half the {step:g} m Mission A covers in a cycle: the vehicle can pass a "
+                    "waypoint, or the break-off point, without coming within it"))
+    return out
