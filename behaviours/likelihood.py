@@ -33,6 +33,7 @@ from cptbt.behaviours.likelihood_params import (
 )
 from cptbt.behaviours.map_guided import MapGuidedReacquire, best_target
 from cptbt.behaviours.source_map import SOURCE_MAP_KEY, SourceMap
+from cptbt.behaviours.sweep import CrossFlowSweep
 from cptbt.behaviours.upflow_check import UpflowCheck, room
 from cptbt.node import BehaviourParams, Contract
 from cptbt.registry import BehaviourSpec
@@ -187,7 +188,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         "route_index", "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn",
         "withdrawn_at", "superseded", "superseded_at", "upflow",
         "detections_used", "at_declaration", "search_target", "search_t",
-        "evidence_t", "evidence_count", "search_given_up", "search_end",
+        "evidence_t", "evidence_count", "search_given_up", "search_end", "sweep",
     )
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
@@ -218,6 +219,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.at_declaration: SourceBelief | None = None
         self.search_target: Point | None = None
         self.search_t = -math.inf
+        self.sweep = CrossFlowSweep(self.params.search_sweep_spacing_m or math.inf,
+                                    self.params.search_sweep_inset_m, self.params.arrive_radius_m)
         # the latest declaration, withdrawal or unexplained detection (search_give_up_s's clock)
         self.evidence_t = -math.inf
         self.evidence_count = 0  # the map's unexplained detections at evidence_t
@@ -335,6 +338,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.groups = (*self.groups, (source,))
         self.detections_used = self.map.unexplained
         self.upflow.restart(self.map.t)
+        self.sweep.reset()
         self.evidence_t = self.map.t
         self.at_declaration = self.map.belief()
         self.bb.set("source_map_at_declaration", self.at_declaration)
@@ -414,6 +418,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.withdrawn_at = (*self.withdrawn_at, self.candidate)
             self.detections_used = self.map.unexplained
             self.upflow.restart(self.map.t)
+            self.sweep.reset()
             self.evidence_t = self.map.t  # the search restarts: so does its give-up clock
             self.candidate, self.route = None, ()
         self._report()
@@ -436,14 +441,27 @@ class LikelihoodMapDeclare(SourceDeclaration):
 
     def _search_on(self, p: Percept) -> Command | None:
         """Between declarations: while the latest detection is one a declared source explains,
-        steer for the most probable unexplored cell of the map rather than let maintain-plume
-        follow a known plume back to its source; an unexplained detection hands control back."""
+        search on rather than let maintain-plume follow a known plume back to its source; an
+        unexplained detection hands control back.
+
+        Until a detection no declared source explains is made, the map holds nothing but
+        misses and the known plumes since the declaration, and its most probable cell is
+        merely the one no miss reached (the walls' cells): the vehicle sweeps the OpArea
+        across the flow (:class:`~cptbt.behaviours.sweep.CrossFlowSweep`,
+        ``search_sweep_spacing_m``), which crosses the plume of any source up-flow of each leg.
+        Once one is made (and contact with it lost), it steers for the map's most probable
+        unexplored cell, as it does without a sweep."""
         assert self.map is not None
         last = p.last_detection
         here = p.pose.point
         if last is not None and not self._explained(last.point):
             self.search_target = None
             return None
+        if (self.params.search_sweep_spacing_m is not None and p.flow is not None
+                and self.context is not None and self.map.unexplained == self.detections_used):
+            waypoint = self.sweep.target(here, p.flow.toward_deg, self.context.op_area)
+            if waypoint is not None:
+                return self.command(here.bearing_to(waypoint))
         if (self.search_target is None or p.t - self.search_t >= self.params.search_replan_s
                 or here.distance_to(self.search_target) <= self.params.arrive_radius_m):
             self.search_target = best_target(self.map.belief(), here, explored_weight=0.1,
@@ -455,8 +473,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
 
     def _explained(self, at: Point) -> bool:
         assert self.map is not None
-        return any(self.map.expected_detection(s, at.x, at.y) >= self.params.explained_prob
-                   for s in self.explainers)
+        return self.map.explained_by_known(at.x, at.y)
 
 
 BEHAVIOURS = [

@@ -293,6 +293,16 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=20.0, gt=0, description="Between declarations, the search target is re-chosen "
         "at least this often, s"
     )
+    search_sweep_spacing_m: float | None = Field(
+        default=40.0, gt=0, description="Between declarations, until a detection no declared "
+        "source explains: the vehicle sweeps the OpArea in legs across the flow this far apart "
+        "along it (None: it heads for the map's most probable unexplored cell, which before "
+        "such a detection lies along the walls), m"
+    )
+    search_sweep_inset_m: float = Field(
+        default=10.0, ge=0, description="The sweep's legs end this far inside the OpArea's "
+        "walls (its turns then stay inside), m"
+    )
     search_give_up_s: float | None = Field(
         default=None, gt=0, description="With max_sources > 1: the search for another source "
         "ends after this long without a detection no declared source explains, and the "

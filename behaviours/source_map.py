@@ -180,7 +180,7 @@ class SourceMap:
         obs = (self._n - 1, x, y, level)
         self._obs.append(obs)
         self.detections += int(p.detected)
-        if p.detected and not self.explained_by_known(self._n - 1, x, y):
+        if p.detected and not self.explained_by_known(x, y):
             self.unexplained += 1
         self._fold(obs)
         if not self.exhausted:  # every cell masked: nothing to normalise (nor to search)
@@ -272,8 +272,10 @@ class SourceMap:
         return shape * np.exp(-ap / self.model.detection_decay_m)
 
     def _shape_and_range(self, k: int, x: float | Array, y: float | Array, sx: Array,
-                         sy: Array) -> tuple[Array, Array]:
-        """The kernel's shape without the decay with range, and the range ``max(a, 0)``."""
+                         sy: Array, bounded: bool = True) -> tuple[Array, Array]:
+        """The kernel's shape without the decay with range, and the range ``max(a, 0)``;
+        ``bounded`` False: not cut off at ``max_range_m`` (the back-trajectory goes on straight
+        beyond it)."""
         m = self.model
         a, c = self._geometry(k, x, y, sx, sy)
         ap = np.maximum(a, 0.0)
@@ -282,6 +284,8 @@ class SourceMap:
         expo = -c * c / (2.0 * var)
         behind = m.behind_spread_m if m.behind_spread_m is not None else m.near_spread_m
         expo -= np.where(a < 0, a * a / (2.0 * behind**2), 0.0)
+        if not bounded:
+            return np.exp(expo), ap
         return np.where(a <= m.max_range_m, np.exp(expo), 0.0), ap
 
     def _geometry(self, k: int, x: float | Array, y: float | Array, sx: Array,
@@ -379,12 +383,21 @@ class SourceMap:
 
     def _miss_known(self, k: int, x: float, y: float) -> float:
         """``1 - q``: the chance that no declared source's plume causes a detection at
-        ``(x, y)`` on cycle ``k`` (1 with none declared)."""
+        ``(x, y)`` on cycle ``k`` (1 with none declared).
+
+        A declared source's plume is not cut off at ``max_range_m``: that bound limits how far
+        back a detection is traced to *hypothesise* a source, but a known source farther
+        up-flow along the back-trajectory still explains it. Cut off, the known plume's far
+        detections (in an OpArea longer than the range) were unexplained and piled the map's
+        mass at the far end of their range, beside the known plume, where the search went on
+        looking and handing back to plume tracking for the rest of the mission."""
         if not self.known:
             return 1.0
         kx = np.array([s.x for s in self.known])
         ky = np.array([s.y for s in self.known])
-        return float(np.prod(1.0 - self.kernel(k, x, y, kx, ky)))
+        shape, ap = self._shape_and_range(k, x, y, kx, ky, bounded=False)
+        q = self.model.detection_prob * shape * np.exp(-ap / self.model.detection_decay_m)
+        return float(np.prod(1.0 - q))
 
     def _detection_like(self, k: int, level: int, k_cells: Array, strong_cells: Array | None,
                         miss_known: float) -> tuple[Array, float]:
@@ -399,11 +412,13 @@ class SourceMap:
         eps = self.false_alarm(k)
         return 1.0 - (1.0 - eps) * (1.0 - (k_cells - strong_cells)) * miss_known, eps
 
-    def explained_by_known(self, k: int, x: float, y: float) -> bool:
+    def explained_by_known(self, x: float, y: float, k: int | None = None) -> bool:
         """Whether the declared sources' plumes would cause a detection at ``(x, y)`` on cycle
-        ``k`` with at least ``explained_prob``."""
-        return bool(self.known) and \
-            self._miss_known(k, x, y) <= 1.0 - self.model.explained_prob
+        ``k`` (None: the latest) with at least ``explained_prob``."""
+        if not self.known or self._n == 0:
+            return False
+        k = self._n - 1 if k is None else k
+        return self._miss_known(k, x, y) <= 1.0 - self.model.explained_prob
 
     def expected_detection(self, source: Point, x: float, y: float) -> float:
         """``K(source; (x, y))`` on the latest cycle: how likely a detection there is now."""
