@@ -19,7 +19,13 @@ from cptbt.behaviours.map_guided import best_target
 from cptbt.behaviours.source_map import MapModelParams, SourceMap
 from cptbt.behaviours.sweep import CrossFlowSweep
 from cptbt.frames import OpArea
-from cptbt.testing import ScriptedPerception, TreeHarness, fresh_namespace, make_context, square_area
+from cptbt.testing import (
+    ScriptedPerception,
+    TreeHarness,
+    fresh_namespace,
+    make_context,
+    square_area,
+)
 from cptbt.types import Point
 
 AREA = square_area(100.0)  # x 0..100, y -50..50
