@@ -47,8 +47,8 @@ class CrossFlowSweep:
         if self.waypoint is None or not self.across:
             # a cross leg: the first toward the side with more room, then alternating
             sides = (-self.side, self.side) if self.waypoint is not None else \
-                sorted((1.0, -1.0), key=lambda s: -room(area, here, -s * fy, s * fx,
-                                                         self.inset_m))
+                tuple(sorted((1.0, -1.0), key=lambda s: -room(area, here, -s * fy, s * fx,
+                                                               self.inset_m)))
             nxt = self._leg(here, fx, fy, sides, across=True, area=area)
         else:
             nxt = self._leg(here, fx, fy, (self.step, -self.step), across=False, area=area)
