@@ -17,8 +17,8 @@
     Per configuration: declared %, false declarations (error > 15 m), error median / 95th /
     max, mean T_D share of the mission time to declaration (T_D / t3, TRO Table III), mean D3
     (TRO Table IV) and its paired change against ``upflow_cluster``, fly-bys and withdrawals.
-(b) ``missions/two_sources.yaml``, ``N2`` realisations: both sources declared within 15 m,
-    false declarations.
+(b) ``missions/two_sources.yaml`` (or ``--two-mission``), ``N2`` realisations: both sources
+    declared within 15 m, false declarations.
 (c) Per-cycle cost of the map (``watch``): TRO MSN007 at 1 Hz (~7 100 cells) and the AB 100 ×
     100 m area at 10 Hz (2 500 cells), mean and 99th percentile.
 
@@ -29,6 +29,9 @@ Usage::
     python benchmarks/likelihood_map.py --runs 40 --two-runs 20 --seed 77 --configs "" \
         --extra "tau 60|declare_source.variant=likelihood_map,declare_source.meander_memory_s=60" \
         --two-set "declare_source.meander_memory_s=60"                 # tuning a setting
+    python benchmarks/likelihood_map.py --runs 0 --two-runs 40 --cost-seeds 0 \
+        --two-mission missions/two_sources_wide.yaml \
+        --out benchmarks/results/likelihood_map_wide.md                 # a wide OpArea
 
 The table is printed and written as Markdown to ``--out`` (default
 ``benchmarks/results/likelihood_map.md``); per-run rows go next to it as JSON lines.
@@ -265,6 +268,9 @@ def main() -> int:
                     "declare_source.meander_memory_s=60'; values are read as YAML")
     ap.add_argument("--two-set", default="", metavar="KEY=VALUE,...",
                     help="settings for the two-source runs (for tuning; values read as YAML)")
+    ap.add_argument("--two-mission", default=str(TWO), metavar="PATH",
+                    help="the several-source mission of (b) (default: "
+                    "missions/two_sources.yaml)")
     args = ap.parse_args()
     names = [c for c in args.configs.split(",") if c]
     for extra in args.extra:
@@ -291,7 +297,7 @@ def main() -> int:
         if r < args.runs:
             jobs += [(name, str(MSN007), CONFIGS[name], r, args.seed) for name in names]
         if r < args.two_runs:
-            jobs.append(("two_sources", str(TWO), two_settings, r, args.seed))
+            jobs.append(("two_sources", args.two_mission, two_settings, r, args.seed))
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     rows_path = out.with_suffix(".jsonl")
@@ -328,7 +334,10 @@ def main() -> int:
          + f"` on {machine}")
         + ("" if args.from_rows else f": {len(jobs)} runs in {wall / 60:.1f} min")
         + f". Root seed {args.seed}; replicate r flies the same plume, vehicle noise and start in "
-        "every rule (paired).",
+        "every rule (paired)."
+        + ("" if args.from_rows or Path(args.two_mission).resolve() == TWO.resolve() else
+           f" The several-source mission of (b): `{args.two_mission}`"
+           + (f", with {args.two_set}" if args.two_set else "") + "."),
         "",
         "## (a) TRO MSN007, the AMP alone (`cptbt.batch.engine.simulate`)",
         "",
