@@ -189,6 +189,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         "withdrawn_at", "superseded", "superseded_at", "upflow",
         "detections_used", "at_declaration", "search_target", "search_t",
         "evidence_t", "evidence_count", "search_given_up", "search_end", "sweep",
+        "sweeping",
     )
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
@@ -219,6 +220,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.at_declaration: SourceBelief | None = None
         self.search_target: Point | None = None
         self.search_t = -math.inf
+        self.sweeping = False  # the last search-on cycle flew the sweep
         self.sweep = CrossFlowSweep(self.params.search_sweep_spacing_m or math.inf,
                                     self.params.search_sweep_inset_m, self.params.arrive_radius_m)
         # the latest declaration, withdrawal or unexplained detection (search_give_up_s's clock)
@@ -450,18 +452,26 @@ class LikelihoodMapDeclare(SourceDeclaration):
         across the flow (:class:`~cptbt.behaviours.sweep.CrossFlowSweep`,
         ``search_sweep_spacing_m``), which crosses the plume of any source up-flow of each leg.
         Once one is made (and contact with it lost), it steers for the map's most probable
-        unexplored cell, as it does without a sweep."""
+        unexplored cell, as it does without a sweep, for ``search_map_s``; that long after
+        the latest such detection (a false alarm, a plume lost for good) it sweeps again, from
+        where it is."""
         assert self.map is not None
         last = p.last_detection
         here = p.pose.point
         if last is not None and not self._explained(last.point):
             self.search_target = None
             return None
+        fresh = (self.map.unexplained != self.detections_used
+                 and p.t - self.evidence_t < self.params.search_map_s)
         if (self.params.search_sweep_spacing_m is not None and p.flow is not None
-                and self.context is not None and self.map.unexplained == self.detections_used):
+                and self.context is not None and not fresh):
+            if not self.sweeping:
+                self.sweep.reset()
             waypoint = self.sweep.target(here, p.flow.toward_deg, self.context.op_area)
+            self.sweeping = waypoint is not None
             if waypoint is not None:
                 return self.command(here.bearing_to(waypoint))
+        self.sweeping = False
         if (self.search_target is None or p.t - self.search_t >= self.params.search_replan_s
                 or here.distance_to(self.search_target) <= self.params.arrive_radius_m):
             self.search_target = best_target(self.map.belief(), here, explored_weight=0.1,

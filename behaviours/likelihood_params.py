@@ -299,6 +299,12 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "along it (None: it heads for the map's most probable unexplored cell, which before "
         "such a detection lies along the walls), m"
     )
+    search_map_s: float = Field(
+        default=300.0, gt=0, description="With the sweep: after a detection no declared source "
+        "explains, the search between declarations heads for the map's most probable "
+        "unexplored cell for this long, then sweeps again (one false alarm does not end the "
+        "sweep), s"
+    )
     search_sweep_inset_m: float = Field(
         default=10.0, ge=0, description="The sweep's legs end this far inside the OpArea's "
         "walls (its turns then stay inside), m"

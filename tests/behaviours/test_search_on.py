@@ -153,3 +153,15 @@ def test_once_plume_no_declared_source_explains_was_seen_the_map_leads() -> None
     assert goal is not None
     assert tick.command.heading_deg == pytest.approx(Point(60.0, 0.0).bearing_to(goal))
     assert math.hypot(goal.x - 80.0, goal.y + 40.0) < 60.0  # up-flow of that plume
+
+
+def test_the_sweep_resumes_from_where_it_is_once_the_maps_lead_is_old() -> None:
+    node, harness, script = searching(search_map_s=50.0)
+    assert harness.tick(script.step(30, 80.0, -40.0, conc=1.0)).command is None  # a false alarm?
+    for t in range(31, 80):  # the map leads (the known plume crossed now and then)
+        tick = harness.tick(script.step(t, 60.0, 0.0, conc=float(t % 5 == 0)))
+        assert not node.sweeping
+    tick = harness.tick(script.step(81, 60.0, 10.0))  # 51 s after it: across the flow again
+    assert node.sweeping and tick.command is not None
+    assert abs(abs(tick.command.heading_deg) - 90.0) < 1e-6
+    assert node.sweep.waypoint is not None and node.sweep.waypoint.x == pytest.approx(60.0)
