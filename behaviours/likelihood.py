@@ -29,7 +29,7 @@ from cptbt.behaviours.declare_source import SourceDeclaration
 from cptbt.behaviours.likelihood_params import (
     LikelihoodMapParams,
     advise,
-    radius_fits_grid,
+    settings_fit,
 )
 from cptbt.behaviours.map_guided import MapGuidedReacquire, best_target
 from cptbt.behaviours.source_map import SOURCE_MAP_KEY, SourceMap
@@ -182,7 +182,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
     variant: ClassVar[str] = "likelihood_map"
     Params: ClassVar[type[BehaviourParams]] = LikelihoodMapParams
     params: LikelihoodMapParams
-    contract: ClassVar[Contract] = Contract(check=radius_fits_grid, advise=advise)
+    contract: ClassVar[Contract] = Contract(check=settings_fit, advise=advise)
     persistent_state: ClassVar[tuple[str, ...]] = (
         "declared", "heading_home", "map", "groups", "candidate", "route",
         "route_index", "flyby_seen", "flyby_expected", "flyby_t0", "flybys", "withdrawn",

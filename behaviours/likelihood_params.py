@@ -353,9 +353,14 @@ def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
     return out
 
 
-def radius_fits_grid(params: BehaviourParams, perception: Any) -> str | None:
+def settings_fit(params: BehaviourParams, perception: Any) -> str | None:
+    """Why the settings cannot work together (the contract's check), or None."""
     assert isinstance(params, LikelihoodMapParams)
     if params.radius_m < 0.5 * params.cell_m:
         return (f"radius_m {params.radius_m:g} is smaller than half a cell (cell_m "
                 f"{params.cell_m:g}): the declaration mass would be one cell's")
+    spacing = params.search_sweep_spacing_m
+    if spacing is not None and spacing <= params.arrive_radius_m:
+        return (f"search_sweep_spacing_m {spacing:g} is not longer than arrive_radius_m "
+                f"{params.arrive_radius_m:g}: the sweep could never step along the flow")
     return None
