@@ -257,6 +257,19 @@ def _criterion(rows: Rows) -> str:
     return found.pop() if len(found) == 1 else "declaration"
 
 
+def errors_note(rows: Rows) -> str | None:
+    """What the study's runs that stopped on an error (a bug; outcome ``error``, see
+    :func:`cptbt.batch.worker.failed_rows`) were, in one sentence; None when there are none."""
+    bad = [r for r in rows if r.get("outcome") == "error"]
+    if not bad:
+        return None
+    first = bad[0]
+    return (f"{len(bad)} of {len(rows)} runs stopped on an error (outcome 'error', counted as "
+            f"failures; they are not flown again on resume): the first, "
+            f"{first.get('configuration') or first.get('config')} replicate "
+            f"{first.get('replicate')} start {first.get('start')}: {first.get('error')}")
+
+
 def _tables(groups: dict[str, Rows], path: Path) -> Path:
     every = [r for rows in groups.values() for r in rows]
     criterion = _criterion(every)
@@ -264,6 +277,9 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
     # A study whose runs cannot declare has no false declarations to count: "—", not 0.
     declares = criterion == "declaration" or any(r.get("t3") is not None for r in every)
     lines = ["# Study results", ""]
+    failed = errors_note(every)
+    if failed:
+        lines += [f"**{failed}**", ""]
     if is_maintain_study(every):  # what such a study measures comes first
         lines += [*maintain_table(groups), ""]
     # Several true sources: a run succeeds only when it finds every one, and a rule that can

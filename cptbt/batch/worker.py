@@ -9,6 +9,7 @@ import signal
 import sys
 import threading
 import time
+import traceback
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -176,9 +177,42 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
     if task.code and task.code != code_identity():
         raise BatchError(f"a worker runs cptbt {code_identity()} but the study needs "
                          f"{task.code}: install the same cptbt on every worker")
-    mission, runs, source, wall = fly_group(task)
+    try:
+        mission, runs, source, wall = fly_group(task)
+    except Exception as exc:  # a bug met by one group: recorded, and the study goes on
+        return failed_rows(task, exc)
     return [row_of(task, k, run, mission, source, wall / len(runs))
             for k, run in enumerate(runs)]
+
+
+ERROR_OUTCOME = "error"
+"""The outcome of a run whose group stopped on an error (a bug): see :func:`failed_rows`."""
+
+
+def failed_rows(task: GroupTask, exc: Exception) -> list[dict[str, Any]]:
+    """The rows of a group that stopped on an error: one per start, outcome ``error``, not a
+    success, the error and where it was raised in ``error``, and what names the run (as
+    :func:`row_of`), so that the rest of the study goes on, the tables count them as failures
+    and ``cptbt batch`` says so at the end. Such a group is not flown again on resume: the same
+    seed meets the same error (``cptbt run --from`` flies one alone, with its traceback)."""
+    where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+    text = f"{type(exc).__name__}: {exc}".splitlines()[0][:300]
+    if where is not None:
+        text += f" (at {Path(where.filename).name}:{where.lineno})"
+    try:
+        name = loads_mission(task.mission_yaml, f"group {task.key}", default_registry(),
+                             Environment).name
+    except Exception:  # the mission itself would not load: name the configuration alone
+        name = str(task.config)
+    rows = []
+    for k, i in enumerate(task.ids):
+        x, y = task.starts[k]
+        rows.append({"config": task.config, **task.coords, "replicate": task.replicate,
+                     "start": i, "outcome": ERROR_OUTCOME, "success": False, "error": text,
+                     "start_x": x, "start_y": y, "start_mode": task.start_mode,
+                     "seed_key": f"{task.root_seed}/{task.replicate}/{i}",
+                     "configuration": config_label(task.coords, name)})
+    return rows
 
 
 def row_of(task: GroupTask, k: int, run: VehicleRun, mission: MissionBase, source: Point,

@@ -352,6 +352,8 @@ def refly(args: argparse.Namespace) -> int:
     again = row_of(task, 0, run, mission, source, wall)
     diff = sorted(k for k, v in again.items() if k in row and k not in COMPARED_AWAY
                   and not _same(v, row[k]))
+    if row.get("outcome") == "error":  # the study's row stopped on an error; this one did not
+        diff = ["outcome"]
     out = Path(args.out) if args.out else fresh_folder(
         Path("runs") / f"{mission.name}-row{args.row}-{task.key}")
     out.mkdir(parents=True, exist_ok=True)
@@ -370,6 +372,8 @@ def refly(args: argparse.Namespace) -> int:
                           flow_deg=to_sim_params(mission).flow.mean_dir_deg)
     if not args.quiet:
         same = "the same as the study's row, bit for bit" if not diff else (
+            f"where the study's row stopped on an error ({row.get('error')})"
+            if row.get("outcome") == "error" else
             f"DIFFERENT from the study's row in {', '.join(diff)}")
         print(f"row {args.row} of {results}{f' ({label})' if label else ''} flown again: "
               f"{summary['outcome']}, {same}")
