@@ -141,8 +141,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
     (``search_given_up`` in ``declaration_report``; t3 is then when it gave up: the AMP was
     declaring until then). It ends so too when the declared sources' masks cover every cell
     (``search_end`` says which).
-    Without it, the vehicle searches on to the time limit: the map's mass left over settles
-    where no evidence reaches (along the walls), and the vehicle patrols them; a source lying
+    Without it, the vehicle searches on to the time limit (sweeping the OpArea across the flow
+    while nothing unexplained is seen: :meth:`_search_on`); a source lying
     in a declared one's plume is never found (its detections are explained away: three seeds
     of the two-source mission with a third source 110 m down-flow of one, in its plume).
     A declaration whose plume
