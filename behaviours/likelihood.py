@@ -444,27 +444,29 @@ class LikelihoodMapDeclare(SourceDeclaration):
     def _search_on(self, p: Percept) -> Command | None:
         """Between declarations: while the latest detection is one a declared source explains,
         search on rather than let maintain-plume follow a known plume back to its source; an
-        unexplained detection hands control back.
+        unexplained detection hands control back (to maintain-plume, reacquire, find-plume)
+        until ``search_map_s`` after it with the sweep, for good without.
 
         Until a detection no declared source explains is made, the map holds nothing but
         misses and the known plumes since the declaration, and its most probable cell is
         merely the one no miss reached (the walls' cells): the vehicle sweeps the OpArea
         across the flow (:class:`~cptbt.behaviours.sweep.CrossFlowSweep`,
         ``search_sweep_spacing_m``), which crosses the plume of any source up-flow of each leg.
-        Once one is made (and contact with it lost), it steers for the map's most probable
-        unexplored cell, as it does without a sweep, for ``search_map_s``; that long after
-        the latest such detection (a false alarm, a plume lost for good) it sweeps again, from
-        where it is."""
+        Once one is made, the plume behaviours lead, and across a known plume the vehicle
+        steers for the map's most probable unexplored cell (as it does without a sweep), for
+        ``search_map_s``; that long after the latest such detection (a false alarm, a plume
+        lost for good) it sweeps again, from where it is."""
         assert self.map is not None
         last = p.last_detection
         here = p.pose.point
-        if last is not None and not self._explained(last.point):
+        sweeps = self.params.search_sweep_spacing_m is not None
+        if last is not None and not self._explained(last.point) and (
+                not sweeps or p.t - last.t < self.params.search_map_s):
             self.search_target = None
             return None
         fresh = (self.map.unexplained != self.detections_used
                  and p.t - self.evidence_t < self.params.search_map_s)
-        if (self.params.search_sweep_spacing_m is not None and p.flow is not None
-                and self.context is not None and not fresh):
+        if sweeps and p.flow is not None and self.context is not None and not fresh:
             if not self.sweeping:
                 self.sweep.reset()
             waypoint = self.sweep.target(here, p.flow.toward_deg, self.context.op_area)

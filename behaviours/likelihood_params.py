@@ -300,10 +300,10 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "such a detection lies along the walls), m"
     )
     search_map_s: float = Field(
-        default=300.0, gt=0, description="With the sweep: after a detection no declared source "
-        "explains, the search between declarations heads for the map's most probable "
-        "unexplored cell for this long, then sweeps again (one false alarm does not end the "
-        "sweep), s"
+        default=300.0, gt=0, description="With the sweep: for this long after a detection no "
+        "declared source explains, the plume behaviours lead (maintain, reacquire, find; across "
+        "a known plume, the map's most probable unexplored cell); then the sweep resumes from "
+        "where the vehicle is (a false alarm or a plume lost for good does not end it), s"
     )
     search_sweep_inset_m: float = Field(
         default=10.0, ge=0, description="The sweep's legs end this far inside the OpArea's "
@@ -350,6 +350,37 @@ def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
     if params.search_give_up_s is not None and params.max_sources == 1:
         out.append(("search_give_up_s", "has no effect with max_sources 1 (it bounds the "
                     "search for a further source)"))
+    if params.max_sources > 1:
+        out += _sweep_advice(params, area)
+    return out
+
+
+TURN_RADIUS_M = 7.5
+"""REMUS's turning radius (TRO II): what the sweep's spacing and inset are judged against."""
+
+
+def _sweep_advice(params: LikelihoodMapParams, area: OpArea) -> list[tuple[str, str]]:
+    """The search sweep's settings unlikely to be meant: a spacing shorter than a turn (the
+    vehicle circles each lane's end), an inset shorter than a turn's radius (the turns cross the
+    walls and safety takes over), an inset leaving no lane (no sweep at all)."""
+    out: list[tuple[str, str]] = []
+    spacing = params.search_sweep_spacing_m
+    if spacing is None:
+        return out
+    if spacing < 2 * TURN_RADIUS_M:
+        out.append(("search_sweep_spacing_m", f"{spacing:g} m is shorter than a turn across "
+                    f"({2 * TURN_RADIUS_M:g} m for REMUS): the vehicle circles each lane's end "
+                    "instead of stepping to the next lane"))
+    inset = params.search_sweep_inset_m
+    if inset < TURN_RADIUS_M:
+        out.append(("search_sweep_inset_m", f"{inset:g} m is less than a turn's radius "
+                    f"({TURN_RADIUS_M:g} m for REMUS): the turns at the lanes' ends cross the "
+                    "walls, where safety takes over"))
+    room = min(area.xmax - area.xmin, area.ymax - area.ymin) - 2 * inset
+    if room <= params.arrive_radius_m:
+        out.append(("search_sweep_inset_m", f"{inset:g} m from every wall leaves no room for "
+                    "a sweep in this OpArea: the search between declarations heads for the "
+                    "map's most probable cell instead (along the walls, before any plume)"))
     return out
 
 
@@ -360,7 +391,7 @@ def settings_fit(params: BehaviourParams, perception: Any) -> str | None:
         return (f"radius_m {params.radius_m:g} is smaller than half a cell (cell_m "
                 f"{params.cell_m:g}): the declaration mass would be one cell's")
     spacing = params.search_sweep_spacing_m
-    if spacing is not None and spacing <= params.arrive_radius_m:
+    if params.max_sources > 1 and spacing is not None and spacing <= params.arrive_radius_m:
         return (f"search_sweep_spacing_m {spacing:g} is not longer than arrive_radius_m "
                 f"{params.arrive_radius_m:g}: the sweep could never step along the flow")
     return None

@@ -387,16 +387,20 @@ class SourceMap:
 
         A declared source's plume is not cut off at ``max_range_m``: that bound limits how far
         back a detection is traced to *hypothesise* a source, but a known source farther
-        up-flow along the back-trajectory still explains it. Cut off, the known plume's far
-        detections (in an OpArea longer than the range) were unexplained and piled the map's
-        mass at the far end of their range, beside the known plume, where the search went on
-        looking and handing back to plume tracking for the rest of the mission."""
+        up-flow along the back-trajectory still explains it, and beyond that range with the
+        chance it has at the range (the decay with range goes no further: with the declaration's
+        defaults the chance fell below ``explained_prob`` ~400 m down-flow even on the plume's
+        axis). Cut off, the known plume's far detections (in an OpArea longer than the range)
+        were unexplained and piled the map's mass at the far end of their range, beside the
+        known plume, where the search went on looking and handing back to plume tracking for the
+        rest of the mission."""
         if not self.known:
             return 1.0
         kx = np.array([s.x for s in self.known])
         ky = np.array([s.y for s in self.known])
+        m = self.model
         shape, ap = self._shape_and_range(k, x, y, kx, ky, bounded=False)
-        q = self.model.detection_prob * shape * np.exp(-ap / self.model.detection_decay_m)
+        q = m.detection_prob * shape * np.exp(-np.minimum(ap, m.max_range_m) / m.detection_decay_m)
         return float(np.prod(1.0 - q))
 
     def _detection_like(self, k: int, level: int, k_cells: Array, strong_cells: Array | None,

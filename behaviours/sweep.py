@@ -2,16 +2,26 @@
 points anywhere.
 
 A plume runs down-flow of its source, so a leg flown straight across the flow, wall to wall,
-crosses the plume of every source up-flow of it. :class:`CrossFlowSweep` flies such legs,
-stepping ``spacing_m`` along the flow between them (down-flow first, reversing at the walls),
-each planned on the flow estimate of the moment, and keeps ``inset_m`` inside the walls (the
-turns then stay inside, where safety leaves the vehicle alone).
+crosses the plume of every source up-flow of it. :class:`CrossFlowSweep` lays *lanes* across the
+flow, ``spacing_m`` apart along it, in a frame fixed when the sweep starts (where the vehicle is,
+the flow estimate of that moment): in any flow direction, oblique to the OpArea or not, each
+lane is the part of a line across the flow inside the OpArea shrunk by ``inset_m``, and the
+vehicle flies one lane end to end, then to the near end of the next, lane after lane down-flow;
+at the down-flow end of the OpArea it goes on up-flow of the first lane, and when no lane is
+left either way the sweep starts again from where the vehicle is. Every waypoint lies inside the
+shrunk OpArea, which is convex, so the path between two does too (the turns at the ends stay
+inside when ``inset_m`` is at least the vehicle's turning radius).
+
+Readings chosen: the frame is not turned with the flow estimate during a sweep (an estimate
+wandering by 10-20 degrees moved a 500-m leg re-planned from it by 90-170 m along the flow and
+swept the same water again); a lane still crosses a plume whose flow has turned that much.
 """
 
 from __future__ import annotations
 
+import math
+
 from cptbt.angles import unit
-from cptbt.behaviours.upflow_check import room
 from cptbt.frames import OpArea
 from cptbt.types import Point
 
@@ -20,57 +30,112 @@ class CrossFlowSweep:
     """The waypoints of a cross-flow sweep, one at a time (:meth:`target`).
 
     Args:
-        spacing_m: how far along the flow one cross leg lies from the last.
-        inset_m: the legs' ends are kept this far inside the walls.
+        spacing_m: how far along the flow one lane lies from the next.
+        inset_m: the lanes' ends are kept this far inside the walls (limited to half the
+            OpArea's width on each axis, as :meth:`~cptbt.frames.OpArea.clamp`).
         arrive_m: a waypoint counts as reached within this.
     """
 
     def __init__(self, spacing_m: float, inset_m: float, arrive_m: float) -> None:
         self.spacing_m, self.inset_m, self.arrive_m = spacing_m, inset_m, arrive_m
         self.waypoint: Point | None = None
-        self.across = False  # the waypoint ends a leg across the flow (else a step along it)
-        self.side = 1.0  # which way across the flow the last cross leg went
-        self.step = 1.0  # +1: the next step goes down-flow, -1: up-flow
-        self.legs = 0  # cross legs started
+        self.origin: Point | None = None  # the frame: where the sweep started
+        self.flow = (1.0, 0.0)  # and the flow's unit vector then
+        self.lane = 0.0  # the lane under way: its distance down-flow of the origin
+        self.side = 1.0  # the end of the lane the vehicle flies to (+1: the +cross end)
+        self.across = False  # the waypoint is the far end of a lane (else its near end)
+        self.step = 1.0  # +1: the next lane is down-flow; -1: up-flow
+        self.swept = (0.0, 0.0)  # the lanes flown span this, along the flow
+        self.legs = 0  # lanes flown (started)
 
     def reset(self) -> None:
-        """Start again from wherever the vehicle is (a declaration, a contact in between)."""
-        self.waypoint = None
+        """Start again from wherever the vehicle is next asked for (a declaration, the end of
+        a spell of heading for the map): a new frame, down-flow first."""
+        self.waypoint = self.origin = None
 
     def target(self, here: Point, flow_deg: float, area: OpArea) -> Point | None:
-        """The waypoint to fly to from ``here`` (the flow toward ``flow_deg``); the next once the
-        present one is reached. None when the OpArea, less the inset, leaves no room to move
-        in any of the four directions."""
+        """The waypoint to fly to from ``here`` (the flow toward ``flow_deg`` if a new sweep
+        starts); the next once the present one is reached. None when the shrunk OpArea leaves
+        no lane longer than the arrival radius anywhere along the flow."""
         if self.waypoint is not None and here.distance_to(self.waypoint) > self.arrive_m:
             return self.waypoint
-        fx, fy = unit(flow_deg)
-        if self.waypoint is None or not self.across:
-            # a cross leg: the first toward the side with more room, then alternating
-            sides = (-self.side, self.side) if self.waypoint is not None else \
-                tuple(sorted((1.0, -1.0), key=lambda s: -room(area, here, -s * fy, s * fx,
-                                                               self.inset_m)))
-            nxt = self._leg(here, fx, fy, sides, across=True, area=area)
-        else:
-            nxt = self._leg(here, fx, fy, (self.step, -self.step), across=False, area=area)
-        if nxt is None:  # boxed in: try the other kind of move before giving up
-            nxt = self._leg(here, fx, fy, (1.0, -1.0), across=not self.across, area=area)
+        if self.origin is None or self.waypoint is None:
+            nxt = self._start(here, flow_deg, area)
+        elif not self.across:  # at a lane's near end: fly it to the far end
+            self.side = -self.side
+            nxt = self._end(area, self.lane, self.side)
+            self.across, self.legs = True, self.legs + 1
+        else:  # at a lane's far end: on to the near end of the next lane
+            nxt = self._next_lane(area)
+            if nxt is None:  # none left either way: sweep again from here
+                nxt = self._start(here, flow_deg, area)
         self.waypoint = nxt
         return nxt
 
-    def _leg(self, here: Point, fx: float, fy: float, signs: tuple[float, ...], across: bool,
-             area: OpArea) -> Point | None:
-        """The end of the first move, in the given senses, that has room to go farther than
-        the arrival radius: across the flow to the wall, or ``spacing_m`` along it."""
-        for s in signs:
-            dx, dy = (-s * fy, s * fx) if across else (s * fx, s * fy)
-            free = room(area, here, dx, dy, self.inset_m)
-            length = free if across else min(self.spacing_m, free)
-            if length > self.arrive_m:
-                self.across = across
-                if across:
-                    self.side = s
-                    self.legs += 1
-                else:
-                    self.step = s
-                return Point(here.x + length * dx, here.y + length * dy)
+    # -- the lanes -----------------------------------------------------------------------
+    def _start(self, here: Point, flow_deg: float, area: OpArea) -> Point | None:
+        """A new frame at ``here``: fly the lane through it toward its longer half, or go to
+        the nearest lane if none passes through it (``here`` in the inset's margin)."""
+        self.origin, self.flow, self.step = here, unit(flow_deg), 1.0
+        reach = math.hypot(area.xmax - area.xmin, area.ymax - area.ymin)
+        for k in range(int(reach / self.spacing_m) + 2) if math.isfinite(self.spacing_m) \
+                else range(1):
+            for lane in ((0.0,) if k == 0 else (k * self.spacing_m, -k * self.spacing_m)):
+                span = self._span(area, lane)
+                if span is None:
+                    continue
+                lo, hi = span
+                self.lane, self.swept = lane, (lane, lane)
+                if k == 0:  # on the lane: fly it toward its longer half
+                    self.side = 1.0 if hi >= -lo else -1.0
+                    self.across, self.legs = True, self.legs + 1
+                else:  # to the lane's nearer end first
+                    self.side = 1.0 if abs(hi) <= abs(lo) else -1.0
+                    self.across = False
+                return self._end(area, lane, self.side)
+        self.origin = None
         return None
+
+    def _next_lane(self, area: OpArea) -> Point | None:
+        """Move to the next lane not yet flown, down-flow while there is one, then up-flow of
+        the first; its near end (the side the vehicle is on), or None if none is left."""
+        lo, hi = self.swept
+        for step in (self.step, -self.step):
+            lane = hi + self.spacing_m if step > 0 else lo - self.spacing_m
+            if self._span(area, lane) is not None:
+                self.step, self.lane = step, lane
+                self.swept = (min(lo, lane), max(hi, lane))
+                self.across = False
+                return self._end(area, lane, self.side)
+        return None
+
+    def _span(self, area: OpArea, lane: float) -> tuple[float, float] | None:
+        """The lane's extent across the flow inside the shrunk OpArea, as signed distances
+        from its point on the origin's flow line; None if not longer than the arrival radius."""
+        assert self.origin is not None
+        fx, fy = self.flow
+        nx, ny = -fy, fx  # across the flow
+        px, py = self.origin.x + lane * fx, self.origin.y + lane * fy
+        ix = min(self.inset_m, 0.5 * (area.xmax - area.xmin))
+        iy = min(self.inset_m, 0.5 * (area.ymax - area.ymin))
+        lo, hi = -math.inf, math.inf
+        for p, n, a, b in ((px, nx, area.xmin + ix, area.xmax - ix),
+                           (py, ny, area.ymin + iy, area.ymax - iy)):
+            if abs(n) < 1e-12:
+                if not a - 1e-9 <= p <= b + 1e-9:
+                    return None
+                continue
+            s1, s2 = (a - p) / n, (b - p) / n
+            lo, hi = max(lo, min(s1, s2)), min(hi, max(s1, s2))
+        if hi - lo <= self.arrive_m:
+            return None
+        return lo, hi
+
+    def _end(self, area: OpArea, lane: float, side: float) -> Point:
+        """The lane's end on ``side`` (+1: the end toward ``(-fy, fx)``, -1: the other)."""
+        assert self.origin is not None
+        span = self._span(area, lane)
+        assert span is not None
+        s = span[1] if side > 0 else span[0]
+        fx, fy = self.flow
+        return Point(self.origin.x + lane * fx - s * fy, self.origin.y + lane * fy + s * fx)

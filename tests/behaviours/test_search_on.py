@@ -9,6 +9,8 @@ something has; a declared source's plume is explained beyond the map's range.
 from __future__ import annotations
 
 import math
+from itertools import pairwise
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +20,7 @@ from cptbt.behaviours.likelihood import LikelihoodMapDeclare, LikelihoodMapParam
 from cptbt.behaviours.map_guided import best_target
 from cptbt.behaviours.source_map import MapModelParams, SourceMap
 from cptbt.behaviours.sweep import CrossFlowSweep
+from cptbt.cli import main
 from cptbt.frames import OpArea
 from cptbt.testing import (
     ScriptedPerception,
@@ -28,6 +31,7 @@ from cptbt.testing import (
 )
 from cptbt.types import Point
 
+ROOT = Path(__file__).resolve().parents[2]
 AREA = square_area(100.0)  # x 0..100, y -50..50
 
 
@@ -43,21 +47,22 @@ def waypoints(sweep: CrossFlowSweep, start: Point, flow_deg: float, area: OpArea
     return out
 
 
-def test_the_sweep_crosses_the_flow_wall_to_wall_stepping_down_flow_then_back() -> None:
+def test_the_sweep_flies_lanes_across_the_flow_down_flow_then_up_flow_of_the_first() -> None:
     sweep = CrossFlowSweep(spacing_m=30.0, inset_m=10.0, arrive_m=3.0)
-    got = waypoints(sweep, Point(40.0, 20.0), 0.0, AREA, 8)  # flow toward +x
+    got = waypoints(sweep, Point(40.0, 20.0), 0.0, AREA, 9)  # flow toward +x
     expected = [
-        (40, -40),   # across, to the side with more room (10 m inside the wall)
-        (70, -40),   # 30 m down-flow
-        (70, 40),    # across, the other way
-        (90, 40),    # down-flow: only 20 m of room left
-        (90, -40),
-        (60, -40),   # no room down-flow: steps back up-flow
-        (60, 40),
-        (30, 40),
+        (40, -40),   # the lane through the start, toward its longer half (10 m inside the wall)
+        (70, -40),   # the next lane, 30 m down-flow: its near end
+        (70, 40),    # flown across
+        (10, 40),    # no lane 30 m farther (x = 100 is outside the inset): up-flow of the first
+        (10, -40),
+        (10, 40),    # none left either way: a new sweep from here, down-flow first
+        (40, 40),
+        (40, -40),
+        (70, -40),
     ]
     assert [(round(p.x), round(p.y)) for p in got] == expected
-    assert sweep.legs == 4
+    assert sweep.legs == 5
 
 
 def test_a_waypoint_not_yet_reached_is_kept() -> None:
@@ -67,23 +72,34 @@ def test_a_waypoint_not_yet_reached_is_kept() -> None:
     assert sweep.target(Point(40.0, -38.0), 0.0, AREA) != first  # within 3 m: the next
 
 
-@pytest.mark.parametrize("flow_deg", [0.0, 35.0, -120.0, 90.0, 200.0])
-def test_legs_run_across_the_flow_and_stay_inside_the_inset(flow_deg: float) -> None:
+@pytest.mark.parametrize("flow_deg", [0.0, 5.0, 20.0, 45.0, 135.0, -70.0, 90.0, 200.0])
+@pytest.mark.parametrize("area", [OpArea(-127.0, 127.0, -56.0, 56.0),
+                                  OpArea(-400.0, 400.0, -250.0, 250.0)])
+def test_in_any_flow_the_lanes_advance_a_spacing_at_a_time_inside_the_inset(
+        flow_deg: float, area: OpArea) -> None:
+    # A review found the first sweep stalling in an oblique flow: its step along the flow ran
+    # into the wall where a leg had ended, was cut short or reversed, and reversed again.
     sweep = CrossFlowSweep(spacing_m=25.0, inset_m=10.0, arrive_m=3.0)
-    area = OpArea(-127.0, 127.0, -56.0, 56.0)
-    here = Point(20.0, 5.0)
+    start = Point(-60.0, -30.0)
+    here = start
     fx, fy = unit(flow_deg)
-    for nxt in waypoints(sweep, here, flow_deg, area, 20):
-        assert area.xmin + 10 - 1e-9 <= nxt.x <= area.xmax - 10 + 1e-9
-        assert area.ymin + 10 - 1e-9 <= nxt.y <= area.ymax - 10 + 1e-9
-        dx, dy = nxt.x - here.x, nxt.y - here.y
-        along = dx * fx + dy * fy
-        across = -dx * fy + dy * fx
-        # each move is either straight across the flow or straight along it, never both
-        assert min(abs(along), abs(across)) < 1e-6
-        assert abs(along) <= 25.0 + 1e-6
+    lanes: list[float] = []
+    for _ in range(40):
+        nxt = sweep.target(here, flow_deg, area)
+        assert nxt is not None
+        assert area.xmin + 10 - 1e-6 <= nxt.x <= area.xmax - 10 + 1e-6
+        assert area.ymin + 10 - 1e-6 <= nxt.y <= area.ymax - 10 + 1e-6
+        if sweep.across:  # a lane flown: straight across the flow
+            assert abs((nxt.x - here.x) * fx + (nxt.y - here.y) * fy) < 1e-6
+        lanes.append((nxt.x - start.x) * fx + (nxt.y - start.y) * fy)
         here = nxt
-    assert sweep.legs == 10
+        if sweep.origin != start:  # a new sweep began: stop reading lanes
+            break
+    distinct = sorted({round(a, 6) for a in lanes})
+    assert len(distinct) >= 3  # the sweep moves on along the flow...
+    assert all(abs(b - a - 25.0) < 1e-6 for a, b in pairwise(distinct))  # lane by lane
+    downflow = [round(a, 6) for a in lanes if a >= -1e-6]
+    assert downflow == sorted(downflow)  # down-flow first, never back over a lane flown
 
 
 def test_an_oparea_the_inset_leaves_no_room_in_gives_no_waypoint() -> None:
@@ -165,3 +181,56 @@ def test_the_sweep_resumes_from_where_it_is_once_the_maps_lead_is_old() -> None:
     assert node.sweeping and tick.command is not None
     assert abs(abs(tick.command.heading_deg) - 90.0) < 1e-6
     assert node.sweep.waypoint is not None and node.sweep.waypoint.x == pytest.approx(60.0)
+
+
+def test_a_false_alarm_hands_over_to_the_plume_behaviours_only_for_a_while() -> None:
+    node, harness, script = searching(search_map_s=100.0)
+    assert harness.tick(script.step(30, 80.0, -40.0, conc=1.0)).command is None  # plume?
+    for t in range(31, 130):  # nothing more: reacquire and find-plume lead
+        assert harness.tick(script.step(t, 80.0, -40.0)).command is None
+    tick = harness.tick(script.step(131, 80.0, -40.0))  # 101 s on: the sweep again
+    assert tick.command is not None and node.sweeping
+    assert abs(abs(tick.command.heading_deg) - 90.0) < 1e-6
+
+
+def test_the_declarations_own_model_explains_a_known_plume_far_down_flow() -> None:
+    # With the declaration's defaults (detection chance falling over 150 m) a known plume's
+    # chance fell below explained_prob ~400 m down-flow even on its axis: beyond max_range_m
+    # it keeps the chance it has there.
+    area = OpArea(0.0, 700.0, -100.0, 100.0)
+    m = SourceMap(area, LikelihoodMapParams())
+    script = ScriptedPerception(area, flow=(0.2, 0.0))
+    for t in range(30):
+        m.observe(script.step(t, 699.0, 99.0))
+    m.explain((Point(20.0, 0.0),))
+    for x in (100.0, 300.0, 500.0, 680.0):
+        assert m.explained_by_known(x, 0.0), x
+    assert not m.explained_by_known(500.0, 90.0)
+
+
+@pytest.mark.parametrize(("setting", "says"), [
+    ("search_sweep_spacing_m: 5", "shorter than a turn across"),
+    ("search_sweep_inset_m: 0", "less than a turn's radius"),
+    ("search_sweep_inset_m: 100000", "leaves no room for a sweep"),
+])
+def test_sweep_settings_unlikely_meant_are_warned_of(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], setting: str, says: str) -> None:
+    text = (ROOT / "missions/two_sources.yaml").read_text(encoding="utf-8")
+    mission = tmp_path / "m.yaml"
+    mission.write_text(text.replace("max_sources: 2}", f"max_sources: 2, {setting}}}"),
+                       encoding="utf-8")
+    assert main(["validate", str(mission)]) == 0
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert f"declare_source.{setting.split(':')[0]}: warning: " in line and says in line
+
+
+def test_a_large_arrival_radius_is_no_error_with_one_source(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # the sweep's spacing is checked against it only where a sweep can fly (max_sources > 1)
+    text = (ROOT / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8")
+    old = "declare_source: {variant: upflow_cluster, recent_points: 6, epsilon_m: 4}"
+    assert old in text
+    mission = tmp_path / "m.yaml"
+    mission.write_text(text.replace(old, "declare_source: {variant: likelihood_map, "
+                                         "arrive_radius_m: 50}"), encoding="utf-8")
+    assert main(["validate", str(mission)]) == 0, capsys.readouterr().err
