@@ -339,10 +339,8 @@ def main() -> int:
            f" The several-source mission of (b): `{args.two_mission}`"
            + (f", with {args.two_set}" if args.two_set else "") + "."),
         "",
-        "## (a) TRO MSN007, the AMP alone (`cptbt.batch.engine.simulate`)",
-        "",
-        *table_msn007(rows, args.runs),
-        "",
+        *(["## (a) TRO MSN007, the AMP alone (`cptbt.batch.engine.simulate`)", "",
+           *table_msn007(rows, args.runs), ""] if args.runs else []),
         "## (b) Two sources",
         "",
         *table_two(rows),
