@@ -27,6 +27,7 @@ from py_trees.common import Access
 from cptbt.angles import unit
 from cptbt.behaviours.declare_source import SourceDeclaration
 from cptbt.behaviours.likelihood_params import (
+    TURN_RADIUS_M,
     LikelihoodMapParams,
     advise,
     settings_fit,
@@ -222,7 +223,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.search_t = -math.inf
         self.sweeping = False  # the last search-on cycle flew the sweep
         self.sweep = CrossFlowSweep(self.params.search_sweep_spacing_m or math.inf,
-                                    self.params.search_sweep_inset_m, self.params.arrive_radius_m)
+                                    self.params.search_sweep_inset_m, self.params.arrive_radius_m,
+                                    min_lane_m=2 * TURN_RADIUS_M)
         # the latest declaration, withdrawal or unexplained detection (search_give_up_s's clock)
         self.evidence_t = -math.inf
         self.evidence_count = 0  # the map's unexplained detections at evidence_t
@@ -462,7 +464,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         sweeps = self.params.search_sweep_spacing_m is not None
         if last is not None and not self._explained(last.point) and (
                 not sweeps or p.t - last.t < self.params.search_map_s):
-            self.search_target = None
+            self.search_target, self.sweeping = None, False  # the sweep resumes from anew
             return None
         fresh = (self.map.unexplained != self.detections_used
                  and p.t - self.evidence_t < self.params.search_map_s)

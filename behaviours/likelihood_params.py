@@ -377,10 +377,12 @@ def _sweep_advice(params: LikelihoodMapParams, area: OpArea) -> list[tuple[str, 
                     f"({TURN_RADIUS_M:g} m for REMUS): the turns at the lanes' ends cross the "
                     "walls, where safety takes over"))
     room = min(area.xmax - area.xmin, area.ymax - area.ymin) - 2 * inset
-    if room <= params.arrive_radius_m:
-        out.append(("search_sweep_inset_m", f"{inset:g} m from every wall leaves no room for "
-                    "a sweep in this OpArea: the search between declarations heads for the "
-                    "map's most probable cell instead (along the walls, before any plume)"))
+    if room <= 2 * TURN_RADIUS_M:
+        out.append(("search_sweep_inset_m", f"{inset:g} m from every wall leaves "
+                    f"{max(room, 0.0):g} m across the OpArea's narrow side: lanes no longer "
+                    f"than a turn ({2 * TURN_RADIUS_M:g} m for REMUS) are not flown, so in some "
+                    "flows there is no sweep and the search heads for the map's most probable "
+                    "cell instead (along the walls, before any plume)"))
     return out
 
 

@@ -8,9 +8,13 @@ the flow estimate of that moment): in any flow direction, oblique to the OpArea 
 lane is the part of a line across the flow inside the OpArea shrunk by ``inset_m``, and the
 vehicle flies one lane end to end, then to the near end of the next, lane after lane down-flow;
 at the down-flow end of the OpArea it goes on up-flow of the first lane, and when no lane is
-left either way the sweep starts again from where the vehicle is. Every waypoint lies inside the
-shrunk OpArea, which is convex, so the path between two does too (the turns at the ends stay
-inside when ``inset_m`` is at least the vehicle's turning radius).
+left either way the sweep starts again from where the vehicle is, its lanes half-way between
+the last pass's. Every waypoint lies inside the shrunk OpArea, which is convex, so the straight
+path between two does too; the turn at a lane's end swings up to about a turn's diameter
+beyond it, so with an inset of 10 m and REMUS's 7.5-m turning radius it can cross the wall by a
+few metres (measured: up to 7 m in an oblique flow), where safety takes over. Lanes no longer
+than ``min_lane_m`` (a turn's diameter: the vehicle could only circle their ends) are not
+flown.
 
 Readings chosen: the frame is not turned with the flow estimate during a sweep (an estimate
 wandering by 10-20 degrees moved a 500-m leg re-planned from it by 90-170 m along the flow and
@@ -34,10 +38,13 @@ class CrossFlowSweep:
         inset_m: the lanes' ends are kept this far inside the walls (limited to half the
             OpArea's width on each axis, as :meth:`~cptbt.frames.OpArea.clamp`).
         arrive_m: a waypoint counts as reached within this.
+        min_lane_m: lanes no longer than this (nor than ``arrive_m``) are not flown.
     """
 
-    def __init__(self, spacing_m: float, inset_m: float, arrive_m: float) -> None:
+    def __init__(self, spacing_m: float, inset_m: float, arrive_m: float,
+                 min_lane_m: float = 0.0) -> None:
         self.spacing_m, self.inset_m, self.arrive_m = spacing_m, inset_m, arrive_m
+        self.min_lane_m = max(min_lane_m, arrive_m)
         self.waypoint: Point | None = None
         self.origin: Point | None = None  # the frame: where the sweep started
         self.flow = (1.0, 0.0)  # and the flow's unit vector then
@@ -67,32 +74,36 @@ class CrossFlowSweep:
             self.across, self.legs = True, self.legs + 1
         else:  # at a lane's far end: on to the near end of the next lane
             nxt = self._next_lane(area)
-            if nxt is None:  # none left either way: sweep again from here
-                nxt = self._start(here, flow_deg, area)
+            if nxt is None:  # none left either way: sweep again, between the last lanes
+                nxt = self._start(here, flow_deg, area, 0.5 * self.spacing_m)
         self.waypoint = nxt
         return nxt
 
     # -- the lanes -----------------------------------------------------------------------
-    def _start(self, here: Point, flow_deg: float, area: OpArea) -> Point | None:
-        """A new frame at ``here``: fly the lane through it toward its longer half, or go to
-        the nearest lane if none passes through it (``here`` in the inset's margin)."""
-        self.origin, self.flow, self.step = here, unit(flow_deg), 1.0
+    def _start(self, here: Point, flow_deg: float, area: OpArea,
+               offset_m: float = 0.0) -> Point | None:
+        """A new frame at ``here`` (its nearest point inside the inset): fly the lane through
+        it toward its longer half, or with ``offset_m`` (a pass after the first) or no lane
+        through it, go to the nearest lane's nearer end first."""
+        self.origin = area.clamp(here.x, here.y, self.inset_m)
+        self.flow, self.step = unit(flow_deg), 1.0
         reach = math.hypot(area.xmax - area.xmin, area.ymax - area.ymin)
-        for k in range(int(reach / self.spacing_m) + 2) if math.isfinite(self.spacing_m) \
-                else range(1):
-            for lane in ((0.0,) if k == 0 else (k * self.spacing_m, -k * self.spacing_m)):
-                span = self._span(area, lane)
-                if span is None:
-                    continue
-                lo, hi = span
-                self.lane, self.swept = lane, (lane, lane)
-                if k == 0:  # on the lane: fly it toward its longer half
-                    self.side = 1.0 if hi >= -lo else -1.0
-                    self.across, self.legs = True, self.legs + 1
-                else:  # to the lane's nearer end first
-                    self.side = 1.0 if abs(hi) <= abs(lo) else -1.0
-                    self.across = False
-                return self._end(area, lane, self.side)
+        n = int(reach / self.spacing_m) + 2 if math.isfinite(self.spacing_m) else 0
+        lanes = sorted((offset_m + j * self.spacing_m for j in range(-n, n + 1)),
+                       key=lambda a: (abs(a), -a))  # nearest first, down-flow before up-flow
+        for lane in lanes:
+            span = self._span(area, lane)
+            if span is None:
+                continue
+            lo, hi = span
+            self.lane, self.swept = lane, (lane, lane)
+            if lane == 0.0:  # on the lane: fly it toward its longer half
+                self.side = 1.0 if hi >= -lo else -1.0
+                self.across, self.legs = True, self.legs + 1
+            else:  # to the lane's nearer end first
+                self.side = 1.0 if abs(hi) <= abs(lo) else -1.0
+                self.across = False
+            return self._end(area, lane, self.side)
         self.origin = None
         return None
 
@@ -111,7 +122,7 @@ class CrossFlowSweep:
 
     def _span(self, area: OpArea, lane: float) -> tuple[float, float] | None:
         """The lane's extent across the flow inside the shrunk OpArea, as signed distances
-        from its point on the origin's flow line; None if not longer than the arrival radius."""
+        from its point on the origin's flow line; None if not longer than ``min_lane_m``."""
         assert self.origin is not None
         fx, fy = self.flow
         nx, ny = -fy, fx  # across the flow
@@ -127,7 +138,7 @@ class CrossFlowSweep:
                 continue
             s1, s2 = (a - p) / n, (b - p) / n
             lo, hi = max(lo, min(s1, s2)), min(hi, max(s1, s2))
-        if hi - lo <= self.arrive_m:
+        if hi - lo <= self.min_lane_m:
             return None
         return lo, hi
 

@@ -56,10 +56,10 @@ def test_the_sweep_flies_lanes_across_the_flow_down_flow_then_up_flow_of_the_fir
         (70, 40),    # flown across
         (10, 40),    # no lane 30 m farther (x = 100 is outside the inset): up-flow of the first
         (10, -40),
-        (10, 40),    # none left either way: a new sweep from here, down-flow first
-        (40, 40),
-        (40, -40),
-        (70, -40),
+        (25, -40),   # none left either way: a new pass from here, its lanes between the last's
+        (25, 40),
+        (55, 40),
+        (55, -40),
     ]
     assert [(round(p.x), round(p.y)) for p in got] == expected
     assert sweep.legs == 5
@@ -89,12 +89,12 @@ def test_in_any_flow_the_lanes_advance_a_spacing_at_a_time_inside_the_inset(
         assert nxt is not None
         assert area.xmin + 10 - 1e-6 <= nxt.x <= area.xmax - 10 + 1e-6
         assert area.ymin + 10 - 1e-6 <= nxt.y <= area.ymax - 10 + 1e-6
+        if sweep.origin != start:  # a new pass began: stop reading lanes
+            break
         if sweep.across:  # a lane flown: straight across the flow
             assert abs((nxt.x - here.x) * fx + (nxt.y - here.y) * fy) < 1e-6
         lanes.append((nxt.x - start.x) * fx + (nxt.y - start.y) * fy)
         here = nxt
-        if sweep.origin != start:  # a new sweep began: stop reading lanes
-            break
     distinct = sorted({round(a, 6) for a in lanes})
     assert len(distinct) >= 3  # the sweep moves on along the flow...
     assert all(abs(b - a - 25.0) < 1e-6 for a, b in pairwise(distinct))  # lane by lane
@@ -211,7 +211,8 @@ def test_the_declarations_own_model_explains_a_known_plume_far_down_flow() -> No
 @pytest.mark.parametrize(("setting", "says"), [
     ("search_sweep_spacing_m: 5", "shorter than a turn across"),
     ("search_sweep_inset_m: 0", "less than a turn's radius"),
-    ("search_sweep_inset_m: 100000", "leaves no room for a sweep"),
+    ("search_sweep_inset_m: 100000", "leaves 0 m across the OpArea's narrow side"),
+    ("search_sweep_inset_m: 50", "leaves 12 m across the OpArea's narrow side"),
 ])
 def test_sweep_settings_unlikely_meant_are_warned_of(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], setting: str, says: str) -> None:
@@ -234,3 +235,31 @@ def test_a_large_arrival_radius_is_no_error_with_one_source(
     mission.write_text(text.replace(old, "declare_source: {variant: likelihood_map, "
                                          "arrive_radius_m: 50}"), encoding="utf-8")
     assert main(["validate", str(mission)]) == 0, capsys.readouterr().err
+
+
+def test_a_sweep_starts_on_the_nearest_lane_inside_even_from_outside_the_inset() -> None:
+    # a flow exactly along y in a 40-m strip: the lane through the start (y = -15, outside the
+    # 10-m inset) has no length, nor have those a spacing from it; y = -10 has
+    sweep = CrossFlowSweep(spacing_m=40.0, inset_m=10.0, arrive_m=3.0, min_lane_m=15.0)
+    area = OpArea(-150.0, 150.0, -20.0, 20.0)
+    first = sweep.target(Point(0.0, -15.0), 90.0, area)
+    assert first is not None and first.y == pytest.approx(-10.0) and abs(first.x) > 100
+
+
+def test_lanes_no_longer_than_a_turn_are_not_flown() -> None:
+    sweep = CrossFlowSweep(spacing_m=10.0, inset_m=10.0, arrive_m=3.0, min_lane_m=15.0)
+    area = OpArea(0.0, 100.0, 0.0, 30.0)  # 10 m between the insets across a flow along x
+    assert sweep.target(Point(50.0, 15.0), 0.0, area) is None
+    assert CrossFlowSweep(10.0, 10.0, 3.0).target(Point(50.0, 15.0), 0.0, area) is not None
+
+
+def test_after_a_hand_over_the_sweep_starts_anew_from_where_the_vehicle_is() -> None:
+    node, harness, script = searching(search_map_s=100.0)
+    harness.tick(script.step(30, 40.0, 10.0))  # sweeping, toward (40, -40)
+    assert node.sweep.origin == Point(40.0, 10.0)
+    harness.tick(script.step(31, 20.0, 30.0, conc=1.0))  # plume no declared source explains
+    for t in range(32, 132):
+        harness.tick(script.step(t, 20.0, 30.0))
+    tick = harness.tick(script.step(132, 20.0, 30.0))
+    assert node.sweeping and node.sweep.origin == Point(20.0, 30.0)
+    assert tick.command is not None and abs(abs(tick.command.heading_deg) - 90.0) < 1e-6
