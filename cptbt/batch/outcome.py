@@ -18,6 +18,10 @@ from cptbt.evaluation import EvaluationSpec
 from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.types import Point
 
+ERROR_OUTCOME = "error"
+"""A results row's outcome when its group stopped on an error (a bug), not an ending of the run
+(:func:`cptbt.batch.worker.failed_rows`)."""
+
 
 class Outcome(StrEnum):
     """How a run (the AMP's part of it) ended."""

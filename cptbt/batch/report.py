@@ -14,6 +14,7 @@ import numpy as np
 
 from cptbt.batch.figures import pyplot
 from cptbt.batch.maintain_report import is_maintain_study, maintain_figure, maintain_table
+from cptbt.batch.outcome import ERROR_OUTCOME
 
 Rows = list[dict[str, Any]]
 
@@ -260,7 +261,7 @@ def _criterion(rows: Rows) -> str:
 def errors_note(rows: Rows) -> str | None:
     """What the study's runs that stopped on an error (a bug; outcome ``error``, see
     :func:`cptbt.batch.worker.failed_rows`) were, in one sentence; None when there are none."""
-    bad = [r for r in rows if r.get("outcome") == "error"]
+    bad = [r for r in rows if r.get("outcome") == ERROR_OUTCOME]
     if not bad:
         return None
     first = bad[0]

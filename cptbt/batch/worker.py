@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.integrity import code_identity
+from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.report import config_label
 from cptbt.batch.scenario import (
     Environment,
@@ -185,10 +186,6 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
             for k, run in enumerate(runs)]
 
 
-ERROR_OUTCOME = "error"
-"""The outcome of a run whose group stopped on an error (a bug): see :func:`failed_rows`."""
-
-
 def failed_rows(task: GroupTask, exc: Exception) -> list[dict[str, Any]]:
     """The rows of a group that stopped on an error: one per start, outcome ``error``, not a
     success, the error and where it was raised in ``error``, and what names the run (as
@@ -204,15 +201,18 @@ def failed_rows(task: GroupTask, exc: Exception) -> list[dict[str, Any]]:
                              Environment).name
     except Exception:  # the mission itself would not load: name the configuration alone
         name = str(task.config)
-    rows = []
-    for k, i in enumerate(task.ids):
-        x, y = task.starts[k]
-        rows.append({"config": task.config, **task.coords, "replicate": task.replicate,
-                     "start": i, "outcome": ERROR_OUTCOME, "success": False, "error": text,
-                     "start_x": x, "start_y": y, "start_mode": task.start_mode,
-                     "seed_key": f"{task.root_seed}/{task.replicate}/{i}",
-                     "configuration": config_label(task.coords, name)})
-    return rows
+    return [{"config": task.config, **task.coords, "replicate": task.replicate, "start": i,
+             "outcome": ERROR_OUTCOME, "success": False, "error": text,
+             **_placement(task, k, name)} for k, i in enumerate(task.ids)]
+
+
+def _placement(task: GroupTask, k: int, mission_name: str) -> dict[str, Any]:
+    """Where and how the group's ``k``-th start flew, and what names its configuration: the
+    columns every row ends with."""
+    x, y = task.starts[k]
+    return {"start_x": x, "start_y": y, "start_mode": task.start_mode,
+            "seed_key": f"{task.root_seed}/{task.replicate}/{task.ids[k]}",
+            "configuration": config_label(task.coords, mission_name)}
 
 
 def row_of(task: GroupTask, k: int, run: VehicleRun, mission: MissionBase, source: Point,
@@ -222,8 +222,5 @@ def row_of(task: GroupTask, k: int, run: VehicleRun, mission: MissionBase, sourc
     row = {"config": task.config, **task.coords, "replicate": task.replicate, "start": i}
     row.update(flatten(summarise(run, mission, source, task.root_seed, wall_s,
                                  sources=true_sources(mission)).to_dict()))
-    x, y = task.starts[k]
-    row.update({"start_x": x, "start_y": y, "start_mode": task.start_mode,
-                "seed_key": f"{task.root_seed}/{task.replicate}/{i}",
-                "configuration": config_label(task.coords, mission.name)})
+    row.update(_placement(task, k, mission.name))
     return row

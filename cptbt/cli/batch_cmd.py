@@ -375,13 +375,14 @@ def cmd_batch(args: argparse.Namespace) -> int:
                   f"{Path(args.out) / 'logs'} ({len(logged)} file"
                   f"{'s' if len(logged) != 1 else ''}{note})")
     _plots(table, Path(args.out), args.quiet, geometry, figures=not args.no_plots)
+    from cptbt.batch.outcome import ERROR_OUTCOME
     from cptbt.batch.report import errors_note
     from cptbt.cli import DEBUG_ENV
 
     rows = load_results(table)
     failed = errors_note(rows)
     if failed:  # every other run is flown and tabulated; a bug met is said, and the exit fails
-        row = next(i for i, r in enumerate(rows) if r.get("outcome") == "error")
+        row = next(i for i, r in enumerate(rows) if r.get("outcome") == ERROR_OUTCOME)
         print(f"cptbt: error: {failed}; `cptbt run --from {table} --row {row}` flies it "
               f"alone ({DEBUG_ENV}=1: with its traceback)", file=sys.stderr)
         return 1

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 from cptbt.batch.engine import PlumeSnapshot, VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.figures import plume_grid, trajectory_figure
-from cptbt.batch.outcome import WHY_ENDED
+from cptbt.batch.outcome import ERROR_OUTCOME, WHY_ENDED
 from cptbt.batch.phased import phase_summary, simulate_phased
 from cptbt.batch.scenario import Environment, launch_pose, to_sim_params, true_sources
 from cptbt.batch.summary import summarise
@@ -352,7 +352,8 @@ def refly(args: argparse.Namespace) -> int:
     again = row_of(task, 0, run, mission, source, wall)
     diff = sorted(k for k, v in again.items() if k in row and k not in COMPARED_AWAY
                   and not _same(v, row[k]))
-    if row.get("outcome") == "error":  # the study's row stopped on an error; this one did not
+    failed = row.get("outcome") == ERROR_OUTCOME  # the study's row stopped on an error
+    if failed:  # and this one did not
         diff = ["outcome"]
     out = Path(args.out) if args.out else fresh_folder(
         Path("runs") / f"{mission.name}-row{args.row}-{task.key}")
@@ -373,7 +374,7 @@ def refly(args: argparse.Namespace) -> int:
     if not args.quiet:
         same = "the same as the study's row, bit for bit" if not diff else (
             f"where the study's row stopped on an error ({row.get('error')})"
-            if row.get("outcome") == "error" else
+            if failed else
             f"DIFFERENT from the study's row in {', '.join(diff)}")
         print(f"row {args.row} of {results}{f' ({label})' if label else ''} flown again: "
               f"{summary['outcome']}, {same}")
