@@ -220,6 +220,19 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "up to ~30 m apart can be merged (None: only a declared source in the new one's plume is "
         "the same source), m"
     )
+    same_plume_m: float | None = Field(
+        default=50.0, gt=0, description="A declaration whose plume reaches a declared source "
+        "(at least explained_prob) is taken for that source declared short only within this "
+        "of it: it replaces it (the short declarations seen fell 16-36 m from the source, 46 m "
+        "without the up-flow check); a declared source farther down its plume is another "
+        "source (None: at any distance), m"
+    )
+    known_plume_max_prob: float | None = Field(
+        default=0.2, gt=0, le=1, description="A candidate where a declared source's plume "
+        "would give a detection in at least this share of cycles is held, not declared: there "
+        "the up-flow check cannot tell that plume from the candidate's (the declaring class's "
+        "docstring; None: no hold)"
+    )
     upflow_check_m: float | None = Field(
         default=10.0, gt=0, description="The up-flow check's reach: declare only once the track "
         "(since this source's search began) has crossed the candidate's flow line between this "
@@ -296,8 +309,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     search_sweep_spacing_m: float | None = Field(
         default=40.0, gt=0, description="Between declarations, until a detection no declared "
         "source explains: the vehicle sweeps the OpArea in legs across the flow this far apart "
-        "along it (None: it heads for the map's most probable unexplored cell, which before "
-        "such a detection lies along the walls), m"
+        "along it, at most half the OpArea's extent along the flow (100 found the second source "
+        "of two_sources_wide sooner, median 1824 s against 2534 s, but missed sources 20 m "
+        "beside a declared one, whose plume is told from the known one only near them; None: "
+        "it heads for the map's most probable unexplored cell, which before such a detection "
+        "lies along the walls), m"
     )
     search_map_s: float = Field(
         default=300.0, gt=0, description="With the sweep: for this long after a detection no "
@@ -307,7 +323,8 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     )
     search_sweep_inset_m: float = Field(
         default=10.0, ge=0, description="The sweep's legs end this far inside the OpArea's "
-        "walls (its turns then stay inside), m"
+        "walls (its turns then stay inside), and the search's map-led targets lie at least "
+        "this far inside, m"
     )
     search_give_up_s: float | None = Field(
         default=None, gt=0, description="With max_sources > 1: the search for another source "
@@ -345,8 +362,10 @@ def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
     mask = area.disc_share(params.mask_radius_m)
     if params.max_sources > 1 and mask > MASK_SHARE:
         out.append(("mask_radius_m", f"{params.mask_radius_m:g} m: a declared source rules "
-                    f"out a disc covering {100 * mask:.0f}% of the OpArea as the place of "
-                    "another (the search ends when no cell is left)"))
+                    f"out a disc covering up to {100 * mask:.0f}% of the OpArea (centred in "
+                    "it) as the place of another, so a source within "
+                    f"{params.mask_radius_m:g} m of a declared one is never declared (the "
+                    "search ends only if the masks leave no cell)"))
     if params.search_give_up_s is not None and params.max_sources == 1:
         out.append(("search_give_up_s", "has no effect with max_sources 1 (it bounds the "
                     "search for a further source)"))
@@ -362,7 +381,8 @@ TURN_RADIUS_M = 7.5
 def _sweep_advice(params: LikelihoodMapParams, area: OpArea) -> list[tuple[str, str]]:
     """The search sweep's settings unlikely to be meant: a spacing shorter than a turn (the
     vehicle circles each lane's end), an inset shorter than a turn's radius (the turns cross the
-    walls and safety takes over), an inset leaving no lane (no sweep at all)."""
+    walls and safety takes over), an inset leaving no lane either way (no sweep at all; a
+    corridor narrower than a turn is swept along its length, :mod:`~cptbt.behaviours.sweep`)."""
     out: list[tuple[str, str]] = []
     spacing = params.search_sweep_spacing_m
     if spacing is None:
@@ -376,13 +396,13 @@ def _sweep_advice(params: LikelihoodMapParams, area: OpArea) -> list[tuple[str, 
         out.append(("search_sweep_inset_m", f"{inset:g} m is less than a turn's radius "
                     f"({TURN_RADIUS_M:g} m for REMUS): the turns at the lanes' ends cross the "
                     "walls, where safety takes over"))
-    room = min(area.xmax - area.xmin, area.ymax - area.ymin) - 2 * inset
+    room = max(area.xmax - area.xmin, area.ymax - area.ymin) - 2 * inset
     if room <= 2 * TURN_RADIUS_M:
         out.append(("search_sweep_inset_m", f"{inset:g} m from every wall leaves "
-                    f"{max(room, 0.0):g} m across the OpArea's narrow side: lanes no longer "
-                    f"than a turn ({2 * TURN_RADIUS_M:g} m for REMUS) are not flown, so in some "
-                    "flows there is no sweep and the search heads for the map's most probable "
-                    "cell instead (along the walls, before any plume)"))
+                    f"{max(room, 0.0):g} m across the OpArea's long side: lanes no longer "
+                    f"than a turn ({2 * TURN_RADIUS_M:g} m for REMUS) are not flown, so there "
+                    "is no sweep and the search heads for the map's most probable cell instead "
+                    "(before any plume, one by the walls, which no miss rules out)"))
     return out
 
 

@@ -64,6 +64,12 @@ class MapModelParams(BehaviourParams):
         default=0.05, gt=0, lt=1, description="A detection a declared source's plume would "
         "cause with at least this chance is explained by it and says nothing about other sources"
     )
+    strong_own_reach: bool = Field(
+        default=True, description="A strong detection is explained by a declared source only "
+        "as far as its plume gives strong ones, which are rare far down it (False: as far as it "
+        "gives any detection, the rule before, which explained away a source in the edge of a "
+        "declared one's plume)"
+    )
     strong_prob: float = Field(
         default=0.68, gt=0, lt=1, description="p3: chance per cycle of a *strong* detection "
         "(see the module docstring) on the plume's axis next to the source"

@@ -44,7 +44,9 @@ constant width around it rather than a cone.
   ``K3(s; x) = p3 · exp(-a / L3) · (the same cross-flow shape)``, with ``L3`` much shorter than
   ``L``, and a weak one (above the threshold, below the strong level) the rest,
   ``K(s; x) - K3(s; x)``. A strong detection multiplies cell ``s`` by
-  ``1 - (1 - ε3)(1 - K3)(1 - q)``, a weak one by ``1 - (1 - ε)(1 - (K - K3))(1 - q)``. A strong
+  ``1 - (1 - ε3)(1 - K3)(1 - q3)`` (``q3``: a declared source's chance of a strong detection
+  there, so a strong detection far down a known plume, where strong ones are rare, is not
+  explained by it), a weak one by ``1 - (1 - ε)(1 - (K - K3))(1 - q)``. A strong
   detection thus says "the source is close up-flow"; a weak one leans to sources farther off.
   Without it the along-flow position comes only from misses up-flow of the source, since a
   detection says "up-flow of here" but hardly how far.
@@ -173,19 +175,24 @@ class SourceMap:
         self.explored |= (self._cx - x) ** 2 + (self._cy - y) ** 2 <= r * r
         if p.flow is None or not p.in_op_area or not math.isfinite(p.concentration):
             return False
-        level = int(p.detected)
-        if p.detected and self.strong_concentration is not None \
-                and p.concentration >= self.strong_concentration:
-            level = 2
+        level = self.level(p)
         obs = (self._n - 1, x, y, level)
         self._obs.append(obs)
         self.detections += int(p.detected)
-        if p.detected and not self.explained_by_known(x, y):
+        if p.detected and not self.explained_by_known(x, y, level=level):
             self.unexplained += 1
         self._fold(obs)
         if not self.exhausted:  # every cell masked: nothing to normalise (nor to search)
             self._log -= self._log[~self._excluded].max()
         return True
+
+    def level(self, p: Percept) -> int:
+        """The percept's observation level: 0 a miss, 1 a detection, 2 a *strong* one (with
+        the two-level model)."""
+        if not p.detected:
+            return 0
+        strong = self.strong_concentration
+        return 2 if strong is not None and p.concentration >= strong else 1
 
     def _reset_meander(self) -> None:
         self._last_k = -1
@@ -346,7 +353,7 @@ class SourceMap:
                     m.strong_prob * shape * np.exp(-ap / m.strong_decay_m), k_cells)
             else:
                 k_cells = self.kernel(k, x, y, self._cx, self._cy)
-            miss_known = self._miss_known(k, x, y)
+            miss_known = self._miss_known(k, x, y, level)
             if miss_known <= 1.0 - m.explained_prob:
                 return np.where(self._excluded, -np.inf, 0.0)
             like, _ = self._detection_like(k, level, k_cells, strong_cells, miss_known)
@@ -372,7 +379,7 @@ class SourceMap:
         if not level:
             idx, k_cells, _ = self._kernel_given_meander(k, x, y, False)
             return idx, np.exp(m.nondetection_weight * np.log1p(-k_cells)), 0.0
-        miss_known = self._miss_known(k, x, y)
+        miss_known = self._miss_known(k, x, y, level)
         if miss_known <= 1.0 - m.explained_prob:
             return None
         idx, k_cells, strong_cells = self._kernel_given_meander(
@@ -381,9 +388,20 @@ class SourceMap:
         rest = m.detection_weight * math.log(1.0 - (1.0 - eps) * miss_known)
         return idx, np.exp(m.detection_weight * np.log(like)), rest
 
-    def _miss_known(self, k: int, x: float, y: float) -> float:
+    def _miss_known(self, k: int, x: float, y: float, level: int = 1) -> float:
         """``1 - q``: the chance that no declared source's plume causes a detection at
-        ``(x, y)`` on cycle ``k`` (1 with none declared).
+        ``(x, y)`` on cycle ``k`` (1 with none declared); of a *strong* one (``level`` 2, the
+        two-level model) with ``q`` the strong kernel's (``p3``, ``L3``).
+
+        A strong detection is explained only as far as a known plume gives strong ones: they are
+        rare far down a plume (4% of on-axis cycles at 80-120 m, 1-2% beyond: the class
+        docstring of the declaration's parameters), so a strong detection there says another
+        source is close, while the total chance ``q`` reaches the whole meander cone (about
+        +/-40 m at 100 m) and explained away every detection of a second source lying in it
+        (a review's sources 98 m apart, 40 m across the flow: the second was never found).
+        A weak detection is explained by the total chance, as before: next to a known source a
+        weak one is rarer than a strong one, and its weak chance alone would leave the known
+        source's own weak detections unexplained.
 
         A declared source's plume is not cut off at ``max_range_m``: that bound limits how far
         back a detection is traced to *hypothesise* a source, but a known source farther
@@ -400,7 +418,11 @@ class SourceMap:
         ky = np.array([s.y for s in self.known])
         m = self.model
         shape, ap = self._shape_and_range(k, x, y, kx, ky, bounded=False)
-        q = m.detection_prob * shape * np.exp(-np.minimum(ap, m.max_range_m) / m.detection_decay_m)
+        ap = np.minimum(ap, m.max_range_m)
+        if level >= 2 and self.strong_concentration is not None and m.strong_own_reach:
+            q = m.strong_prob * shape * np.exp(-ap / m.strong_decay_m)
+        else:
+            q = m.detection_prob * shape * np.exp(-ap / m.detection_decay_m)
         return float(np.prod(1.0 - q))
 
     def _detection_like(self, k: int, level: int, k_cells: Array, strong_cells: Array | None,
@@ -416,13 +438,21 @@ class SourceMap:
         eps = self.false_alarm(k)
         return 1.0 - (1.0 - eps) * (1.0 - (k_cells - strong_cells)) * miss_known, eps
 
-    def explained_by_known(self, x: float, y: float, k: int | None = None) -> bool:
-        """Whether the declared sources' plumes would cause a detection at ``(x, y)`` on cycle
-        ``k`` (None: the latest) with at least ``explained_prob``."""
+    def explained_by_known(self, x: float, y: float, k: int | None = None,
+                           level: int = 1) -> bool:
+        """Whether the declared sources' plumes would cause a detection (``level`` 2: a strong
+        one) at ``(x, y)`` on cycle ``k`` (None: the latest) with at least ``explained_prob``."""
         if not self.known or self._n == 0:
             return False
         k = self._n - 1 if k is None else k
-        return self._miss_known(k, x, y) <= 1.0 - self.model.explained_prob
+        return self._miss_known(k, x, y, level) <= 1.0 - self.model.explained_prob
+
+    def known_chance(self, at: Point) -> float:
+        """``q``: the chance that a declared source's plume causes a detection at ``at`` on the
+        latest cycle (0 with none declared)."""
+        if not self.known or self._n == 0:
+            return 0.0
+        return 1.0 - self._miss_known(self._n - 1, at.x, at.y)
 
     def expected_detection(self, source: Point, x: float, y: float) -> float:
         """``K(source; (x, y))`` on the latest cycle: how likely a detection there is now."""

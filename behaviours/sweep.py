@@ -14,7 +14,15 @@ path between two does too; the turn at a lane's end swings up to about a turn's 
 beyond it, so with an inset of 10 m and REMUS's 7.5-m turning radius it can cross the wall by a
 few metres (measured: up to 7 m in an oblique flow), where safety takes over. Lanes no longer
 than ``min_lane_m`` (a turn's diameter: the vehicle could only circle their ends) are not
-flown.
+flown. Lanes lie at most half the shrunk OpArea's extent along the flow apart (but not closer
+than ``min_lane_m``), so a pass has two lanes or more whatever ``spacing_m`` (a spacing longer
+than the OpArea had the vehicle fly one lane for the rest of the mission). Where no lane
+across the flow is long enough (a corridor along the flow narrower than a turn plus the
+insets), the lanes run along the flow
+instead, spaced across it: in such a corridor a lane along its middle runs through every plume
+(the search had headed for the map's most probable cell, which before any unexplained plume is
+one at the down-flow wall no miss can rule out, and loitered there, outside the OpArea for a
+third of the mission).
 
 Readings chosen: the frame is not turned with the flow estimate during a sweep (an estimate
 wandering by 10-20 degrees moved a 500-m leg re-planned from it by 90-170 m along the flow and
@@ -54,6 +62,7 @@ class CrossFlowSweep:
         self.step = 1.0  # +1: the next lane is down-flow; -1: up-flow
         self.swept = (0.0, 0.0)  # the lanes flown span this, along the flow
         self.legs = 0  # lanes flown (started)
+        self.gap = spacing_m  # the lanes' spacing in this frame (at most half the extent)
 
     def reset(self) -> None:
         """Start again from wherever the vehicle is next asked for (a declaration, the end of
@@ -75,7 +84,7 @@ class CrossFlowSweep:
         else:  # at a lane's far end: on to the near end of the next lane
             nxt = self._next_lane(area)
             if nxt is None:  # none left either way: sweep again, between the last lanes
-                nxt = self._start(here, flow_deg, area, 0.5 * self.spacing_m)
+                nxt = self._start(here, flow_deg, area, 0.5 * self.gap)
         self.waypoint = nxt
         return nxt
 
@@ -86,33 +95,47 @@ class CrossFlowSweep:
         it toward its longer half, or with ``offset_m`` (a pass after the first) or no lane
         through it, go to the nearest lane's nearer end first."""
         self.origin = area.clamp(here.x, here.y, self.inset_m)
-        self.flow, self.step = unit(flow_deg), 1.0
-        reach = math.hypot(area.xmax - area.xmin, area.ymax - area.ymin)
-        n = int(reach / self.spacing_m) + 2 if math.isfinite(self.spacing_m) else 0
-        lanes = sorted((offset_m + j * self.spacing_m for j in range(-n, n + 1)),
-                       key=lambda a: (abs(a), -a))  # nearest first, down-flow before up-flow
-        for lane in lanes:
-            span = self._span(area, lane)
-            if span is None:
-                continue
-            lo, hi = span
-            self.lane, self.swept = lane, (lane, lane)
-            if lane == 0.0:  # on the lane: fly it toward its longer half
-                self.side = 1.0 if hi >= -lo else -1.0
-                self.across, self.legs = True, self.legs + 1
-            else:  # to the lane's nearer end first
-                self.side = 1.0 if abs(hi) <= abs(lo) else -1.0
-                self.across = False
-            return self._end(area, lane, self.side)
+        self.step = 1.0
+        # across the flow; where no lane across it is long enough (a corridor along the flow),
+        # along it: such a lane runs through every plume in the corridor
+        # (a pass between the last's lanes, or, where none lies between them, the first's)
+        for turn, offset in ((0.0, offset_m), (90.0, offset_m), (0.0, 0.0), (90.0, 0.0)):
+            self.flow = unit(flow_deg + turn)
+            self.gap = min(self.spacing_m, max(0.5 * self._extent(area), self.min_lane_m))
+            reach = math.hypot(area.xmax - area.xmin, area.ymax - area.ymin)
+            n = int(reach / self.gap) + 2 if self.gap > 0 else 0
+            lanes = sorted((offset + j * self.gap for j in range(-n, n + 1)),
+                           key=lambda a: (abs(a), -a))  # nearest first, down-flow first
+            for lane in lanes:
+                span = self._span(area, lane)
+                if span is None:
+                    continue
+                lo, hi = span
+                self.lane, self.swept = lane, (lane, lane)
+                if lane == 0.0:  # on the lane: fly it toward its longer half
+                    self.side = 1.0 if hi >= -lo else -1.0
+                    self.across, self.legs = True, self.legs + 1
+                else:  # to the lane's nearer end first
+                    self.side = 1.0 if abs(hi) <= abs(lo) else -1.0
+                    self.across = False
+                return self._end(area, lane, self.side)
         self.origin = None
         return None
+
+    def _extent(self, area: OpArea) -> float:
+        """How far the shrunk OpArea reaches along the sweep's flow direction."""
+        fx, fy = self.flow
+        ix = min(self.inset_m, 0.5 * (area.xmax - area.xmin))
+        iy = min(self.inset_m, 0.5 * (area.ymax - area.ymin))
+        return ((area.xmax - area.xmin - 2 * ix) * abs(fx)
+                + (area.ymax - area.ymin - 2 * iy) * abs(fy))
 
     def _next_lane(self, area: OpArea) -> Point | None:
         """Move to the next lane not yet flown, down-flow while there is one, then up-flow of
         the first; its near end (the side the vehicle is on), or None if none is left."""
         lo, hi = self.swept
         for step in (self.step, -self.step):
-            lane = hi + self.spacing_m if step > 0 else lo - self.spacing_m
+            lane = hi + self.gap if step > 0 else lo - self.gap
             if self._span(area, lane) is not None:
                 self.step, self.lane = step, lane
                 self.swept = (min(lo, lane), max(hi, lane))

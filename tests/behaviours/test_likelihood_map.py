@@ -403,6 +403,19 @@ def test_a_declaration_up_the_plume_of_a_declared_source_replaces_it() -> None:
     assert harness.get("declaration_report")["superseded"] == 1
 
 
+def test_a_declared_source_far_down_the_plume_of_a_new_one_is_another_source() -> None:
+    # like a review's sources 98 m apart, 40 m across the flow: the down-flow one, declared
+    # first and right, lies in the model's plume of the up-flow one, but farther than
+    # same_plume_m from it (the short declarations seen fell 16-36 m from their source)
+    for reach, expected in ((50.0, 2), (None, 1)):
+        node, _ = declaring(max_sources=3, same_plume_m=reach)
+        node._accept(Point(95.0, 10.0))
+        assert node.map is not None
+        assert node.map.expected_detection(Point(5.0, -25.0), 95.0, 10.0) >= 0.05
+        node._accept(Point(5.0, -25.0))
+        assert len(node.sources) == expected and node.superseded == 2 - expected
+
+
 def test_a_declaration_near_a_declared_source_is_that_source_again() -> None:
     # 16 m across the flow from a declared point: not in its plume, but nearer than
     # same_source_m (18 m). The later point replaces it and both keep explaining its plume.
@@ -900,7 +913,7 @@ def test_advice_for_settings_valid_but_unlikely_meant() -> None:
     assert advise(LikelihoodMapParams(search_give_up_s=300.0, max_sources=2), AREA) == []
     # with several sources to find, a mask ruling out much of the OpArea for the next one
     ((key, why),) = advise(LikelihoodMapParams(max_sources=2, mask_radius_m=40.0), AREA)
-    assert key == "mask_radius_m" and "covering 50% of the OpArea" in why, why
+    assert key == "mask_radius_m" and "covering up to 50% of the OpArea" in why, why
     assert advise(LikelihoodMapParams(max_sources=1, mask_radius_m=40.0), AREA) == []
 
 

@@ -124,11 +124,13 @@ def test_a_known_plume_is_explained_beyond_the_maps_range() -> None:
     assert np.allclose(m.posterior(), before)
 
 
-def searching(**params: object) -> tuple[LikelihoodMapDeclare, TreeHarness, ScriptedPerception]:
-    """A node that declared (40, 0) of two sources, flow toward +x, the vehicle at (40, 0)."""
+def searching(threshold: float | None = None, **params: object
+              ) -> tuple[LikelihoodMapDeclare, TreeHarness, ScriptedPerception]:
+    """A node that declared (40, 0) of two sources, flow toward +x, the vehicle at (40, 0)
+    (with a ``threshold``, the map tells strong detections, 3 times it, from weak ones)."""
     node = LikelihoodMapDeclare(LikelihoodMapParams(max_sources=2, **params),
                                 namespace=fresh_namespace())
-    harness = TreeHarness(node, make_context(AREA))
+    harness = TreeHarness(node, make_context(AREA, threshold=threshold))
     script = ScriptedPerception(AREA, flow=(0.2, 0.0))
     for t in range(30):
         harness.tick(script.step(t, 99.0, 49.0))
@@ -153,6 +155,9 @@ def test_without_a_sweep_it_heads_for_the_maps_best_cell() -> None:
     goal = best_target(node.map.belief(), Point(40.0, 10.0), explored_weight=0.1,
                        min_distance_m=3.0)
     assert goal is not None and tick.command is not None
+    assert AREA.depth_inside(goal.x, goal.y) < 10.0  # before any plume: a cell by the walls
+    goal = AREA.clamp(goal.x, goal.y, 10.0)  # held the inset inside: safety never turns it
+    assert node.search_target == goal
     assert tick.command.heading_deg == pytest.approx(Point(40.0, 10.0).bearing_to(goal))
 
 
@@ -208,11 +213,42 @@ def test_the_declarations_own_model_explains_a_known_plume_far_down_flow() -> No
     assert not m.explained_by_known(500.0, 90.0)
 
 
+def test_a_strong_detection_far_down_a_known_plume_is_not_explained_by_it() -> None:
+    # strong detections are rare far down a plume: one 90 m down-flow of a declared source
+    # and 30 m aside (near a review's second source) says another source is close, though
+    # the known plume's meander cone reaches a weak one there
+    area = OpArea(-130.0, 130.0, -60.0, 60.0)
+    m = SourceMap(area, LikelihoodMapParams(), strong_concentration=0.6)
+    script = ScriptedPerception(area, flow=(0.1, 0.0))
+    for t in range(30):
+        m.observe(script.step(t, 129.0, 59.0))
+    m.explain((Point(-90.0, -30.0),))
+    assert m.explained_by_known(0.0, 0.0, level=1)
+    assert not m.explained_by_known(0.0, 0.0, level=2)
+    assert m.explained_by_known(-80.0, -30.0, level=2)  # 10 m down its axis: its own
+    before = m.unexplained
+    m.observe(script.step(30, 0.0, 0.0, conc=0.4))  # weak there: the known source's
+    assert m.unexplained == before
+    m.observe(script.step(31, 0.0, 0.0, conc=1.0))  # strong: evidence of another
+    assert m.unexplained == before + 1
+
+
+def test_the_sweep_hands_over_to_a_strong_detection_in_a_known_plume() -> None:
+    node, harness, script = searching(threshold=0.2)  # (40, 0) declared, flow toward +x
+    assert node.map is not None and node.map.strong_concentration == pytest.approx(0.6)
+    for t in range(30, 33):
+        harness.tick(script.step(t, 60.0, -49.0))
+    # 58 m down-flow of it, 22 m aside: a weak detection there is the known plume's (the
+    # sweep goes on), a strong one is not (handed over to the plume behaviours)
+    assert harness.tick(script.step(33, 98.0, -22.0, conc=0.3)).command is not None
+    assert harness.tick(script.step(34, 98.0, -22.0, conc=1.0)).command is None
+
+
 @pytest.mark.parametrize(("setting", "says"), [
     ("search_sweep_spacing_m: 5", "shorter than a turn across"),
     ("search_sweep_inset_m: 0", "less than a turn's radius"),
-    ("search_sweep_inset_m: 100000", "leaves 0 m across the OpArea's narrow side"),
-    ("search_sweep_inset_m: 50", "leaves 12 m across the OpArea's narrow side"),
+    ("search_sweep_inset_m: 100000", "leaves 0 m across the OpArea's long side"),
+    ("search_sweep_inset_m: 120", "leaves 14 m across the OpArea's long side"),
 ])
 def test_sweep_settings_unlikely_meant_are_warned_of(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], setting: str, says: str) -> None:
@@ -248,9 +284,29 @@ def test_a_sweep_starts_on_the_nearest_lane_inside_even_from_outside_the_inset()
 
 def test_lanes_no_longer_than_a_turn_are_not_flown() -> None:
     sweep = CrossFlowSweep(spacing_m=10.0, inset_m=10.0, arrive_m=3.0, min_lane_m=15.0)
-    area = OpArea(0.0, 100.0, 0.0, 30.0)  # 10 m between the insets across a flow along x
-    assert sweep.target(Point(50.0, 15.0), 0.0, area) is None
-    assert CrossFlowSweep(10.0, 10.0, 3.0).target(Point(50.0, 15.0), 0.0, area) is not None
+    area = OpArea(0.0, 30.0, 0.0, 30.0)  # 10 m between the insets, either way
+    assert sweep.target(Point(15.0, 15.0), 0.0, area) is None
+    assert CrossFlowSweep(10.0, 10.0, 3.0).target(Point(15.0, 15.0), 0.0, area) is not None
+
+
+def test_in_a_corridor_along_the_flow_the_lanes_run_along_it() -> None:
+    # 10 m between the insets across a flow along x: no lane across it is longer than a turn,
+    # so the vehicle flies the corridor's middle end to end, which runs through every plume
+    sweep = CrossFlowSweep(spacing_m=100.0, inset_m=10.0, arrive_m=3.0, min_lane_m=15.0)
+    area = OpArea(0.0, 300.0, 0.0, 30.0)
+    got = waypoints(sweep, Point(250.0, 15.0), 0.0, area, 5)
+    assert all(p.y == pytest.approx(15.0) for p in got)
+    assert sorted({round(p.x) for p in got}) == [10, 290]  # end to end, back and forth
+    assert [round(p.x) for p in got[:2]] in ([10, 290], [290, 10])
+
+
+def test_a_spacing_longer_than_the_oparea_still_sweeps_two_lanes_a_pass() -> None:
+    # 80 m between the insets along the flow: lanes at most 40 m apart, not one lane forever
+    sweep = CrossFlowSweep(spacing_m=500.0, inset_m=10.0, arrive_m=3.0, min_lane_m=15.0)
+    got = waypoints(sweep, Point(40.0, 20.0), 0.0, AREA, 8)
+    lanes = sorted({round(p.x) for p in got})
+    assert len(lanes) >= 3 and all(10 <= x <= 90 for x in lanes)
+    assert sweep.gap == pytest.approx(40.0)
 
 
 def test_after_a_hand_over_the_sweep_starts_anew_from_where_the_vehicle_is() -> None:

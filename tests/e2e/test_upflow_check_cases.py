@@ -100,11 +100,18 @@ def test_a_trace_up_flow_vetoes_a_candidate_short_of_the_source(replicate: int) 
 
 # The two-source replicates below were picked on the search between declarations that heads
 # for the map's most probable cell; the cross-flow sweep (now the default) flies them
-# elsewhere, where the rule under test is not reached, so they fly that search.
-MAP_SEARCH = {"declare_source.search_sweep_spacing_m": None}
+# elsewhere, where the rule under test is not reached, so they fly that search (with the
+# known-plume rules of the time: the map's targets at the walls' cells, a strong detection
+# explained as any, a declared source replaced at any distance down the new one's plume).
+MAP_SEARCH = {"declare_source.search_sweep_spacing_m": None,
+              # and the rules of the time for known plumes (session 12 changed them)
+              "declare_source.search_sweep_inset_m": 0.0, "declare_source.strong_own_reach": False,
+              "declare_source.same_plume_m": None, "declare_source.known_plume_max_prob": None}
 
 
-@pytest.mark.parametrize("replicate", (85, 110))
+# 110 (declared against the OpArea's wall without the visit) was the other; with NumPy 2.4's
+# floating point its track no longer reaches a visit (it finds both sources without one)
+@pytest.mark.parametrize("replicate", (85,))
 def test_a_candidate_where_no_plume_was_seen_is_visited_before_it_is_declared(
         replicate: int) -> None:
     run, sources = fly(TWO, replicate, **MAP_SEARCH)
@@ -131,9 +138,15 @@ def test_one_source_declared_twice_is_now_one_and_the_other_is_found(replicate: 
 
 
 def test_a_source_taken_for_another_ones_plume_is_found_again() -> None:
-    # the far source is declared first; the near one's declaration, whose wide plume reaches
-    # it, replaces it; forgotten, it is found again (kept as an explainer, the run timed out)
+    # the far source is declared first and kept: it lies farther than same_plume_m down the
+    # near one's plume (both found, nothing replaced)
     run, sources = fly(TWO, 15)
+    assert run.declaration_report["superseded"] == 0
+    assert sorted(nearest(run, sources)) == [0, 1]
+    # at any distance (the rule before same_plume_m) the near one's declaration, whose wide
+    # plume reaches it, replaces it; forgotten, it is found again (kept as an explainer, the
+    # run timed out)
+    run, sources = fly(TWO, 15, **{"declare_source.same_plume_m": None})
     assert run.declaration_report["superseded"] == 1
     (far,) = run.declaration_report["superseded_at"]
     assert Point(*far).distance_to(sources[1]) < 15.0
