@@ -180,10 +180,23 @@ class FleetPerception:
         self._lost: list[list[Point]] = [[] for _ in range(n)]
         self._t_prev = -math.inf
         self.rejected_flow_samples = np.zeros(n, dtype=np.int64)
+        self.stuck_samples = np.zeros(n, dtype=np.int64)
+        self._run_value = np.full(n, np.nan)  # each vehicle's latest sample, since when
+        self._run_t = np.full(n, np.nan)
 
-    def add_samples(self, ids: Index, concentration: FloatArray) -> None:
-        """One fluorometer sample per vehicle of ``ids``; non-finite values are ignored."""
+    def add_samples(self, ids: Index, concentration: FloatArray, t: float = math.nan) -> None:
+        """One fluorometer sample per vehicle of ``ids`` at time ``t``; non-finite values and a
+        reading stuck above zero (``stuck_after_s``, as :class:`~cptbt.perception.Perception`)
+        are ignored."""
         c = concentration
+        same = (c == self._run_value[ids]) & (c != 0.0)  # NaN: never the same
+        self._run_t[ids] = np.where(same, self._run_t[ids], t)
+        self._run_value[ids] = np.where(same, self._run_value[ids], c)
+        limit = self.settings.stuck_after_s
+        if limit is not None and same.any():
+            stuck = same & (t - self._run_t[ids] >= limit - TIME_EPS_S)
+            self.stuck_samples[ids] += stuck
+            c = np.where(stuck, np.nan, c)
         cm = self._cycle_max[ids]
         self._cycle_max[ids] = np.where(np.isfinite(c) & (c > cm), c, cm)
 
@@ -469,9 +482,9 @@ class FleetPlanner:
         field = planner_keys(field_reached=not has_field)["field_reached"]
         return cls(support.leaves, context, mission.perception, n, field_reached=field)
 
-    def add_samples(self, ids: Index, concentration: FloatArray) -> None:
-        """One concentration sample per vehicle of ``ids``."""
-        self.perception.add_samples(ids, concentration)
+    def add_samples(self, ids: Index, concentration: FloatArray, t: float = math.nan) -> None:
+        """One concentration sample per vehicle of ``ids`` at time ``t``."""
+        self.perception.add_samples(ids, concentration, t)
 
     def add_flows(self, t: float, ids: Index, vx: FloatArray, vy: FloatArray) -> None:
         """One flow-over-ground sample per vehicle of ``ids``."""

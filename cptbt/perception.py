@@ -49,6 +49,14 @@ class PerceptionSettings(BaseModel):
         "velocity (TRO IV); 'none': the vehicle has no flow sensor (behaviours that steer by "
         "the flow cannot be used)"
     )
+    stuck_after_s: float | None = Field(
+        default=3.0, gt=0, le=3600, description="A fluorometer giving exactly the same reading "
+        "above zero for this long is stuck: its samples are dropped (no observation) until the "
+        "reading changes. A working sensor's noise and a plume's filaments make exact repeats "
+        "rare; a stuck reading above the threshold read as plume (the vehicle tracked it to the "
+        "up-flow wall and declared there), one below it as clean water. A reading stuck at "
+        "zero cannot be told from clean water. None: never, s"
+    )
     max_flow_speed_mps: float = Field(
         default=5.0, gt=0, le=100, description="Flow samples faster than this are impossible "
         "(sensor faults, fill values) and ignored, m/s"
@@ -60,7 +68,10 @@ class Perception:
 
     Robust to the faults a vehicle's sensors and clock produce (issue 9):
 
-    - concentration: NaN or infinite samples are dropped (a fault degrades to "no detection");
+    - concentration: NaN or infinite samples are dropped (a fault degrades to "no detection"),
+      and so are the samples of a reading stuck above zero (``stuck_after_s``: the same value
+      that long, to the last bit) until it changes; a cycle with no sample left has a NaN
+      concentration, which no behaviour takes for plume or for clean water;
     - flow: non-finite samples and samples faster than ``max_flow_speed_mps`` (fill values such
       as 9.97e36, spikes) are dropped; the windowed vector mean is summed afresh each cycle with
       :func:`math.fsum`, so no sample outlives its window and no running sum loses precision;
@@ -99,6 +110,9 @@ class Perception:
         self._period = 1.0
         self.rejected_flow_samples = 0
         self.clock_corrections = 0
+        self.stuck_samples = 0
+        self._run_value = math.nan  # the latest sample, and since when it has read so
+        self._run_t = math.nan
         self.latest: Percept | None = None
 
     def _clock(self, t: float) -> float:
@@ -108,9 +122,27 @@ class Perception:
         return t + self._offset
 
     def add_sample(self, t: float, concentration: float) -> None:
-        """One fluorometer sample; NaN or infinite values (sensor faults) are ignored."""
-        if math.isfinite(concentration) and concentration > self._cycle_max:
+        """One fluorometer sample; NaN or infinite values and a reading stuck above zero
+        (sensor faults: the class docstring) are ignored."""
+        if not math.isfinite(concentration):
+            self._run_value = math.nan
+            return
+        if self._stuck(t, concentration):
+            self.stuck_samples += 1
+            level = logging.INFO if self.stuck_samples == 1 else logging.DEBUG
+            log.log(level, "fluorometer reading %g since t = %g s: stuck, samples dropped until "
+                    "it changes (%d so far)", concentration, self._run_t, self.stuck_samples)
+            return
+        if concentration > self._cycle_max:
             self._cycle_max = concentration
+
+    def _stuck(self, t: float, value: float) -> bool:
+        """Whether this sample repeats a reading above zero held ``stuck_after_s`` or longer."""
+        limit = self.settings.stuck_after_s
+        if value != self._run_value or value == 0.0:
+            self._run_value, self._run_t = value, t
+            return False
+        return limit is not None and t - self._run_t >= limit - TIME_EPS_S
 
     def add_flow(self, t: float, vx: float, vy: float) -> None:
         """One flow-over-ground sample (planning frame, m/s); impossible samples are ignored."""

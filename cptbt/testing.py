@@ -418,7 +418,7 @@ def _differential(
             conc[rng.random(n) < 0.05] = np.nan
             for i, sc in enumerate(scalars):
                 sc.perception.add_sample(t, float(conc[i]))
-            fleet.add_samples(ids, conc)
+            fleet.add_samples(ids, conc, t)
             if not dropout:
                 for i, sc in enumerate(scalars):
                     sc.perception.add_flow(t, float(vx[i]), float(vy[i]))

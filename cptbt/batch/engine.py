@@ -370,7 +370,7 @@ def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: 
         nonlocal active, next_tick, commanded
         t = out.t_s
         if out.fluorometer is not None:
-            fleet.add_samples(active, out.fluorometer[active])
+            fleet.add_samples(active, out.fluorometer[active], t)
         if out.adcp_flow is not None:
             fleet.add_flows(t, active, out.adcp_flow[active, 0], out.adcp_flow[active, 1])
         if t + TIME_EPS_S < next_tick and t + TIME_EPS_S < limit:

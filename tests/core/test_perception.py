@@ -103,3 +103,81 @@ def test_lambda_holds_exactly_on_float_time_stamps() -> None:
         per = p.cycle(t)
     assert round(t, 9) == 2.2 and per.in_plume and not per.lost_contacts
     assert not p.cycle(t + 0.1).in_plume
+
+
+def sampled(p: Perception, values: list[float], t0: float = 0.0, rate_hz: float = 9.0
+            ) -> list[float]:
+    """Feed one value per second (sampled ``rate_hz`` times), a cycle at each second's end;
+    the cycles' concentrations."""
+    out = []
+    for k, v in enumerate(values):
+        for j in range(int(rate_hz)):
+            p.add_sample(t0 + k + j / rate_hz, v)
+        out.append(p.cycle(t0 + k + 1.0).concentration)
+    return out
+
+
+def test_a_reading_stuck_above_zero_is_dropped_until_it_changes() -> None:
+    # the helper's stuck fluorometer: 0.358 to the last bit while the vehicle moved 100 m+
+    p = make()
+    p.set_pose(Pose(50, 0))
+    got = sampled(p, [0.1, 0.358, 0.358, 0.358, 0.358, 0.358, 0.4])
+    assert got[:4] == [0.1, 0.358, 0.358, 0.358]  # 3 s not yet reached within them
+    assert math.isnan(got[4]) and math.isnan(got[5])  # stuck: no observation, no detection
+    assert got[6] == 0.4  # it changed: read again
+    assert p.stuck_samples == 18  # the samples of t = 4.0-5.9 s, 3 s after the first 0.358
+
+
+def test_a_stuck_reading_below_the_threshold_is_no_clean_water_either() -> None:
+    p = make()
+    p.set_pose(Pose(50, 0))
+    got = sampled(p, [0.162] * 6)
+    assert all(math.isnan(c) for c in got[4:])  # neither plume nor a miss
+
+
+def test_zeros_and_varying_readings_are_never_stuck() -> None:
+    p = make()
+    p.set_pose(Pose(50, 0))
+    assert sampled(p, [0.0] * 10) == [0.0] * 10  # clean water reads 0: normal
+    varying = [0.3 + 0.01 * k for k in range(10)]
+    assert sampled(p, varying, t0=10.0) == varying
+    assert p.stuck_samples == 0
+
+
+def test_stuck_detection_can_be_turned_off() -> None:
+    p = Perception(AREA, PerceptionSettings(threshold=0.2, stuck_after_s=None))
+    p.set_pose(Pose(50, 0))
+    assert sampled(p, [0.5] * 8) == [0.5] * 8 and p.stuck_samples == 0
+
+
+def test_the_fleet_drops_stuck_readings_as_the_scalar_perception_does() -> None:
+    import numpy as np
+
+    from cptbt.fleet import FleetPerception
+
+    rows = [  # per vehicle, a value per second
+        [0.358] * 8,                      # stuck above the threshold
+        [0.162] * 8,                      # stuck below it
+        [0.0] * 8,                        # clean water
+        [0.3, 0.31, 0.3, 0.31, 0.3, 0.31, 0.3, 0.31],  # varying
+        [0.5, 0.5, math.nan, 0.5, 0.5, 0.5, 0.5, 0.5],  # a dropout breaks the run
+    ]
+    scalars = [make() for _ in rows]
+    fleet = FleetPerception(len(rows), AREA, scalars[0].settings)
+    ids = np.arange(len(rows))
+    fleet.set_poses(ids, np.full(len(rows), 50.0), np.zeros(len(rows)), np.zeros(len(rows)))
+    for p in scalars:
+        p.set_pose(Pose(50, 0))
+    for k in range(8):
+        for j in range(9):
+            t = k + j / 9.0
+            values = np.array([r[k] for r in rows])
+            for p, v in zip(scalars, values, strict=True):
+                p.add_sample(t, float(v))
+            fleet.add_samples(ids, values, t)
+        out = fleet.cycle(k + 1.0, ids)
+        want = [p.cycle(k + 1.0) for p in scalars]
+        np.testing.assert_array_equal(out.concentration, [w.concentration for w in want])
+        np.testing.assert_array_equal(out.detected, [w.detected for w in want])
+    assert fleet.stuck_samples.tolist() == [p.stuck_samples for p in scalars]
+    assert fleet.stuck_samples[0] > 0 and fleet.stuck_samples[2] == 0
