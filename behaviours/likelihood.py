@@ -341,8 +341,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         if limit is not None and self.map.known and self.map.known_chance(mean) >= limit:
             self.upflow.drop()  # held: the search goes on (class docstring)
             self.held_in_known_plume += 1
-            if self.held_in_known_plume == 1:
-                self._report()
+            self._report()
             return
         if not self._passed_upflow(p, mean):
             return

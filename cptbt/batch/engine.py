@@ -161,13 +161,18 @@ class VehicleRun:
 def collect_declarations(run: VehicleRun, planner: Planner) -> None:
     """Copy what map-keeping declarations publish into the run (absent for the others).
 
-    Every source declared, the belief at the last declaration (or the latest one), and the
-    fly-by report.
+    Every source declared, the belief at the final declaration (or when the search gave up),
+    else the latest one (a run that ended searching: the map it ended on, ``map_at`` "end" in
+    the report), and the fly-by report.
     """
     run.declared_all = planner.declared_sources
-    run.source_map = planner.read("source_map_at_declaration") or planner.read("source_map")
+    final = planner.declared_source is not None
+    run.source_map = ((planner.read("source_map_at_declaration") if final else None)
+                      or planner.read("source_map"))
     report = planner.read("declaration_report")
-    run.declaration_report = report if isinstance(report, dict) else None
+    run.declaration_report = dict(report) if isinstance(report, dict) else None
+    if run.declaration_report is not None and not final:
+        run.declaration_report["map_at"] = "end"
 
 
 def simulate(

@@ -247,7 +247,9 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
         mesh = ax.pcolormesh(belief.xs, belief.ys, shown, cmap="viridis", shading="auto",
                              norm=LogNorm(vmin=top * 1e-4, vmax=top), rasterized=True)
         bar = plt.colorbar(mesh, ax=ax, location="bottom", shrink=0.5, aspect=40, pad=0.02)
-        when = "the search gave up" if report.get("search_given_up") else "last declaration"
+        when = ("the search gave up" if report.get("search_given_up") else
+                "the end of the run, still searching" if report.get("map_at") == "end"
+                else "last declaration")
         bar.set_label(f"source-likelihood posterior per cell at t = {belief.t:.0f} s ({when}), "
                       "log scale;\nwhite inside the OpArea: below 1e-4 of the peak (ruled out)",
                       fontsize=8)

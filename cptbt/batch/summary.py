@@ -98,6 +98,7 @@ class RunSummary:
     visits_ended: int | None = None
     search_given_up: bool | None = None
     search_end: str | None = None
+    held_in_known_plume: int | None = None
     unchecked: int | None = None
     closest_approach_m: float | None = None
     T_M: float | None = None
@@ -144,7 +145,8 @@ def summarise(
     made unchecked (a check leg that timed out, or no flow direction to check along);
     ``search_given_up`` that the search for another source ended (``search_give_up_s``, or no
     cell left outside the declared sources' masks) before ``max_sources`` were declared, and
-    ``search_end`` which of the two.
+    ``search_end`` which of the two; ``held_in_known_plume`` the cycles a confident candidate
+    was held where a declared source's plume blinds the up-flow check.
     With several sources or declared points, the single-source fields keep their single
     meaning: ``true_source`` is the mission's ``source``, ``declared_source`` the declaration
     that ended the search, the last point (which may be another source's; None when the run
@@ -249,6 +251,7 @@ def summarise(
         visits_ended=report.get("visits_ended"),
         search_given_up=report.get("search_given_up"),
         search_end=report.get("search_end"),
+        held_in_known_plume=report.get("held_in_known_plume"),
         unchecked=report.get("unchecked"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
         T_M=_maintain_time(run) if mission.evaluation.criterion == "maintain" else None,

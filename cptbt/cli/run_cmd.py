@@ -92,10 +92,14 @@ def upflow_check_line(s: dict[str, Any]) -> str | None:
 def why_ended(s: dict[str, Any]) -> str | None:
     """Why a run ended without a declaration or an arrival (None when it did not)."""
     if s["outcome"] == "timeout":  # what the limit came before
+        held = s.get("held_in_known_plume")
         return "the AMP's time limit came " + (
             "before the vehicle reached the source" if s["criterion"] == "arrival" else
-            "while it searched for more sources" if any(s["declared_sources"]) else
-            "with no declaration")
+            "while it searched for more sources" + (
+                f" (a candidate held for {held} cycle{'s' * (held != 1)} in a declared "
+                "source's plume, where "
+                "the up-flow check cannot tell the two: known_plume_max_prob)" if held else "")
+            if any(s["declared_sources"]) else "with no declaration")
     return WHY_ENDED.get(s["outcome"])  # a StrEnum: its members are their strings
 
 

@@ -126,3 +126,23 @@ def test_a_world_no_run_can_succeed_in_is_warned_of(
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert f": {where}: warning: " in line and says in line, line
     assert main(["validate", str(TWO)]) == 0 and capsys.readouterr().err == ""
+
+
+def test_a_run_that_ends_searching_reports_the_map_it_ended_on(tmp_path: Path) -> None:
+    # three sources to find where two are: the search runs to the time limit, and the map
+    # drawn is the one at the end (it had been the last declaration's, captioned so)
+    text = TWO.read_text(encoding="utf-8")
+    more = tmp_path / "three.yaml"
+    more.write_text(text.replace("max_sources: 2}", "max_sources: 3}").replace(
+        "time_limit_s: 3600", "time_limit_s: 1200"), encoding="utf-8")
+    for path, ends_searching in ((more, True), (TWO, False)):
+        mission = load_mission(path, default_registry(), Environment)
+        (run,), _, _ = simulate(mission, to_sim_params(mission, 1), [launch_pose(mission)])
+        assert run.source_map is not None and run.declaration_report is not None
+        assert len(run.declared_all) == 2
+        if ends_searching:
+            assert str(run.outcome) == "timeout" and run.source_map.t >= 1190.0
+            assert run.declaration_report["map_at"] == "end"
+        else:
+            assert "map_at" not in run.declaration_report and run.t3 is not None
+            assert run.source_map.t == pytest.approx(run.t3)
