@@ -94,31 +94,35 @@ class CrossFlowSweep:
         """A new frame at ``here`` (its nearest point inside the inset): fly the lane through
         it toward its longer half, or with ``offset_m`` (a pass after the first) or no lane
         through it, go to the nearest lane's nearer end first."""
-        self.origin = area.clamp(here.x, here.y, self.inset_m)
         self.step = 1.0
         # across the flow; where no lane across it is long enough (a corridor along the flow),
-        # along it: such a lane runs through every plume in the corridor
-        # (a pass between the last's lanes, or, where none lies between them, the first's)
-        for turn, offset in ((0.0, offset_m), (90.0, offset_m), (0.0, 0.0), (90.0, 0.0)):
-            self.flow = unit(flow_deg + turn)
-            self.gap = min(self.spacing_m, max(0.5 * self._extent(area), self.min_lane_m))
-            reach = math.hypot(area.xmax - area.xmin, area.ymax - area.ymin)
-            n = int(reach / self.gap) + 2 if self.gap > 0 else 0
-            lanes = sorted((offset + j * self.gap for j in range(-n, n + 1)),
-                           key=lambda a: (abs(a), -a))  # nearest first, down-flow first
-            for lane in lanes:
-                span = self._span(area, lane)
-                if span is None:
-                    continue
-                lo, hi = span
-                self.lane, self.swept = lane, (lane, lane)
-                if lane == 0.0:  # on the lane: fly it toward its longer half
-                    self.side = 1.0 if hi >= -lo else -1.0
-                    self.across, self.legs = True, self.legs + 1
-                else:  # to the lane's nearer end first
-                    self.side = 1.0 if abs(hi) <= abs(lo) else -1.0
-                    self.across = False
-                return self._end(area, lane, self.side)
+        # along it: such a lane runs through every plume in the corridor; (a pass between the
+        # last's lanes, or, where none lies between them, the first's); from where the vehicle
+        # is, or, where no lane passes there (a corner of a corridor in a flow a little
+        # oblique to it), from the OpArea's centre
+        centre = area.centre
+        for origin in (area.clamp(here.x, here.y, self.inset_m), centre):
+            self.origin = origin
+            for turn, offset in ((0.0, offset_m), (90.0, offset_m), (0.0, 0.0), (90.0, 0.0)):
+                self.flow = unit(flow_deg + turn)
+                self.gap = min(self.spacing_m, max(0.5 * self._extent(area), self.min_lane_m))
+                reach = math.hypot(area.xmax - area.xmin, area.ymax - area.ymin)
+                n = int(reach / self.gap) + 2 if self.gap > 0 else 0
+                lanes = sorted((offset + j * self.gap for j in range(-n, n + 1)),
+                               key=lambda a: (abs(a), -a))  # nearest first, down-flow first
+                for lane in lanes:
+                    span = self._span(area, lane)
+                    if span is None:
+                        continue
+                    lo, hi = span
+                    self.lane, self.swept = lane, (lane, lane)
+                    if lane == 0.0 and origin is not centre:  # on it: toward its longer half
+                        self.side = 1.0 if hi >= -lo else -1.0
+                        self.across, self.legs = True, self.legs + 1
+                    else:  # to the lane's nearer end first
+                        self.side = 1.0 if abs(hi) <= abs(lo) else -1.0
+                        self.across = False
+                    return self._end(area, lane, self.side)
         self.origin = None
         return None
 

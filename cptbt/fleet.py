@@ -51,7 +51,7 @@ from numpy.typing import NDArray
 from cptbt.angles import bearing_deg_array, wrap_deg_array
 from cptbt.mission import MissionBase
 from cptbt.node import BehaviourParams, MissionContext, PlanBehaviour, Watch, planner_keys
-from cptbt.perception import TIME_EPS_S, PerceptionSettings
+from cptbt.perception import STUCK_FLOOR, TIME_EPS_S, PerceptionSettings
 from cptbt.registry import Registry, default_registry
 from cptbt.tree import build_tree, plan_leaves
 from cptbt.types import Point
@@ -186,10 +186,11 @@ class FleetPerception:
 
     def add_samples(self, ids: Index, concentration: FloatArray, t: float = math.nan) -> None:
         """One fluorometer sample per vehicle of ``ids`` at time ``t``; non-finite values and a
-        reading stuck above zero (``stuck_after_s``, as :class:`~cptbt.perception.Perception`)
+        reading stuck away from zero (``stuck_after_s``, as :class:`~cptbt.perception.Perception`)
         are ignored."""
         c = concentration
-        same = (c == self._run_value[ids]) & (c != 0.0)  # NaN: never the same
+        # NaN and inf are faults of their own (dropped below), never a stuck reading
+        same = (c == self._run_value[ids]) & (np.abs(c) > STUCK_FLOOR) & np.isfinite(c)
         self._run_t[ids] = np.where(same, self._run_t[ids], t)
         self._run_value[ids] = np.where(same, self._run_value[ids], c)
         limit = self.settings.stuck_after_s

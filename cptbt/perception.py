@@ -22,6 +22,10 @@ log = logging.getLogger(__name__)
 TIME_EPS_S = 1e-9
 """Tolerance on time comparisons, far below any cycle period."""
 
+STUCK_FLOOR = 1e-12
+"""Readings no farther from zero than this are never taken for a stuck sensor: a low-pass
+filter's output decays to the smallest float (5e-324) in clean water and stays there exactly."""
+
 
 class PerceptionSettings(BaseModel):
     """The ``perception:`` section of a mission: how raw samples become percepts (SPEC §2).
@@ -51,7 +55,7 @@ class PerceptionSettings(BaseModel):
     )
     stuck_after_s: float | None = Field(
         default=3.0, gt=0, le=3600, description="A fluorometer giving exactly the same reading "
-        "above zero for this long is stuck: its samples are dropped (no observation) until the "
+        "away from zero for this long is stuck: its samples are dropped (no observation) until the "
         "reading changes. A working sensor's noise and a plume's filaments make exact repeats "
         "rare; a stuck reading above the threshold read as plume (the vehicle tracked it to the "
         "up-flow wall and declared there), one below it as clean water. A reading stuck at "
@@ -69,8 +73,9 @@ class Perception:
     Robust to the faults a vehicle's sensors and clock produce (issue 9):
 
     - concentration: NaN or infinite samples are dropped (a fault degrades to "no detection"),
-      and so are the samples of a reading stuck above zero (``stuck_after_s``: the same value
-      that long, to the last bit) until it changes; a cycle with no sample left has a NaN
+      and so are the samples of a reading stuck away from zero (``stuck_after_s``: the same
+      value that long, to the last bit, more than :data:`STUCK_FLOOR` from zero) until it
+      changes; a cycle with no sample left has a NaN
       concentration, which no behaviour takes for plume or for clean water;
     - flow: non-finite samples and samples faster than ``max_flow_speed_mps`` (fill values such
       as 9.97e36, spikes) are dropped; the windowed vector mean is summed afresh each cycle with
@@ -127,7 +132,7 @@ class Perception:
         if not math.isfinite(concentration):
             self._run_value = math.nan
             return
-        if self._stuck(t, concentration):
+        if self._stuck(self._clock(t), concentration):
             self.stuck_samples += 1
             level = logging.INFO if self.stuck_samples == 1 else logging.DEBUG
             log.log(level, "fluorometer reading %g since t = %g s: stuck, samples dropped until "
@@ -137,9 +142,10 @@ class Perception:
             self._cycle_max = concentration
 
     def _stuck(self, t: float, value: float) -> bool:
-        """Whether this sample repeats a reading above zero held ``stuck_after_s`` or longer."""
+        """Whether this sample repeats a reading away from zero held ``stuck_after_s`` or longer
+        (``t`` on the planner clock)."""
         limit = self.settings.stuck_after_s
-        if value != self._run_value or value == 0.0:
+        if value != self._run_value or abs(value) <= STUCK_FLOOR:
             self._run_value, self._run_t = value, t
             return False
         return limit is not None and t - self._run_t >= limit - TIME_EPS_S

@@ -300,6 +300,19 @@ def test_in_a_corridor_along_the_flow_the_lanes_run_along_it() -> None:
     assert [round(p.x) for p in got[:2]] in ([10, 290], [290, 10])
 
 
+@pytest.mark.parametrize("flow_deg", [0.5, -0.5, 89.5, 90.5, 180.5])
+@pytest.mark.parametrize("start", [Point(-20.0, -20.0), Point(420.0, 50.0), Point(0.0, 30.0)])
+def test_from_beyond_a_corner_of_a_corridor_the_sweep_still_has_a_lane(
+        flow_deg: float, start: Point) -> None:
+    # the start clamps onto a corner of the 10-m strip, where the lane through it has no
+    # length and the others lie outside: the lanes are then laid from the OpArea's centre
+    area = OpArea(0.0, 400.0, 0.0, 30.0)
+    sweep = CrossFlowSweep(40.0, 10.0, 5.0, min_lane_m=15.0)
+    got = waypoints(sweep, start, flow_deg, area, 4)
+    assert all(area.depth_inside(p.x, p.y) >= 10.0 - 1e-6 for p in got)
+    assert max(p.x for p in got) - min(p.x for p in got) > 300.0  # along the corridor
+
+
 def test_a_spacing_longer_than_the_oparea_still_sweeps_two_lanes_a_pass() -> None:
     # 80 m between the insets along the flow: lanes at most 40 m apart, not one lane forever
     sweep = CrossFlowSweep(spacing_m=500.0, inset_m=10.0, arrive_m=3.0, min_lane_m=15.0)

@@ -144,6 +144,24 @@ def test_zeros_and_varying_readings_are_never_stuck() -> None:
     assert p.stuck_samples == 0
 
 
+def test_a_filter_decaying_to_the_smallest_float_is_not_stuck() -> None:
+    # AB's low-pass filter in clean water ends at 5e-324 exactly and stays there
+    p = make()
+    p.set_pose(Pose(50, 0))
+    assert sampled(p, [5e-324] * 6) == [5e-324] * 6 and p.stuck_samples == 0
+    # a reading stuck below zero (a sensor's offset) is as stuck as one above
+    assert all(math.isnan(c) for c in sampled(p, [-0.05] * 6, t0=6.0)[4:])
+
+
+def test_the_stuck_timer_runs_on_the_planner_clock() -> None:
+    # a NaN time stamp, or a clock stepped back, does not restart a stuck reading's timer
+    p = make()
+    p.set_pose(Pose(50, 0))
+    p.add_sample(math.nan, 0.5)
+    got = sampled(p, [0.5] * 6)
+    assert all(math.isnan(c) for c in got[4:]), got
+
+
 def test_stuck_detection_can_be_turned_off() -> None:
     p = Perception(AREA, PerceptionSettings(threshold=0.2, stuck_after_s=None))
     p.set_pose(Pose(50, 0))
@@ -161,6 +179,8 @@ def test_the_fleet_drops_stuck_readings_as_the_scalar_perception_does() -> None:
         [0.0] * 8,                        # clean water
         [0.3, 0.31, 0.3, 0.31, 0.3, 0.31, 0.3, 0.31],  # varying
         [0.5, 0.5, math.nan, 0.5, 0.5, 0.5, 0.5, 0.5],  # a dropout breaks the run
+        [math.inf] * 4 + [0.5] * 4,       # inf: a fault of its own, never a stuck reading
+        [5e-324] * 8,                     # a filter's decay in clean water: not stuck
     ]
     scalars = [make() for _ in rows]
     fleet = FleetPerception(len(rows), AREA, scalars[0].settings)
