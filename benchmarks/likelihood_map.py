@@ -319,7 +319,8 @@ def main() -> int:
                 f.flush()
     wall = time.perf_counter() - wall0
     machine = (f"{platform.machine()}, {os.cpu_count()} CPUs (shared), Python "
-               f"{platform.python_version()}, {args.workers} workers")
+               f"{platform.python_version()}, NumPy {np.__version__} (its floating point "
+               f"shapes the rows), {args.workers} workers")
     if not args.from_rows:
         machine += (f", 1-min load average {load0:.1f} at the start and "
                     f"{os.getloadavg()[0]:.1f} at the end")

@@ -16,6 +16,7 @@ op_area: {corners: [[0, -50], [200, -50], [200, 50], [0, 50]]}
 home: [190, 0]
 start: [150, 20]
 speed_mps: 1.5
+perception: {stuck_after_s: null}  # scripted readings repeat exactly; a real sensor's do not
 behaviours:
   - safety: {variant: oparea}
   - declare_source: {variant: upflow_cluster}
