@@ -69,6 +69,8 @@ class ScriptedPerception:
     Each :meth:`step` is one planning cycle: the pose, the concentration (one sample) and
     optionally a flow sample. Because the real :class:`~cptbt.perception.Perception` condenses
     them, last detection, contact count and lost-contact list are consistent with the script.
+    A script repeats readings exactly (``conc=1.0`` cycle after cycle), which only a frozen
+    sensor does, so the stuck-sensor check is off unless ``stuck_after_s`` is given.
     """
 
     def __init__(
@@ -78,9 +80,11 @@ class ScriptedPerception:
         threshold: float = 0.2,
         lambda_s: float = 8.5,
         flow_window_s: float = 100.0,
+        stuck_after_s: float | None = None,
     ) -> None:
         settings = PerceptionSettings(
-            threshold=threshold, lambda_s=lambda_s, flow_window_s=flow_window_s
+            threshold=threshold, lambda_s=lambda_s, flow_window_s=flow_window_s,
+            stuck_after_s=stuck_after_s,
         )
         self.perception = Perception(op_area or square_area(), settings)
         self.flow = flow

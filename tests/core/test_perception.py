@@ -201,3 +201,14 @@ def test_the_fleet_drops_stuck_readings_as_the_scalar_perception_does() -> None:
         np.testing.assert_array_equal(out.detected, [w.detected for w in want])
     assert fleet.stuck_samples.tolist() == [p.stuck_samples for p in scalars]
     assert fleet.stuck_samples[0] > 0 and fleet.stuck_samples[2] == 0
+
+
+def test_the_scripted_perception_reads_a_script_as_written_unless_asked() -> None:
+    # a test scripting plume for a while must not see it vanish as a frozen sensor
+    from cptbt.testing import ScriptedPerception
+
+    script = ScriptedPerception(AREA)
+    assert all(script.step(t, 50.0, 0.0, conc=1.0).detected for t in range(10))
+    faulty = ScriptedPerception(AREA, stuck_after_s=3.0)
+    got = [faulty.step(t, 50.0, 0.0, conc=1.0).detected for t in range(10)]
+    assert got[:3] == [True] * 3 and not any(got[4:])
