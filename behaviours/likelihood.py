@@ -280,8 +280,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
         """Update the map; run the fly-by's bookkeeping; test the rule; publish the map."""
         assert self.map is not None, "call setup()"
         self.map.observe(p)
-        if p.detected:
-            self.last_level = self.map.level(p)
+        level = self.map.level(p)
+        if level:
+            self.last_level = level
         if self.map.unexplained != self.evidence_count:
             self.evidence_t, self.evidence_count = p.t, self.map.unexplained
         if self.map.detections and self.params.upflow_check_m is not None:
@@ -289,7 +290,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
             reading = p.concentration if p.in_op_area else math.nan
             # a reading in a declared source's plume, 0 or not, says nothing of this source
             explained = math.isfinite(reading) and bool(self.sources) and self._explained(
-                here, self.map.level(p))
+                here, level)
             self.upflow.record(p.t, here, p.detected and not explained,
                                math.nan if explained else reading)
         post = self.map.posterior()

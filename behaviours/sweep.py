@@ -18,11 +18,10 @@ flown. Lanes lie at most half the shrunk OpArea's extent along the flow apart (b
 than ``min_lane_m``), so a pass has two lanes or more whatever ``spacing_m`` (a spacing longer
 than the OpArea had the vehicle fly one lane for the rest of the mission). Where no lane
 across the flow is long enough (a corridor along the flow narrower than a turn plus the
-insets), the lanes run along the flow
-instead, spaced across it: in such a corridor a lane along its middle runs through every plume
-(the search had headed for the map's most probable cell, which before any unexplained plume is
-one at the down-flow wall no miss can rule out, and loitered there, outside the OpArea for a
-third of the mission).
+insets), the lanes run along the flow instead, spaced across it: in such a corridor a lane
+along its middle runs through every plume (the search had headed for the map's most
+probable cell, which before any unexplained plume is one at the down-flow wall no miss can
+rule out, and loitered there, outside the OpArea for a third of the mission).
 
 Readings chosen: the frame is not turned with the flow estimate during a sweep (an estimate
 wandering by 10-20 degrees moved a 500-m leg re-planned from it by 90-170 m along the flow and
@@ -101,12 +100,12 @@ class CrossFlowSweep:
         # is, or, where no lane passes there (a corner of a corridor in a flow a little
         # oblique to it), from the OpArea's centre
         centre = area.centre
+        reach = math.hypot(area.xmax - area.xmin, area.ymax - area.ymin)
         for origin in (area.clamp(here.x, here.y, self.inset_m), centre):
             self.origin = origin
             for turn, offset in ((0.0, offset_m), (90.0, offset_m), (0.0, 0.0), (90.0, 0.0)):
                 self.flow = unit(flow_deg + turn)
                 self.gap = min(self.spacing_m, max(0.5 * self._extent(area), self.min_lane_m))
-                reach = math.hypot(area.xmax - area.xmin, area.ymax - area.ymin)
                 n = int(reach / self.gap) + 2 if self.gap > 0 else 0
                 lanes = sorted((offset + j * self.gap for j in range(-n, n + 1)),
                                key=lambda a: (abs(a), -a))  # nearest first, down-flow first
@@ -126,11 +125,15 @@ class CrossFlowSweep:
         self.origin = None
         return None
 
+    def _insets(self, area: OpArea) -> tuple[float, float]:
+        """The inset on each axis, limited to half the OpArea's width there."""
+        return (min(self.inset_m, 0.5 * (area.xmax - area.xmin)),
+                min(self.inset_m, 0.5 * (area.ymax - area.ymin)))
+
     def _extent(self, area: OpArea) -> float:
         """How far the shrunk OpArea reaches along the sweep's flow direction."""
         fx, fy = self.flow
-        ix = min(self.inset_m, 0.5 * (area.xmax - area.xmin))
-        iy = min(self.inset_m, 0.5 * (area.ymax - area.ymin))
+        ix, iy = self._insets(area)
         return ((area.xmax - area.xmin - 2 * ix) * abs(fx)
                 + (area.ymax - area.ymin - 2 * iy) * abs(fy))
 
@@ -154,8 +157,7 @@ class CrossFlowSweep:
         fx, fy = self.flow
         nx, ny = -fy, fx  # across the flow
         px, py = self.origin.x + lane * fx, self.origin.y + lane * fy
-        ix = min(self.inset_m, 0.5 * (area.xmax - area.xmin))
-        iy = min(self.inset_m, 0.5 * (area.ymax - area.ymin))
+        ix, iy = self._insets(area)
         lo, hi = -math.inf, math.inf
         for p, n, a, b in ((px, nx, area.xmin + ix, area.xmax - ix),
                            (py, ny, area.ymin + iy, area.ymax - iy)):

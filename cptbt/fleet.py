@@ -189,15 +189,18 @@ class FleetPerception:
         reading stuck away from zero (``stuck_after_s``, as :class:`~cptbt.perception.Perception`)
         are ignored."""
         c = concentration
-        # NaN and inf are faults of their own (dropped below), never a stuck reading
-        same = (c == self._run_value[ids]) & (np.abs(c) > STUCK_FLOOR) & np.isfinite(c)
-        self._run_t[ids] = np.where(same, self._run_t[ids], t)
-        self._run_value[ids] = np.where(same, self._run_value[ids], c)
         limit = self.settings.stuck_after_s
-        if limit is not None and same.any():
-            stuck = same & (t - self._run_t[ids] >= limit - TIME_EPS_S)
-            self.stuck_samples[ids] += stuck
-            c = np.where(stuck, np.nan, c)
+        if limit is not None:
+            # NaN and inf are faults of their own (dropped below), never a stuck reading
+            run_value, run_t = self._run_value[ids], self._run_t[ids]
+            same = (c == run_value) & (np.abs(c) > STUCK_FLOOR) & np.isfinite(c)
+            run_t = np.where(same, run_t, t)
+            self._run_t[ids] = run_t
+            self._run_value[ids] = np.where(same, run_value, c)
+            if same.any():
+                stuck = same & (t - run_t >= limit - TIME_EPS_S)
+                self.stuck_samples[ids] += stuck
+                c = np.where(stuck, np.nan, c)
         cm = self._cycle_max[ids]
         self._cycle_max[ids] = np.where(np.isfinite(c) & (c > cm), c, cm)
 

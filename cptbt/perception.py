@@ -127,12 +127,12 @@ class Perception:
         return t + self._offset
 
     def add_sample(self, t: float, concentration: float) -> None:
-        """One fluorometer sample; NaN or infinite values and a reading stuck above zero
+        """One fluorometer sample; NaN or infinite values and a reading stuck away from zero
         (sensor faults: the class docstring) are ignored."""
         if not math.isfinite(concentration):
             self._run_value = math.nan
             return
-        if self._stuck(self._clock(t), concentration):
+        if self.settings.stuck_after_s is not None and self._stuck(self._clock(t), concentration):
             self.stuck_samples += 1
             level = logging.INFO if self.stuck_samples == 1 else logging.DEBUG
             log.log(level, "fluorometer reading %g since t = %g s: stuck, samples dropped until "
@@ -145,10 +145,11 @@ class Perception:
         """Whether this sample repeats a reading away from zero held ``stuck_after_s`` or longer
         (``t`` on the planner clock)."""
         limit = self.settings.stuck_after_s
+        assert limit is not None
         if value != self._run_value or abs(value) <= STUCK_FLOOR:
             self._run_value, self._run_t = value, t
             return False
-        return limit is not None and t - self._run_t >= limit - TIME_EPS_S
+        return t - self._run_t >= limit - TIME_EPS_S
 
     def add_flow(self, t: float, vx: float, vy: float) -> None:
         """One flow-over-ground sample (planning frame, m/s); impossible samples are ignored."""
