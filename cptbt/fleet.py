@@ -304,6 +304,13 @@ class FleetPerception:
             first_t=first_t, in_plume=in_plume, contact_count=self._contacts[ids],
         )
 
+    def faults(self, i: int) -> dict[str, int]:
+        """Vehicle ``i``'s :meth:`~cptbt.perception.Perception.faults` (the fleet's cycles come
+        from the simulator's clock, never corrected)."""
+        return {"stuck_samples": int(self.stuck_samples[i]),
+                "rejected_flow_samples": int(self.rejected_flow_samples[i]),
+                "clock_corrections": 0}
+
     def lost_contacts(self, i: int) -> tuple[Point, ...]:
         """Vehicle ``i``'s lost-contact points, oldest first."""
         return tuple(self._lost[i])

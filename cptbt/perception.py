@@ -120,6 +120,14 @@ class Perception:
         self._run_t = math.nan
         self.latest: Percept | None = None
 
+    def faults(self) -> dict[str, int]:
+        """What the perception has dropped or corrected so far (the run summary's sensor
+        faults): fluorometer samples dropped as stuck, flow samples rejected, clock steps back
+        corrected."""
+        return {"stuck_samples": self.stuck_samples,
+                "rejected_flow_samples": self.rejected_flow_samples,
+                "clock_corrections": self.clock_corrections}
+
     def _clock(self, t: float) -> float:
         """A sample's time on the planner's clock (the vehicle's, shifted by past steps back)."""
         if not math.isfinite(t):

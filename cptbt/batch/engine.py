@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -101,6 +101,7 @@ class VehicleRun:
         closest_m: its closest true approach to the true source during the recorded part.
         declared: the declared source (planning frame).
         lost_contacts: the perception's lost-contact points at the end.
+        sensor_faults: what the perception dropped or corrected (its ``faults()``) at the end.
         plume: the plume when the source was declared (or the run ended), if asked for.
     """
 
@@ -121,6 +122,7 @@ class VehicleRun:
     source_map: Any = None
     declaration_report: dict[str, Any] | None = None
     lost_contacts: tuple[Point, ...] = ()
+    sensor_faults: dict[str, int] = field(default_factory=dict)
     plume: PlumeSnapshot | None = None
 
     @property
@@ -311,6 +313,7 @@ def simulate(
                 run.declared = pl.declared_source
                 collect_declarations(run, pl)
                 run.lost_contacts = p.lost_contacts
+                run.sensor_faults = pl.perception.faults()
                 if plume_grid is not None and run.plume is None:
                     run.plume = PlumeSnapshot.of(world, plume_grid)
                 keep[j] = False
@@ -415,6 +418,7 @@ def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: 
                            else outcome_of(why[int(j)][0], False))
             run.t_end, run.distance_at_end_m = t, float(d_true[j])
             run.lost_contacts = fleet.perception.lost_contacts(int(active[j]))
+            run.sensor_faults = fleet.perception.faults(int(active[j]))
             if plume_grid is not None and run.plume is None:
                 run.plume = PlumeSnapshot.of(world, plume_grid)
         values: dict[str, Any] = {"t": t, "x": tx, "y": ty, "x_est": ex, "y_est": ey}

@@ -149,6 +149,7 @@ def simulate_phased(
                 run.distance_at_end_m = math.hypot(tx - source.x, ty - source.y)
                 run.declared = planner.declared_source
                 run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
+                run.sensor_faults = planner.perception.faults()
                 if plume_grid is not None and run.plume is None:
                     run.plume = PlumeSnapshot.of(world, plume_grid)
         if resumed_at is None and session.phases.state == "mission_a.resumed":

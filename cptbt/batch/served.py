@@ -99,6 +99,7 @@ def served_summary(result: ServeResult, cycles: AmpCycles, mission: MissionBase,
         run.t_end = session.t
     run.declared = planner.declared_source
     run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
+    run.sensor_faults = planner.perception.faults()
     if cycles.rows.count[0]:
         run.start = (float(run.path_true[0, 0]), float(run.path_true[0, 1]))
     truth = source if source is not None else Point(math.nan, math.nan)

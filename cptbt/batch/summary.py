@@ -105,6 +105,9 @@ class RunSummary:
     path_m: float | None = None
     start_to_source_m: float | None = None
     path_efficiency: float | None = None
+    stuck_samples: int = 0
+    rejected_flow_samples: int = 0
+    clock_corrections: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data for ``summary.json`` and the results table."""
@@ -147,6 +150,9 @@ def summarise(
     cell left outside the declared sources' masks) before ``max_sources`` were declared, and
     ``search_end`` which of the two; ``held_in_known_plume`` the cycles a confident candidate
     was held where a declared source's plume blinds the up-flow check.
+    ``stuck_samples``, ``rejected_flow_samples`` and ``clock_corrections`` count what the
+    perception dropped or corrected (a fluorometer reading stuck away from zero, impossible
+    flow samples, cycle times not after the previous one) up to the end of the AMP's part.
     With several sources or declared points, the single-source fields keep their single
     meaning: ``true_source`` is the mission's ``source``, ``declared_source`` the declaration
     that ended the search, the last point (which may be another source's; None when the run
@@ -259,6 +265,7 @@ def summarise(
         start_to_source_m=straight,
         path_efficiency=(straight / path_m if verdict.success and path_m and straight is not None
                          and mission.evaluation.criterion != "maintain" else None),
+        **run.sensor_faults,
     )
 
 

@@ -36,3 +36,18 @@ def place(d: dict[str, float]) -> str:
     if "lat" in d:
         text += f" ({d['lat']:.6f}, {d['lon']:.6f})"
     return text
+
+
+def sensor_faults_line(s: dict[str, Any]) -> str | None:
+    """What the perception dropped or corrected in a run summary (None: nothing)."""
+    parts = []
+    for key, what in (("stuck_samples", "fluorometer sample{} dropped as stuck (the same "
+                       "reading for perception.stuck_after_s)"),
+                      ("rejected_flow_samples", "flow sample{} rejected (not finite, or faster "
+                       "than perception.max_flow_speed_mps)"),
+                      ("clock_corrections", "cycle time{} not after the previous one, taken as "
+                       "one period later")):
+        n = s.get(key) or 0
+        if n:
+            parts.append(f"{n} " + what.format("s" * (n != 1)))
+    return "  sensor faults: " + "; ".join(parts) if parts else None

@@ -19,7 +19,7 @@ from cptbt.batch.summary import summarise
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
-from cptbt.cli.output import fmt, fresh_folder, place, time_share
+from cptbt.cli.output import fmt, fresh_folder, place, sensor_faults_line, time_share
 from cptbt.loader import dump_mission, loads_mission
 from cptbt.mission import MissionBase
 from cptbt.registry import default_registry
@@ -297,9 +297,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                      "an earlier one taken for the same source (at "
                      + ", ".join(place(q) for q in s["superseded_points"] if q) + ")"
                      if s.get("superseded") else ""))
-        check = upflow_check_line(s)
-        if check:
-            print(check)
+        for line in (upflow_check_line(s), sensor_faults_line(s)):
+            if line:
+                print(line)
         if s["criterion"] == "maintain":
             print(f"  first detection {fmt(s['t1'], ' s')}; maintain time T_M "
                   f"{fmt(s['T_M'], ' s')} (AB eq. 3); closest to the source "

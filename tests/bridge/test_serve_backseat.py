@@ -54,6 +54,7 @@ def test_msn007_flies_over_the_wire_take_declare_give_back(msn007: MissionBase) 
     assert 240.0 <= s["t0"] <= 241.0 and s["t1"] is not None and s["t3"] > s["t1"]
     assert s["phases"]["end_phase"] == "post_mission" and s["link"]["ignored"] == 0
     assert s["track"].startswith("navigation estimate")  # what its D0-D3 are measured on
+    assert s["stuck_samples"] == s["rejected_flow_samples"] == s["clock_corrections"] == 0
 
 
 def test_dropped_delayed_and_junk_datagrams_are_survived_and_counted(msn007) -> None:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from cptbt.batch.scenario import Environment
 from cptbt.batch.summary import where
-from cptbt.cli.output import fmt, fresh_folder, place, time_share
+from cptbt.cli.output import fmt, fresh_folder, place, sensor_faults_line, time_share
 from cptbt.cli.run_cmd import upflow_check_line
 from cptbt.loader import load_mission
 from cptbt.registry import default_registry
@@ -93,3 +93,15 @@ def test_the_figure_title_says_whether_the_declaration_was_right() -> None:
              "false_declarations": 0}
     assert short_verdict(three) == "2 of 3 sources found"
     assert short_verdict({**three, "false_declarations": 1}) == "2 of 3 sources found, 1 false"
+
+
+def test_sensor_faults_are_told_only_when_there_were_some() -> None:
+    assert sensor_faults_line({"stuck_samples": 0, "rejected_flow_samples": 0,
+                               "clock_corrections": 0}) is None
+    assert sensor_faults_line({}) is None  # a summary from before the counts
+    line = sensor_faults_line({"stuck_samples": 976, "rejected_flow_samples": 1,
+                               "clock_corrections": 2})
+    assert line == ("  sensor faults: 976 fluorometer samples dropped as stuck (the same reading "
+                    "for perception.stuck_after_s); 1 flow sample rejected (not finite, or "
+                    "faster than perception.max_flow_speed_mps); 2 cycle times not after the "
+                    "previous one, taken as one period later")

@@ -208,3 +208,27 @@ def test_a_navigation_jump_across_the_oparea_during_safety_is_survived_alike(
     assert active is not None and active.startswith("find_plume")
     assert math.sin(math.radians(heading)) <= 0.0, out[-6:]
     tree.close()
+
+
+def test_both_planners_count_the_same_sensor_faults() -> None:
+    """A stuck fluorometer's dropped samples reach each run's summary, equal whichever planner
+    flew the group."""
+    from cptbt.batch.summary import summarise
+    from cptbt.types import Point
+
+    ab = load(str(AB[2]))
+    params = to_sim_params(ab, 4)
+    params = params.model_copy(update={"fluorometer": params.fluorometer.model_copy(
+        update={"stuck_prob": 0.01, "stuck_duration_s": 6.0})})
+    starts = [(60.0, y, 180.0) for y in (-20.0, -10.0, 0.0, 10.0, 20.0, 5.0, -5.0, 15.0)]
+    counts = []
+    for planner in ("fleet", "tree"):
+        runs, _, _ = simulate(ab, params, starts, time_limit_s=60.0, planner=planner,
+                              env_rng=np.random.default_rng(3),
+                              vehicle_rngs=[np.random.default_rng(10 + i) for i in range(8)])
+        counts.append([r.sensor_faults for r in runs])
+        s = summarise(runs[0], ab, Point(*params.source_xy_m), 4, 0.0).to_dict()
+        assert s["stuck_samples"] == runs[0].sensor_faults["stuck_samples"]
+        assert s["rejected_flow_samples"] == s["clock_corrections"] == 0
+    assert counts[0] == counts[1]
+    assert sum(c["stuck_samples"] for c in counts[0]) > 0
