@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from cptbt.batch.engine import VehicleRun
 from cptbt.frames import OpArea
@@ -181,9 +182,14 @@ def trajectory_figure(
     declared = list(run.declared_all) or ([run.declared] if run.declared is not None else [])
     _sources(ax, truth, declared)
     if flow_deg is not None:
-        _flow_arrow(ax, area, flow_deg)
+        trace = run.trace or {}
+        drawn = np.concatenate([
+            np.column_stack([trace.get("x", run.path_true[:, 0]),
+                             trace.get("y", run.path_true[:, 1])]), det.reshape(-1, 2)])
+        _flow_arrow(ax, area, flow_deg, drawn, north=mission.frame != "planning")
     if belief is not None:
         _map_panel(ax_map, belief, area, truth, declared, run.declaration_report or {}, plt)
+        ax.tick_params(labelbottom=True)  # shared x: the top panel's numbers too
     ax.set_aspect("equal")
     ax.invert_yaxis()  # TRO draws the planning y axis positive downward
     if mission.frame == "planning":  # no compass: drawing a north would invent one
@@ -201,9 +207,12 @@ def trajectory_figure(
     plt.close(fig)
 
 
-def _flow_arrow(ax: Any, area: OpArea, flow_deg: float) -> None:
-    """The mean current's direction, in the OpArea's corner (the plume alone can mislead:
-    the meander bends it)."""
+def _flow_arrow(ax: Any, area: OpArea, flow_deg: float,
+                track: NDArray[np.float64] | None = None, north: bool = False) -> None:
+    """The mean current's direction, in the OpArea's corner farthest from the drawn track and
+    detections (the plume alone can mislead: the meander bends it; in a small area a fixed
+    corner put the arrow and its label on the track); ``north``: not the upper-left corner,
+    the north arrow's."""
     from matplotlib import patheffects
 
     w, h = area.xmax - area.xmin, area.ymax - area.ymin
@@ -211,7 +220,23 @@ def _flow_arrow(ax: Any, area: OpArea, flow_deg: float) -> None:
     # a thin area's short side alone made a speck of it (3.6 m in a 200 x 30 m box)
     size = min(max(0.12 * short, 0.05 * long), 0.3 * short)
     th = math.radians(flow_deg)
-    cx, cy = area.xmin + 1.4 * size, area.ymax - 1.4 * size
+    m = 1.4 * size
+    corners = [(area.xmin + m, area.ymax - m), (area.xmax - m, area.ymax - m),
+               (area.xmin + m, area.ymin + m), (area.xmax - m, area.ymin + m)]
+    cx, cy = corners[0]  # drawn bottom left (y down) unless the track passes there
+    pts = track[np.isfinite(track).all(axis=1)] if track is not None else np.empty((0, 2))
+    if len(pts):
+        # the arrow spans about a size from its tail, the label below it: clearance from the
+        # box they fill, and the first corner of those with the most
+        def clearance(c: tuple[float, float]) -> float:
+            x0, x1 = c[0] - size, c[0] + size
+            y0, y1 = c[1] - size, c[1] + size
+            dx = np.maximum(np.maximum(x0 - pts[:, 0], pts[:, 0] - x1), 0.0)
+            dy = np.maximum(np.maximum(y0 - pts[:, 1], pts[:, 1] - y1), 0.0)
+            return float(np.hypot(dx, dy).min())
+
+        room = [-1.0 if north and i == 2 else clearance(c) for i, c in enumerate(corners)]
+        cx, cy = corners[int(np.argmax(room))]
     halo = [patheffects.withStroke(linewidth=3.0, foreground="white")]
     arrow = ax.annotate("", xy=(cx + size * math.cos(th), cy + size * math.sin(th)),
                         xytext=(cx, cy),

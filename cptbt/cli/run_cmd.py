@@ -371,7 +371,7 @@ def refly(args: argparse.Namespace) -> int:
         trajectory_figure(out / "trajectory.png", run, mission, source,
                           f"{mission.name}{f' [{label}]' if label else ''}, study row "
                           f"{args.row} ({task.key}, start {row['start']}): "
-                          f"{summary['outcome']}",
+                          f"{summary['outcome']}, {short_verdict(summary)}",
                           threshold=mission.perception.threshold,
                           sources=true_sources(mission), goal=Point(*task.starts[0]),
                           flow_deg=to_sim_params(mission).flow.mean_dir_deg)

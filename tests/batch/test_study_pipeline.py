@@ -184,3 +184,20 @@ def test_row_and_from_mistakes_say_what_is_missing(args: list[str], says: str) -
     res = cptbt("run", *args)
     lines = res.stderr.strip().splitlines()
     assert res.returncode == 2 and len(lines) == 1 and says in lines[0], res.stderr
+
+
+def test_a_row_flown_again_has_its_verdict_in_the_figure_title(
+        study: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The title says whether the row was a success (and how many sources it found), as
+    ``cptbt run``'s own figure does: the outcome alone ("declared") does not."""
+    pytest.importorskip("matplotlib")
+    from cptbt.cli import main, run_cmd
+
+    titles: list[str] = []
+    monkeypatch.setattr(run_cmd, "trajectory_figure",
+                        lambda path, run, mission, source, title, **kw: titles.append(title))
+    assert main(["run", "--from", str(study), "--row", "0", "--out", str(tmp_path / "r"),
+                 "--quiet"]) == 0
+    (title,) = titles
+    s = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert title.endswith(f": {s['outcome']}, {run_cmd.short_verdict(s)}"), title

@@ -106,3 +106,52 @@ def test_the_mean_current_is_drawn_when_given(tmp_path: Path,
     (x0, y0), (x1, y1) = arrow.xyann, arrow.xy
     # Toward 240 deg compass in a box with x north: mostly west (-y), partly south (-x).
     assert x1 < x0 and y1 < y0 and abs(y1 - y0) > abs(x1 - x0)
+
+
+def test_the_mean_current_keeps_off_the_track(tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """In small_oparea (50 x 50 m), started in the usual corner (bottom left, y drawn down),
+    the arrow goes to the corner farthest from the track, never the north arrow's (top left)."""
+    from matplotlib.figure import Figure
+
+    mission = load(str(ROOT / "missions" / "small_oparea.yaml"), simulate=True)
+    corner = mission.to_ne(Point(-17.0, 17.0))
+    mission = mission.model_copy(update={"start": list(corner),
+                                         "time_limit_s": 120.0})
+    params = to_sim_params(mission, 3)
+    (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True,
+                            plume_grid=plume_grid(mission.op_area_geometry()))
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), "t",
+                      flow_deg=params.flow.mean_dir_deg)
+    ax = seen[0].axes[0]
+    arrow = next(c for c in ax.texts if c.get_text() == "")
+    tail = arrow.xyann
+    trace = run.trace
+    assert trace is not None
+    gap = min(((x - tail[0]) ** 2 + (y - tail[1]) ** 2) ** 0.5
+              for x, y in zip(trace["x"], trace["y"], strict=True))
+    area = mission.op_area_geometry()
+    assert gap > 3.0, gap  # the usual corner: the track starts at the tail
+    assert not (tail[0] < 0 and tail[1] < 0)  # not top left (y drawn down): the north's
+    assert area.contains(*tail)
+
+
+def test_both_panels_have_their_numbers(tmp_path: Path,
+                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """With the map panel below, the top panel's x axis keeps its tick labels."""
+    from matplotlib.figure import Figure
+
+    mission = load(str(ROOT / "missions" / "two_sources.yaml"), simulate=True)
+    mission = mission.model_copy(update={"time_limit_s": 30.0})
+    params = to_sim_params(mission)
+    (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True,
+                            plume_grid=plume_grid(mission.op_area_geometry()))
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), "t")
+    top, bottom = (a for a in seen[0].axes if a.get_label() != "<colorbar>")
+    seen[0].canvas.draw()
+    for ax in (top, bottom):
+        assert any(t.get_visible() and t.get_text() for t in ax.get_xticklabels()), ax
