@@ -435,9 +435,17 @@ class BehaviourEntry(BaseModel):
         return getattr(type(self.params), "contract", None) or Contract()
 
     def to_data(self) -> dict[str, Any]:
-        """The YAML form ``{family: {variant: ..., params...}}``."""
-        body = self.params.model_dump(mode="json", exclude_none=True)
-        body = {"variant": self.variant, **{k: v for k, v in body.items() if k != "variant"}}
+        """The YAML form ``{family: {variant: ..., params...}}``.
+
+        A parameter set to None where its default is not None (``upflow_check_m: null``: the
+        check off) is kept as null: left out, it loaded back as the default, and every batch
+        (which flies the mission as dumped) silently flew the default instead.
+        """
+        body = self.params.model_dump(mode="json")
+        fields = type(self.params).model_fields
+        body = {"variant": self.variant,
+                **{k: v for k, v in body.items() if k != "variant"
+                   and (v is not None or k not in fields or fields[k].default is not None)}}
         return {self.family: body}
 
 

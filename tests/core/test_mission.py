@@ -116,3 +116,65 @@ def test_bad_files_give_one_precise_line(what, edit, where, fragment) -> None:  
 def test_a_place_allowed_outside_within_the_give_back_distance_loads() -> None:
     mission = load(GOOD.replace("home: [5, 0]", "home: [-25, 0]\nallow_outside: [home]"))
     assert mission.home == (-25, 0)
+
+
+def _none_where_default_is_not() -> list[tuple[str, str, str]]:
+    """(family, variant, parameter) of every shipped behaviour parameter that accepts None
+    while its default is not None: None there means something (a check off, a rule off)."""
+    from cptbt.registry import default_registry
+
+    out = []
+    for spec in default_registry().specs():
+        for name, f in spec.params.model_fields.items():
+            if f.default is None or name == "variant":
+                continue
+            try:
+                spec.params.model_validate({name: None})
+            except ValueError:
+                continue
+            out.append((spec.family, spec.variant, name))
+    return out
+
+
+NONE_PARAMS = _none_where_default_is_not()
+
+
+def test_such_parameters_exist() -> None:
+    assert ("declare_source", "likelihood_map", "upflow_check_m") in NONE_PARAMS
+    assert len(NONE_PARAMS) > 10
+
+
+@pytest.mark.parametrize(("family", "variant", "name"), NONE_PARAMS)
+def test_a_null_parameter_survives_the_dump(family: str, variant: str, name: str) -> None:
+    """A behaviour parameter set to null where its default is not null dumps as null and loads
+    back as None (it was left out of the dump, and a batch, which flies the mission as dumped,
+    flew the default)."""
+    from cptbt.mission import BehaviourEntry
+    from cptbt.registry import default_registry
+
+    spec = default_registry().get(family, variant)
+    params = spec.params.model_validate({name: None})
+    data = BehaviourEntry(family=family, variant=variant, params=params).to_data()[family]
+    assert name in data and data[name] is None
+    assert spec.params.model_validate({k: v for k, v in data.items() if k != "variant"}) == params
+
+
+def test_a_batch_flies_a_null_parameter_as_null() -> None:
+    from pathlib import Path
+
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.study import Sweep, configurations
+    from cptbt.registry import default_registry
+
+    path = Path(__file__).resolve().parents[2] / "missions" / "two_sources.yaml"
+    text = path.read_text().replace("max_sources: 2}", "max_sources: 2, same_source_m: null}")
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    configs = configurations(mission, [Sweep(("declare_source.known_plume_max_prob",),
+                                             (0.2, None))], "m.yaml")
+    flown = [loads_mission(c.mission_yaml, "c.yaml", default_registry(), Environment)
+             for c in configs]
+    (declare,) = {e.params for m in flown for e in m.entries()
+                  if e.family == "declare_source" and e.params.known_plume_max_prob is None}
+    assert declare.same_source_m is None
+    assert [next(e.params.known_plume_max_prob for e in m.entries()
+                 if e.family == "declare_source") for m in flown] == [0.2, None]
