@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -201,7 +202,11 @@ def trajectory_figure(
                 else "the OpArea's x axis")
         ax.set_xlabel(f"x (m): {side}, compass bearing {bearing:.1f}°")
     ax.set_ylabel("y (m), 90° clockwise from x")
-    ax.set_title(title, fontsize=10)
+    # A study row's title names its sweep: wrapped to the panel (~13 characters an inch at
+    # 10 pt; the legend takes ~3.5 in), it was cut off at the page's left edge.
+    chars = max(40, int(13 * (width - 3.5)))
+    ax.set_title("\n".join(textwrap.fill(line, chars) for line in title.split("\n")),
+                 fontsize=10)
     fig.legend(loc="outside right upper", fontsize=8, frameon=False)
     fig.savefig(path, dpi=150)
     plt.close(fig)

@@ -155,3 +155,29 @@ def test_both_panels_have_their_numbers(tmp_path: Path,
     seen[0].canvas.draw()
     for ax in (top, bottom):
         assert any(t.get_visible() and t.get_text() for t in ax.get_xticklabels()), ax
+
+
+def test_a_long_title_is_wrapped_to_the_panel(tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """A study row's title names its sweep; one long line ran off the page's left edge."""
+    from matplotlib.figure import Figure
+
+    mission = load(str(ROOT / "missions" / "two_sources.yaml"), simulate=True)
+    mission = mission.model_copy(update={"time_limit_s": 5.0})
+    params = to_sim_params(mission)
+    (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True,
+                            plume_grid=plume_grid(mission.op_area_geometry()))
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    words = ("two_sources [declare_source.upflow_known_veto=True, "
+             "declare_source.known_plume_max_prob=0.2]")
+    title = (f"{words}, study row 26 (c002-r00002, start 0): declared, 2 of 3 sources found, "
+             "1 false")
+    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m),
+                      f"{title}\nsecond line")
+    shown = seen[0].axes[0].get_title()
+    assert shown.replace("\n", " ") == f"{title} second line"
+    fig = seen[0]
+    fig.canvas.draw()
+    box = fig.axes[0].title.get_window_extent()
+    assert box.x0 >= 0 and box.x1 <= fig.bbox.x1, (box, fig.bbox)  # on the page
