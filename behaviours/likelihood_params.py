@@ -233,6 +233,12 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "the up-flow check cannot tell that plume from the candidate's (the declaring class's "
         "docstring; None: no hold)"
     )
+    upflow_known_veto: bool = Field(
+        default=False, description="A detection a declared source's plume explains still "
+        "vetoes a candidate down-flow of it, as plume seen up-flow does: fewer false "
+        "declarations near a known plume, more sources in its edge never declared (measured: "
+        "the declaring class's docstring; False: only unexplained plume vetoes)"
+    )
     upflow_check_m: float | None = Field(
         default=10.0, gt=0, description="The up-flow check's reach: declare only once the track "
         "(since this source's search began) has crossed the candidate's flow line between this "
@@ -328,8 +334,9 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     )
     search_give_up_s: float | None = Field(
         default=None, gt=0, description="With max_sources > 1: the search for another source "
-        "ends after this long without a detection no declared source explains, and the "
-        "vehicle goes home with the sources found; t3 is then when it gave up (None: it "
+        "ends after this long without a detection no declared source explains, or with a "
+        "candidate held this long in a declared source's plume (known_plume_max_prob), and "
+        "the vehicle goes home with the sources found; t3 is then when it gave up (None: it "
         "searches on to the time limit), s"
     )
 

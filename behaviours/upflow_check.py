@@ -89,17 +89,22 @@ class UpflowCheck:
         self._x: list[float] = []
         self._y: list[float] = []
         self._hit: list[bool] = []
+        self._seen: list[bool] = []
         self._conc: list[float] = []
+        self.known_veto = False  # a detection a declared source explains vetoes too
 
-    def record(self, t: float, at: Point, hit: bool, reading: float = 0.0) -> None:
+    def record(self, t: float, at: Point, hit: bool, reading: float = 0.0,
+               seen: bool | None = None) -> None:
         """One cycle of the track: where the vehicle was, whether it saw plume no declared
-        source explains, and its reading (NaN: none, or one that says nothing of this source:
-        a declared source explains it, or it was made outside the OpArea)."""
+        source explains, its reading (NaN: none, or one that says nothing of this source:
+        a declared source explains it, or it was made outside the OpArea), and whether it saw
+        plume at all (None: ``hit``; with :attr:`known_veto` such plume vetoes too)."""
         if math.isfinite(at.x) and math.isfinite(at.y):
             self._t.append(t)
             self._x.append(at.x)
             self._y.append(at.y)
             self._hit.append(hit)
+            self._seen.append(hit if seen is None else seen)
             self._conc.append(reading)
 
     def trace_floor(self) -> float:
@@ -148,7 +153,8 @@ class UpflowCheck:
                  & (upflow <= 3 * self.reach_m) & (np.abs(across) <= half))
         if self.memory_s is not None:
             where &= t >= p.t - self.memory_s
-        seen = where & hit
+        plume = np.asarray(self._seen, dtype=bool) if self.known_veto else hit
+        seen = where & plume
         if self.trace_level is not None:  # the floor (a median) only when a reading could pass
             conc = np.asarray(self._conc)
             with np.errstate(invalid="ignore"):  # a level of 0: not 0; NaN: no reading
@@ -160,7 +166,7 @@ class UpflowCheck:
             self.veto_t = max(self.veto_t, float(t[seen].max()))
             if not self.vetoing:
                 self.vetoes += 1
-                self.trace_vetoes += int(not np.any(where & hit))
+                self.trace_vetoes += int(not np.any(where & plume))
             self.vetoing = True
             return False
         self.vetoing = False

@@ -99,6 +99,7 @@ class RunSummary:
     search_given_up: bool | None = None
     search_end: str | None = None
     held_in_known_plume: int | None = None
+    held_candidate: dict[str, float] | None = None
     unchecked: int | None = None
     closest_approach_m: float | None = None
     T_M: float | None = None
@@ -149,7 +150,9 @@ def summarise(
     ``search_given_up`` that the search for another source ended (``search_give_up_s``, or no
     cell left outside the declared sources' masks) before ``max_sources`` were declared, and
     ``search_end`` which of the two; ``held_in_known_plume`` the cycles a confident candidate
-    was held where a declared source's plume blinds the up-flow check.
+    was held where a declared source's plume blinds the up-flow check, ``held_candidate``
+    the latest such candidate not resolved by a later declaration (a probable source the rule
+    could not confirm; not a declaration, and not judged).
     ``stuck_samples``, ``rejected_flow_samples`` and ``clock_corrections`` count what the
     perception dropped or corrected (a fluorometer reading stuck away from zero, impossible
     flow samples, cycle times not after the previous one) up to the end of the AMP's part.
@@ -258,6 +261,8 @@ def summarise(
         search_given_up=report.get("search_given_up"),
         search_end=report.get("search_end"),
         held_in_known_plume=report.get("held_in_known_plume"),
+        held_candidate=(where(mission, Point(*report["held_at"])) if report.get("held_at")
+                        else None),
         unchecked=report.get("unchecked"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
         T_M=_maintain_time(run) if mission.evaluation.criterion == "maintain" else None,

@@ -98,7 +98,9 @@ def why_ended(s: dict[str, Any]) -> str | None:
             "while it searched for more sources" + (
                 f" (a candidate held for {held} cycle{'s' * (held != 1)} in a declared "
                 "source's plume, where "
-                "the up-flow check cannot tell the two: known_plume_max_prob)" if held else "")
+                "the up-flow check cannot tell the two: known_plume_max_prob"
+                + (f"; the latest, unconfirmed, at {place(s['held_candidate'])}"
+                   if s.get("held_candidate") else "") + ")" if held else "")
             if any(s["declared_sources"]) else "with no declaration")
     return WHY_ENDED.get(s["outcome"])  # a StrEnum: its members are their strings
 
@@ -290,6 +292,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"  sources: {s['sources_found']} of {s['sources_true']} found, "
                   f"{s['false_declarations']} false"
                   + (f"; the search for more ended (t3 is when): {s.get('search_end')}"
+                     + (f", the latest at {place(s['held_candidate'])}"
+                        if s.get("held_candidate") and "held" in (s.get("search_end") or "")
+                        else "")
                      if s.get("search_given_up") else "")
                   + (f"; fly-bys {s['flybys']}, withdrawn {s['withdrawn']}"
                      if s["flybys"] is not None else "")

@@ -332,3 +332,46 @@ def test_after_a_hand_over_the_sweep_starts_anew_from_where_the_vehicle_is() -> 
     tick = harness.tick(script.step(132, 20.0, 30.0))
     assert node.sweeping and node.sweep.origin == Point(20.0, 30.0)
     assert tick.command is not None and abs(abs(tick.command.heading_deg) - 90.0) < 1e-6
+
+
+def test_a_candidate_held_in_a_known_plume_is_reported_and_can_end_the_search(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A confident candidate where the declared source's plume is likely is held, not
+    declared; the latest one is reported (a probable source, unconfirmed), and with
+    ``search_give_up_s`` a hold that long ends the search, though plume keeps coming (the
+    held candidate's own: the plain give-up clock never runs out). The map is scripted: its
+    mass is on (60, 0), 20 m down-flow of the declared (40, 0), where that plume is likely."""
+    node, harness, script = searching(search_give_up_s=50.0)
+    assert node.map is not None
+    monkeypatch.setattr(node.map, "mass_and_mean",
+                        lambda centre, radius, post=None: (0.99, Point(60.0, 0.0)))
+    monkeypatch.setattr(node.map, "known_chance", lambda at: 0.5)
+    t = 30
+    while node.held_since is None:  # unexplained plume (strong, 40 m aside) until the rule tests
+        harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
+        t += 1
+        assert t < 200
+    start = node.held_since
+    while t < start + 50.0:
+        harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
+        assert not node.search_given_up and not node.sources[1:], t
+        t += 1
+    report = node.bb.declaration_report
+    assert report["held_at"] == (60.0, 0.0) and report["held_in_known_plume"] >= 50
+    harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
+    assert node.search_given_up and node.heading_home
+    assert node.search_end is not None and node.search_end.startswith("a candidate held 50 s")
+    assert node.sources == (Point(40.0, 0.0),)  # the held point was never declared
+
+
+def test_without_a_give_up_a_held_candidate_is_held_to_the_end(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    node, harness, script = searching()
+    assert node.map is not None
+    monkeypatch.setattr(node.map, "mass_and_mean",
+                        lambda centre, radius, post=None: (0.99, Point(60.0, 0.0)))
+    monkeypatch.setattr(node.map, "known_chance", lambda at: 0.5)
+    for t in range(30, 400):
+        harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
+    assert not node.search_given_up and node.sources == (Point(40.0, 0.0),)
+    assert node.bb.declaration_report["held_at"] == (60.0, 0.0)

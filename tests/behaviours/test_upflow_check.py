@@ -225,3 +225,23 @@ def test_plume_seen_near_before_this_sources_search_does_not_count() -> None:
     c.record(0, Point(52.0, 0.0), hit=True)
     c.restart(1.0)  # a source declared: the next one's search begins
     assert not c.passed(at(s, 2), CAND, AREA) and c.kind == "visit"
+
+
+@pytest.mark.parametrize("known_veto", [False, True])
+def test_plume_a_declared_source_explains_vetoes_only_when_asked(known_veto: bool) -> None:
+    """A detection up-flow of the candidate that a declared source's plume explains (``hit``
+    False, ``seen`` True) says nothing of this source by default; with ``known_veto`` it vetoes
+    as unexplained plume does (the check cannot tell that plume from the candidate's own)."""
+    c, s = check(), ScriptedPerception(AREA)
+    c.known_veto = known_veto
+    c.record(0, Point(34.0, 1.0), hit=False, reading=math.nan, seen=True)  # 16 m up-flow
+    for t, y in ((1, 4.0), (2, -4.0)):  # then a crossing between one and two reaches
+        c.record(t, Point(38.0, y), hit=False, reading=0.0, seen=False)
+    assert c.passed(at(s, 3), CAND, AREA) is not known_veto
+    assert c.vetoes == int(known_veto) and c.trace_vetoes == 0
+    # a miss recorded without ``seen`` is no plume either way
+    c2 = check()
+    c2.known_veto = True
+    for t, y in ((0, 4.0), (1, -4.0)):
+        c2.record(t, Point(38.0, y), hit=False)
+    assert c2.passed(at(s, 4), CAND, AREA)
