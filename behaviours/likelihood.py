@@ -197,11 +197,15 @@ class LikelihoodMapDeclare(SourceDeclaration):
 
     The latest held candidate is reported (``held_at``; ``held_candidate`` in the summary): a
     probable source the rule could not confirm, never a declaration. A vehicle holding one
-    circles it, drawn by its strong detections, which are new plume: with
-    ``search_give_up_s`` a candidate held that long (the clock runs from its first hold, and
-    stops when a candidate outside a known plume is tested) ends the search too, and the
-    vehicle goes home (``search_end`` says so); without it the vehicle holds to the time
-    limit (in line 80 m apart, 9 of 12 runs held for most of 3 600 s).
+    circles it, drawn by its strong detections, which are new plume (so the give-up clock of
+    plume unexplained never runs out): with ``search_give_up_s``, confident candidates held
+    or vetoed that long in all since the latest declaration end the search too (cycles
+    without a confident candidate do not count: the map is still learning), and the vehicle
+    goes home (``search_end`` says so); without it the vehicle holds to the time limit (in
+    line 80 m apart, 9 of 12 runs held for most of 3 600 s). A veto counts because with
+    ``upflow_known_veto`` a candidate in a known plume is vetoed rather than held, and the
+    vehicle circled it the same way; a veto by the candidate's own plume seen up-flow lasts
+    only until the vehicle follows that plume up.
 
     ``upflow_known_veto`` (off by default) makes a detection the known plume explains veto a
     candidate down-flow of it as unexplained plume does, closing the check's blind band
@@ -239,7 +243,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         "withdrawn_at", "superseded", "superseded_at", "upflow",
         "detections_used", "at_declaration", "search_target", "search_t",
         "evidence_t", "evidence_count", "search_given_up", "search_end", "sweep",
-        "sweeping", "last_level", "held_in_known_plume", "held_at", "held_since",
+        "sweeping", "last_level", "held_in_known_plume", "held_at", "blocked_s", "watch_t",
     )
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
@@ -264,9 +268,11 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.last_level = 1  # the latest detection's level (2: strong; SourceMap.level)
         self.held_in_known_plume = 0  # cycles a confident candidate was held in a known plume
         self.held_at: Point | None = None  # the latest candidate held so
-        # when the candidate held now was first held (None: none held since the last declaration
-        # or since a candidate was last tested outside a known plume)
-        self.held_since: float | None = None
+        # time since the latest declaration a confident candidate was held or vetoed while
+        # searching for a further source (search_give_up_s), and the latest cycle's time
+        self.blocked_s = 0.0
+        self.watch_t = -math.inf
+        self.cycle_s = 0.0
         self.upflow = UpflowCheck(
             self.params.upflow_check_m or 0.0, self.params.upflow_band_m, self.params.radius_m,
             self.params.arrive_radius_m, self.params.upflow_memory_s,
@@ -314,6 +320,10 @@ class LikelihoodMapDeclare(SourceDeclaration):
     def watch(self, p: Percept) -> None:
         """Update the map; run the fly-by's bookkeeping; test the rule; publish the map."""
         assert self.map is not None, "call setup()"
+        # this cycle's length (a jump of the clock counts as one minute at most)
+        self.cycle_s = min(max(p.t - self.watch_t, 0.0), 60.0) if math.isfinite(
+            self.watch_t) else 0.0
+        self.watch_t = p.t
         self.map.observe(p)
         level = self.map.level(p)
         if level:
@@ -346,8 +356,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         limit = self.params.search_give_up_s
         if not self.sources:
             return False
-        held = (limit is not None and self.held_since is not None
-                and p.t - self.held_since >= limit)
+        held = limit is not None and self.blocked_s >= limit
         if not self.map.exhausted and not held and (
                 limit is None or self.upflow.target is not None or p.t - self.evidence_t < limit):
             return False
@@ -359,8 +368,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.search_end = (
             "no cell left outside the declared sources' masks (mask_radius_m)"
             if self.map.exhausted else
-            f"a candidate held {limit:g} s in a declared source's plume, where the up-flow "
-            "check cannot confirm it (known_plume_max_prob; search_give_up_s)" if held else
+            f"candidates held or vetoed {limit:g} s in all: none could be confirmed (held in "
+            "a declared source's plume: known_plume_max_prob; vetoed by plume up-flow of "
+            "them: the up-flow check; search_give_up_s)" if held else
             f"{limit:g} s without plume the declared sources do not explain (search_give_up_s)")
         self.at_declaration = self.map.belief()  # the map the search ended on (t3)
         self.bb.set("source_map_at_declaration", self.at_declaration)
@@ -383,12 +393,12 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.upflow.drop()  # held: the search goes on (class docstring)
             self.held_in_known_plume += 1
             self.held_at = mean
-            if self.held_since is None:
-                self.held_since = p.t
+            self.blocked_s += self.cycle_s
             self._report()
             return
-        self.held_since = None  # a candidate outside a known plume: the hold's clock stops
         if not self._passed_upflow(p, mean):
+            if self.upflow.vetoing and self.sources:
+                self.blocked_s += self.cycle_s
             return
         if self.params.flyby and p.flow is not None:
             self._start_flyby(p, mean)
@@ -421,7 +431,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.upflow.restart(self.map.t)
         self.sweep.reset()
         self.evidence_t = self.map.t
-        self.held_since, self.held_at = None, None
+        self.blocked_s, self.held_at = 0.0, None
         self.at_declaration = self.map.belief()
         self.bb.set("source_map_at_declaration", self.at_declaration)
         self.bb.declared_sources = self.sources

@@ -194,9 +194,10 @@ class FleetPerception:
             # NaN and inf are faults of their own (dropped below), never a stuck reading
             run_value, run_t = self._run_value[ids], self._run_t[ids]
             same = (c == run_value) & (np.abs(c) > STUCK_FLOOR) & np.isfinite(c)
-            run_t = np.where(same, run_t, t)
+            keep = same | ~np.isfinite(c)  # a dropout does not unfreeze a frozen sensor
+            run_t = np.where(keep, run_t, t)
             self._run_t[ids] = run_t
-            self._run_value[ids] = np.where(same, run_value, c)
+            self._run_value[ids] = np.where(keep, run_value, c)
             if same.any():
                 stuck = same & (t - run_t >= limit - TIME_EPS_S)
                 self.stuck_samples[ids] += stuck

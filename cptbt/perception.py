@@ -138,8 +138,7 @@ class Perception:
         """One fluorometer sample; NaN or infinite values and a reading stuck away from zero
         (sensor faults: the class docstring) are ignored."""
         if not math.isfinite(concentration):
-            self._run_value = math.nan
-            return
+            return  # a dropout between two frozen readings does not unfreeze the sensor
         if self.settings.stuck_after_s is not None and self._stuck(self._clock(t), concentration):
             self.stuck_samples += 1
             level = logging.INFO if self.stuck_samples == 1 else logging.DEBUG

@@ -220,43 +220,68 @@ def advisories(mission: MissionBase) -> list[Problem]:
     return out
 
 
-NOISE_ALARM_PER_CYCLE = 1e-3
-"""A simulated fluorometer whose noise alone crosses the threshold in more planning cycles than
-this (about one false detection every 1 000 cycles) is warned of."""
+NOISE_ALARMS_PER_S = 1e-3
+"""A simulated fluorometer whose noise alone would make more false detections than this in
+clean water (one every 1 000 s of mission) is warned of."""
 
 
-def clean_water_alarm(noise_std: float, threshold: float, samples: int) -> float:
+def clean_water_alarm(noise_std: float, threshold: float, samples: float) -> float:
     """The chance that a planning cycle in clean water reads above ``threshold`` from the
     fluorometer's Gaussian noise alone: the cycle's reading is the largest of its ``samples``
-    (the perception keeps the cycle's maximum), so ``1 - Φ(threshold / noise_std)^samples``."""
+    (the perception keeps the cycle's maximum; a mean count, when cycles get 4 or 5), so
+    ``1 - Φ(threshold / noise_std)^samples``."""
     if noise_std <= 0.0:
         return 0.0
     below = 0.5 * (1.0 + math.erf(threshold / (noise_std * math.sqrt(2.0))))
-    return 1.0 - below ** max(samples, 1)
+    return -math.expm1(max(samples, 1.0) * math.log(below)) if below > 0.0 else 1.0
+
+
+def quiet_threshold(noise_std: float, samples: float, cycle_hz: float) -> float:
+    """The lowest threshold at which that noise makes at most :data:`NOISE_ALARMS_PER_S`
+    false detections a second (bisection on :func:`clean_water_alarm`; inf if none does)."""
+    limit = NOISE_ALARMS_PER_S / cycle_hz
+    lo, hi = 0.0, 40.0 * noise_std
+    if not math.isfinite(hi) or clean_water_alarm(noise_std, hi, samples) > limit:
+        return math.inf
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if clean_water_alarm(noise_std, mid, samples) > limit else (lo, mid)
+    return hi
+
+
+def _two_figures(v: float) -> str:
+    """Two significant figures, without an exponent up to a million (260, 0.39, 3.7)."""
+    return f"{float(f'{v:.2g}'):,.0f}" if 100 <= v < 1e6 else f"{v:.2g}"
 
 
 def noise_advice(mission: MissionBase) -> list[Problem]:
     """A fluorometer noise that makes detections in clean water common (measured on MSN007,
     20 runs each: noise 0.1 against TRO's threshold 0.2, ~19% of cycles, and the TRO rule
     declared 17 times, 71 m off on average; 0.06, ~0.4%, and the likelihood map declared once
-    30 m off)."""
+    30 m off). The rate is per second of mission, so a faster planning cycle (fewer samples
+    a cycle, more cycles) is judged alike; a sensor's own output threshold ``tau`` above the
+    perception's is the one a reading must pass."""
     try:
         sensor = to_sim_params(mission).fluorometer
     except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
         return []
     threshold = mission.perception.threshold
-    samples = max(int(sensor.rate_hz / mission.cycle_hz + 1e-9), 1)
-    alarm = clean_water_alarm(sensor.noise_std, threshold, samples)
-    if alarm <= NOISE_ALARM_PER_CYCLE:
+    samples = max(sensor.rate_hz / mission.cycle_hz, 1.0)
+    alarm = clean_water_alarm(sensor.noise_std, max(threshold, sensor.tau), samples)
+    per_s = alarm * mission.cycle_hz
+    if per_s <= NOISE_ALARMS_PER_S:
         return []
-    cycles = mission.time_limit_s * mission.cycle_hz
-    each = f"the largest of {samples} samples each" if samples > 1 else "one sample each"
+    share = "nearly all" if alarm >= 0.995 else f"{_two_figures(100 * alarm)}% of"
+    every = ("nearly every cycle" if alarm >= 0.995
+             else f"about one false detection every {_two_figures(1.0 / per_s)} s")
+    each = f"the largest of {samples:.3g} samples each" if samples > 1 else "one sample each"
+    good = quiet_threshold(sensor.noise_std, samples, mission.cycle_hz)
+    fix = (f"a threshold of {_two_figures(good)} or more keeps it under one every 1 000 s"
+           if math.isfinite(good) else "no threshold keeps it rare")
     return [(("environment", "fluorometer", "noise_std"),
              f"{sensor.noise_std:g} against perception.threshold {threshold:g}: in clean water "
-             f"{100 * alarm:.2g}% of planning cycles ({each}) read above the threshold, some "
-             f"{alarm * cycles:.0f} false detections in the {mission.time_limit_s:g}-s limit; "
-             "the tracker chases them and a declaration can land anywhere (set the threshold "
-             f"at 4 σ or more, {4 * sensor.noise_std:g})")]
+             f"the noise alone reads above the threshold in {share} planning cycles ({each}), "
+             f"{every}; the tracker chases them and a declaration can land anywhere ({fix})")]
 
 
 def to_sim_params(mission: MissionBase, seed: int | None = None) -> EnvironmentParams:

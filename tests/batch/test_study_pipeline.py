@@ -175,6 +175,17 @@ def test_a_flat_row_keeps_every_declared_point() -> None:
     assert row["declared_source_x"] == 3.0 and "declared_sources" not in row
 
 
+def test_a_place_a_run_may_lack_has_the_same_columns_either_way() -> None:
+    # a held candidate's place, present or not: one schema (a None had made a column of its
+    # own, and a study with no held candidate had no held_candidate_x at all)
+    from cptbt.batch.worker import flatten
+
+    held = flatten({"held_candidate": {"x": 3.0, "y": 4.0, "north": 1.0, "east": 2.0}})
+    none = flatten({"held_candidate": None})
+    assert set(held) == set(none) and none["held_candidate_x"] is None
+    assert "held_candidate" not in none
+
+
 @pytest.mark.parametrize(("args", "says"), [
     (["missions/tro2006_msn007.yaml", "--row", "3"], "give --from RESULTS too"),
     (["--from", "results"], "needs --row N"),

@@ -338,29 +338,37 @@ def test_a_candidate_held_in_a_known_plume_is_reported_and_can_end_the_search(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """A confident candidate where the declared source's plume is likely is held, not
     declared; the latest one is reported (a probable source, unconfirmed), and with
-    ``search_give_up_s`` a hold that long ends the search, though plume keeps coming (the
+    ``search_give_up_s`` holds that long in all end the search, though plume keeps coming (the
     held candidate's own: the plain give-up clock never runs out). The map is scripted: its
     mass is on (60, 0), 20 m down-flow of the declared (40, 0), where that plume is likely."""
     node, harness, script = searching(search_give_up_s=50.0)
     assert node.map is not None
-    monkeypatch.setattr(node.map, "mass_and_mean",
-                        lambda centre, radius, post=None: (0.99, Point(60.0, 0.0)))
+    confident = [True]
+    monkeypatch.setattr(node.map, "mass_and_mean", lambda centre, radius, post=None: (
+        0.99 if confident[0] else 0.5, Point(60.0, 0.0)))
     monkeypatch.setattr(node.map, "known_chance", lambda at: 0.5)
     t = 30
-    while node.held_since is None:  # unexplained plume (strong, 40 m aside) until the rule tests
+    while not node.held_in_known_plume:  # unexplained plume (strong, 40 m aside): the rule tests
         harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
         t += 1
         assert t < 200
-    start = node.held_since
-    while t < start + 50.0:
+    held = 1
+    for k in range(120):  # unsure two cycles in three: those do not count
+        confident[0] = k % 3 == 0
+        held += confident[0]
         harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
-        assert not node.search_given_up and not node.sources[1:], t
         t += 1
+        assert not node.search_given_up, t
+    assert held == 41 and node.blocked_s == pytest.approx(41.0)  # a second a held cycle
     report = node.bb.declaration_report
-    assert report["held_at"] == (60.0, 0.0) and report["held_in_known_plume"] >= 50
-    harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
+    assert report["held_at"] == (60.0, 0.0) and report["held_in_known_plume"] == held
+    confident[0] = True
+    for _ in range(10):
+        harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
+        t += 1
     assert node.search_given_up and node.heading_home
-    assert node.search_end is not None and node.search_end.startswith("a candidate held 50 s")
+    assert node.search_end is not None and node.search_end.startswith(
+        "candidates held or vetoed 50 s in all")
     assert node.sources == (Point(40.0, 0.0),)  # the held point was never declared
 
 
@@ -375,3 +383,25 @@ def test_without_a_give_up_a_held_candidate_is_held_to_the_end(
         harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
     assert not node.search_given_up and node.sources == (Point(40.0, 0.0),)
     assert node.bb.declaration_report["held_at"] == (60.0, 0.0)
+
+
+def test_a_candidate_vetoed_by_a_known_plume_counts_toward_the_give_up(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """With ``upflow_known_veto`` a candidate in a known plume is vetoed (its plume seen up-flow
+    of it) rather than held, and the vehicle circled it to the time limit: vetoed cycles count
+    toward ``search_give_up_s`` as held ones do."""
+    node, harness, script = searching(search_give_up_s=30.0, upflow_known_veto=True,
+                                      known_plume_max_prob=None)
+    assert node.map is not None
+    monkeypatch.setattr(node.map, "mass_and_mean",
+                        lambda centre, radius, post=None: (0.99, Point(60.0, 0.0)))
+    for t in range(30, 200):
+        # in turn: the declared source's plume 15 m up-flow of the candidate (it explains that
+        # detection), and plume it does not explain 40 m aside (new evidence: the plain give-up
+        # clock never runs out)
+        here = (45.0, 0.5) if t % 2 else (62.0, 40.0)
+        harness.tick(script.step(t, *here, conc=1.0))
+        if node.search_given_up:
+            break
+    assert node.upflow.vetoes >= 1 and node.search_given_up, (node.upflow.report(), t)
+    assert node.sources == (Point(40.0, 0.0),) and node.held_at is None

@@ -162,6 +162,20 @@ def test_the_stuck_timer_runs_on_the_planner_clock() -> None:
     assert all(math.isnan(c) for c in got[4:]), got
 
 
+def test_dropouts_do_not_hide_a_frozen_sensor() -> None:
+    # a review: a reading frozen at 0.5 with 10% of samples dropped (NaN) was dropped as stuck
+    # for 54 of ~1080 samples (0 at 30%): each NaN had restarted the "same reading" timer
+    p = make()
+    p.set_pose(Pose(50, 0))
+    got = []
+    for k in range(8):
+        for j in range(9):
+            p.add_sample(k + j / 9.0, math.nan if j % 3 == 1 else 0.5)  # a third dropped
+        got.append(p.cycle(k + 1.0).concentration)
+    assert got[:3] == [0.5] * 3 and all(math.isnan(c) for c in got[4:]), got
+    assert p.stuck_samples == 6 + 4 * 6  # from t = 3 s on, the non-NaN samples
+
+
 def test_stuck_detection_can_be_turned_off() -> None:
     p = Perception(AREA, PerceptionSettings(threshold=0.2, stuck_after_s=None))
     p.set_pose(Pose(50, 0))
@@ -178,7 +192,7 @@ def test_the_fleet_drops_stuck_readings_as_the_scalar_perception_does() -> None:
         [0.162] * 8,                      # stuck below it
         [0.0] * 8,                        # clean water
         [0.3, 0.31, 0.3, 0.31, 0.3, 0.31, 0.3, 0.31],  # varying
-        [0.5, 0.5, math.nan, 0.5, 0.5, 0.5, 0.5, 0.5],  # a dropout breaks the run
+        [0.5, 0.5, math.nan, 0.5, 0.5, 0.5, 0.5, 0.5],  # a dropout does not break the run
         [math.inf] * 4 + [0.5] * 4,       # inf: a fault of its own, never a stuck reading
         [5e-324] * 8,                     # a filter's decay in clean water: not stuck
     ]
