@@ -184,10 +184,13 @@ def trajectory_figure(
     _sources(ax, truth, declared)
     if flow_deg is not None:
         trace = run.trace or {}
+        marks = [home, *truth, *declared, *([st] if st is not None else [])]
         drawn = np.concatenate([
             np.column_stack([trace.get("x", run.path_true[:, 0]),
-                             trace.get("y", run.path_true[:, 1])]), det.reshape(-1, 2)])
-        _flow_arrow(ax, area, flow_deg, drawn, north=mission.frame != "planning")
+                             trace.get("y", run.path_true[:, 1])]), det.reshape(-1, 2),
+            np.array([(q.x, q.y) for q in marks]).reshape(-1, 2)])
+        _flow_arrow(ax, area, flow_deg, drawn,
+                    _north_points(area) if mission.frame != "planning" else None)
     if belief is not None:
         _map_panel(ax_map, belief, area, truth, declared, run.declaration_report or {}, plt)
         ax.tick_params(labelbottom=True)  # shared x: the top panel's numbers too
@@ -213,11 +216,13 @@ def trajectory_figure(
 
 
 def _flow_arrow(ax: Any, area: OpArea, flow_deg: float,
-                track: NDArray[np.float64] | None = None, north: bool = False) -> None:
-    """The mean current's direction, in the OpArea's corner farthest from the drawn track and
-    detections (the plume alone can mislead: the meander bends it; in a small area a fixed
-    corner put the arrow and its label on the track); ``north``: not the upper-left corner,
-    the north arrow's."""
+                track: NDArray[np.float64] | None = None,
+                avoid: NDArray[np.float64] | None = None) -> None:
+    """The mean current's direction, in the OpArea corner that covers least of what else is
+    drawn (``track``: the track, detections and markers as points), never the north arrow
+    (``avoid``) if a corner is clear of it; among equals, the one farthest from the track
+    (the plume alone can mislead: the meander bends it; in a small area a fixed corner put the
+    arrow and its label on the track)."""
     from matplotlib import patheffects
 
     w, h = area.xmax - area.xmin, area.ymax - area.ymin
@@ -228,20 +233,22 @@ def _flow_arrow(ax: Any, area: OpArea, flow_deg: float,
     m = 1.4 * size
     corners = [(area.xmin + m, area.ymax - m), (area.xmax - m, area.ymax - m),
                (area.xmin + m, area.ymin + m), (area.xmax - m, area.ymin + m)]
-    cx, cy = corners[0]  # drawn bottom left (y down) unless the track passes there
     pts = track[np.isfinite(track).all(axis=1)] if track is not None else np.empty((0, 2))
-    if len(pts):
-        # the arrow spans about a size from its tail, the label below it: clearance from the
-        # box they fill, and the first corner of those with the most
-        def clearance(c: tuple[float, float]) -> float:
-            x0, x1 = c[0] - size, c[0] + size
-            y0, y1 = c[1] - size, c[1] + size
-            dx = np.maximum(np.maximum(x0 - pts[:, 0], pts[:, 0] - x1), 0.0)
-            dy = np.maximum(np.maximum(y0 - pts[:, 1], pts[:, 1] - y1), 0.0)
-            return float(np.hypot(dx, dy).min())
+    keep_off = avoid if avoid is not None else np.empty((0, 2))
 
-        room = [-1.0 if north and i == 2 else clearance(c) for i, c in enumerate(corners)]
-        cx, cy = corners[int(np.argmax(room))]
+    # the arrow spans about a size from its tail, the label below it: the box they fill
+    def gaps(c: tuple[float, float], p: NDArray[np.float64]) -> NDArray[np.float64]:
+        dx = np.maximum(np.abs(p[:, 0] - c[0]) - size, 0.0)
+        dy = np.maximum(np.abs(p[:, 1] - c[1]) - size, 0.0)
+        return np.hypot(dx, dy)
+
+    def rank(c: tuple[float, float]) -> tuple[int, int, float]:
+        g = gaps(c, pts)
+        return (int(np.count_nonzero(gaps(c, keep_off) == 0.0)),
+                int(np.count_nonzero(g == 0.0)), -float(g.min()) if len(g) else 0.0)
+
+    # drawn bottom left (y down) unless something else is there: the first of the best
+    cx, cy = min(corners, key=rank)
     halo = [patheffects.withStroke(linewidth=3.0, foreground="white")]
     arrow = ax.annotate("", xy=(cx + size * math.cos(th), cy + size * math.sin(th)),
                         xytext=(cx, cy),
@@ -334,12 +341,23 @@ def _track(ax: Any, run: VehicleRun, waypoints: Sequence[Point] | None) -> None:
             start = i
 
 
+def _north_geometry(area: OpArea) -> tuple[float, float, float, float]:
+    """The north arrow's tail (x0, y0), length and direction (radians, planning frame)."""
+    size = 0.07 * area.diagonal_m
+    return (area.xmin + 1.3 * size, area.ymin + 1.3 * size, size,
+            math.radians(area.frame.planning_deg(0.0)))
+
+
+def _north_points(area: OpArea) -> NDArray[np.float64]:
+    """Points along the north arrow and on its label (for what must keep clear of it)."""
+    x0, y0, size, north = _north_geometry(area)
+    r = np.linspace(0.0, 1.5 * size, 16)
+    return np.column_stack([x0 + r * math.cos(north), y0 + r * math.sin(north)])
+
+
 def _north_arrow(ax: Any, mission: MissionBase, area: OpArea) -> None:
     """A north arrow in the OpArea's upper-left corner (planning frame, y drawn down)."""
-    north = math.radians(area.frame.planning_deg(0.0))
-    size = 0.07 * area.diagonal_m
-    x0 = area.xmin + 1.3 * size
-    y0 = area.ymin + 1.3 * size
+    x0, y0, size, north = _north_geometry(area)
     tip = (x0 + size * math.cos(north), y0 + size * math.sin(north))
     ax.annotate("", xy=tip, xytext=(x0, y0),
                 arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.5})

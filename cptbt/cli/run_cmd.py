@@ -386,7 +386,12 @@ def refly(args: argparse.Namespace) -> int:
             if failed else
             f"DIFFERENT from the study's row in {', '.join(diff)}")
         print(f"row {args.row} of {results}{f' ({label})' if label else ''} flown again: "
-              f"{summary['outcome']}, {same}")
+              f"{summary['outcome']} ({short_verdict(summary)}), {same}")
+        why = why_ended(summary)
+        for line in ((f"  {summary['outcome']}: {why}" if why else None),
+                     sensor_faults_line(summary)):
+            if line:
+                print(line)
         print(f"  wrote {out}")
     return 0 if not diff else 1
 

@@ -91,6 +91,10 @@ def test_a_row_flies_again_bit_for_bit(study: Path, tmp_path: Path, row: int) ->
     assert "bit for bit" in res.stdout
     again = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert again["refly"]["same_as_study"] and again["refly"]["differs_in"] == []
+    # the verdict and why the run ended, as cptbt run tells them
+    assert f"flown again: {again['outcome']} (" in res.stdout
+    if again["outcome"] == "timeout":
+        assert "  timeout: the AMP's time limit came" in res.stdout, res.stdout
 
 
 def test_a_row_of_a_swept_study_flies_again_bit_for_bit(tmp_path: Path) -> None:

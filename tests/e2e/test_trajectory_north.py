@@ -181,3 +181,27 @@ def test_a_long_title_is_wrapped_to_the_panel(tmp_path: Path,
     fig.canvas.draw()
     box = fig.axes[0].title.get_window_extent()
     assert box.x0 >= 0 and box.x1 <= fig.bbox.x1, (box, fig.bbox)  # on the page
+
+
+def test_the_mean_current_keeps_off_the_north_arrow(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """A strip whose x points west draws north downward, from the top-left corner into the
+    bottom-left one: with the track all over the strip, the arrow had gone there, onto the N."""
+    from matplotlib.figure import Figure
+
+    from cptbt.batch.figures import _north_points
+
+    mission = load(str(ROOT / "tests/e2e/data/north_down_strip.yaml"), simulate=True)
+    params = to_sim_params(mission)
+    (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True,
+                            plume_grid=plume_grid(mission.op_area_geometry()))
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), "t",
+                      flow_deg=params.flow.mean_dir_deg)
+    arrow = next(c for c in seen[0].axes[0].texts if c.get_text() == "")
+    tail = arrow.xyann
+    north = _north_points(mission.op_area_geometry())
+    assert north[:, 1].max() > 0  # it does reach into the lower half
+    gap = min(((x - tail[0]) ** 2 + (y - tail[1]) ** 2) ** 0.5 for x, y in north)
+    assert gap > 15.0, (tail, gap)
