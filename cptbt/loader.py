@@ -355,7 +355,7 @@ def validate_data(
     except ValidationError as exc:
         located = located_errors(exc, data, model=model)
         raise MissionError(_render(located, lines, source), located) from None
-    located = _coercions(data, model) or list(problems)
+    located = coercions(data, model) or list(problems)
     if located:
         raise MissionError(_render(located, lines, source), located)
     return result
@@ -366,7 +366,7 @@ _COERCIONS = {"float_type": "a number", "int_type": "a whole number", "bool_type
 type: ``cycle_hz: yes`` (a YAML boolean) read as 1, ``speed_mps: "1.5"`` (a string) as 1.5."""
 
 
-def _coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
+def coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
     """Values that validated only by being converted from another YAML type, (path, message)
     each.
 

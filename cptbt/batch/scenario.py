@@ -13,6 +13,7 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema
 
+from cptbt.loader import coercions
 from cptbt.mission import Coord, Loc, MissionBase, Problem, latlon_problem
 from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.schema import partial_schema
@@ -174,6 +175,27 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
         if "source" not in mission.allow_outside and not area.contains(src.x, src.y):
             out.append((loc, f"{_metres(area.distance_outside(src.x, src.y))} m outside the OpArea "
                              "(list 'source' in allow_outside if that is intended)"))
+    return out + override_coercions(env)
+
+
+SECTIONS: dict[str, type[BaseModel]] = {
+    "flow": FlowParams, "plume": PlumeParams, "vehicle": VehicleParams,
+    "fluorometer": FluorometerParams, "adcp": ADCPParams, "navigation": NavigationParams}
+"""The simulator's models of the environment's override sections."""
+
+
+def override_coercions(env: Environment) -> list[Problem]:
+    """Values in the override sections (``fluorometer: {noise_std: true}``) that the simulator's
+    models would take only by converting them from another YAML type, as the mission's own
+    keys are refused (:func:`cptbt.loader.coercions`): a YAML boolean or a quoted string where
+    a number is meant."""
+    out: list[Problem] = []
+    for name, model in SECTIONS.items():
+        given = getattr(env, name)
+        if not given:
+            continue
+        for path, why in coercions(given, model):
+            out.append((("environment", name, *path), why))
     return out
 
 

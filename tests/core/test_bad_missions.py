@@ -139,6 +139,11 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("quoted exponent float", sub("speed_mps: 1.5", "speed_mps: '15e-1'"), 7, "speed_mps",
      "expected a number, got '15e-1' (a quoted string)"),
     ("fractional seed", sub("seed: 3", "seed: 3.5"), 31, "environment.seed", "integer"),
+    # inside the simulator's override sections too (a review: noise_std: true flew as 1.0)
+    ("boolean sensor noise", sub("  seed: 3", "  seed: 3\n  fluorometer: {noise_std: true}"),
+     32, "environment.fluorometer.noise_std", "expected a number, got True (a YAML boolean)"),
+    ("quoted adcp noise", sub("  seed: 3", "  seed: 3\n  adcp: {noise_std_mps: '0.02'}"),
+     32, "environment.adcp.noise_std_mps", "expected a number, got '0.02' (a quoted string)"),
     # -- the OpArea is a rectangle consistent with its bearing -------------------------------
     ("kite", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
                  "[[100, 0], [0, 50], [-100, 0], [0, -50]]"), 4, "op_area.corners",
