@@ -8,10 +8,13 @@ import pytest
 
 pytest.importorskip("matplotlib")
 
-from cptbt.batch.engine import simulate
+from matplotlib.figure import Figure
+
+from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.figures import plume_grid, trajectory_figure
 from cptbt.batch.scenario import launch_pose, to_sim_params
 from cptbt.cli.inspect_cmds import load
+from cptbt.mission import MissionBase
 from cptbt.types import Point
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -108,51 +111,54 @@ def test_the_mean_current_is_drawn_when_given(tmp_path: Path,
     assert x1 < x0 and y1 < y0 and abs(y1 - y0) > abs(x1 - x0)
 
 
-def test_the_mean_current_keeps_off_the_track(tmp_path: Path,
-                                              monkeypatch: pytest.MonkeyPatch) -> None:
-    """In small_oparea (50 x 50 m), started in the usual corner (bottom left, y drawn down),
-    the arrow goes to the corner farthest from the track, never the north arrow's (top left)."""
+def drawn(mission: MissionBase, monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+          title: str = "t", seed: int | None = None, flow: bool = True,
+          ) -> tuple[Figure, VehicleRun]:
+    """The mission flown from its launch, and its trajectory figure (not saved)."""
     from matplotlib.figure import Figure
 
-    mission = load(str(ROOT / "missions" / "small_oparea.yaml"), simulate=True)
-    corner = mission.to_ne(Point(-17.0, 17.0))
-    mission = mission.model_copy(update={"start": list(corner),
-                                         "time_limit_s": 120.0})
-    params = to_sim_params(mission, 3)
+    params = to_sim_params(mission, seed)
     (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True,
                             plume_grid=plume_grid(mission.op_area_geometry()))
     seen: list[Figure] = []
     monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
-    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), "t",
-                      flow_deg=params.flow.mean_dir_deg)
-    ax = seen[0].axes[0]
-    arrow = next(c for c in ax.texts if c.get_text() == "")
-    tail = arrow.xyann
+    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), title,
+                      flow_deg=params.flow.mean_dir_deg if flow else None)
+    return seen[0], run
+
+
+def arrow_tail(fig: Figure) -> tuple[float, float]:
+    """Where the mean current's arrow starts (the annotation without text)."""
+    arrow = next(c for c in fig.axes[0].texts if c.get_text() == "")
+    return arrow.xyann  # type: ignore[no-any-return]
+
+
+def test_the_mean_current_keeps_off_the_track(tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """In small_oparea (50 x 50 m), started in the usual corner (bottom left, y drawn down),
+    the arrow goes to the corner farthest from the track, never the north arrow's (top left)."""
+    mission = load(str(ROOT / "missions" / "small_oparea.yaml"), simulate=True)
+    corner = mission.to_ne(Point(-17.0, 17.0))
+    mission = mission.model_copy(update={"start": list(corner), "time_limit_s": 120.0})
+    fig, run = drawn(mission, monkeypatch, tmp_path, seed=3)
+    tail = arrow_tail(fig)
     trace = run.trace
     assert trace is not None
     gap = min(((x - tail[0]) ** 2 + (y - tail[1]) ** 2) ** 0.5
               for x, y in zip(trace["x"], trace["y"], strict=True))
-    area = mission.op_area_geometry()
     assert gap > 3.0, gap  # the usual corner: the track starts at the tail
     assert not (tail[0] < 0 and tail[1] < 0)  # not top left (y drawn down): the north's
-    assert area.contains(*tail)
+    assert mission.op_area_geometry().contains(*tail)
 
 
 def test_both_panels_have_their_numbers(tmp_path: Path,
                                         monkeypatch: pytest.MonkeyPatch) -> None:
     """With the map panel below, the top panel's x axis keeps its tick labels."""
-    from matplotlib.figure import Figure
-
     mission = load(str(ROOT / "missions" / "two_sources.yaml"), simulate=True)
-    mission = mission.model_copy(update={"time_limit_s": 30.0})
-    params = to_sim_params(mission)
-    (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True,
-                            plume_grid=plume_grid(mission.op_area_geometry()))
-    seen: list[Figure] = []
-    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
-    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), "t")
-    top, bottom = (a for a in seen[0].axes if a.get_label() != "<colorbar>")
-    seen[0].canvas.draw()
+    fig, _ = drawn(mission.model_copy(update={"time_limit_s": 30.0}), monkeypatch, tmp_path,
+                   flow=False)
+    top, bottom = (a for a in fig.axes if a.get_label() != "<colorbar>")
+    fig.canvas.draw()
     for ax in (top, bottom):
         assert any(t.get_visible() and t.get_text() for t in ax.get_xticklabels()), ax
 
@@ -160,24 +166,14 @@ def test_both_panels_have_their_numbers(tmp_path: Path,
 def test_a_long_title_is_wrapped_to_the_panel(tmp_path: Path,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
     """A study row's title names its sweep; one long line ran off the page's left edge."""
-    from matplotlib.figure import Figure
-
-    mission = load(str(ROOT / "missions" / "two_sources.yaml"), simulate=True)
-    mission = mission.model_copy(update={"time_limit_s": 5.0})
-    params = to_sim_params(mission)
-    (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True,
-                            plume_grid=plume_grid(mission.op_area_geometry()))
-    seen: list[Figure] = []
-    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
     words = ("two_sources [declare_source.upflow_known_veto=True, "
              "declare_source.known_plume_max_prob=0.2]")
     title = (f"{words}, study row 26 (c002-r00002, start 0): declared, 2 of 3 sources found, "
              "1 false")
-    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m),
-                      f"{title}\nsecond line")
-    shown = seen[0].axes[0].get_title()
-    assert shown.replace("\n", " ") == f"{title} second line"
-    fig = seen[0]
+    mission = load(str(ROOT / "missions" / "two_sources.yaml"), simulate=True)
+    fig, _ = drawn(mission.model_copy(update={"time_limit_s": 5.0}), monkeypatch, tmp_path,
+                   title=f"{title}\nsecond line", flow=False)
+    assert fig.axes[0].get_title().replace("\n", " ") == f"{title} second line"
     fig.canvas.draw()
     box = fig.axes[0].title.get_window_extent()
     assert box.x0 >= 0 and box.x1 <= fig.bbox.x1, (box, fig.bbox)  # on the page
@@ -187,20 +183,10 @@ def test_the_mean_current_keeps_off_the_north_arrow(tmp_path: Path,
                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     """A strip whose x points west draws north downward, from the top-left corner into the
     bottom-left one: with the track all over the strip, the arrow had gone there, onto the N."""
-    from matplotlib.figure import Figure
-
     from cptbt.batch.figures import _north_points
 
     mission = load(str(ROOT / "tests/e2e/data/north_down_strip.yaml"), simulate=True)
-    params = to_sim_params(mission)
-    (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True,
-                            plume_grid=plume_grid(mission.op_area_geometry()))
-    seen: list[Figure] = []
-    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
-    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), "t",
-                      flow_deg=params.flow.mean_dir_deg)
-    arrow = next(c for c in seen[0].axes[0].texts if c.get_text() == "")
-    tail = arrow.xyann
+    tail = arrow_tail(drawn(mission, monkeypatch, tmp_path)[0])
     north = _north_points(mission.op_area_geometry())
     assert north[:, 1].max() > 0  # it does reach into the lower half
     gap = min(((x - tail[0]) ** 2 + (y - tail[1]) ** 2) ** 0.5 for x, y in north)
