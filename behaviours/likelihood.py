@@ -204,7 +204,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
     plume unexplained never runs out): with ``search_give_up_s``, confident candidates held
     or vetoed that long in all since the latest declaration end the search too (cycles
     without a confident candidate do not count: the map is still learning), and the vehicle
-    goes home (``search_end`` says so); without it the vehicle holds to the time limit (in
+    goes home (``search_end`` says so; a candidate more than ``same_plume_m`` from the last
+    one blocked starts the count again); without it the vehicle holds to the time limit (in
     line 80 m apart, 9 of 12 runs held for most of 3 600 s). A veto counts because with
     ``upflow_known_veto`` a candidate in a known plume is vetoed rather than held, and the
     vehicle circled it the same way; a veto by the candidate's own plume seen up-flow lasts
@@ -246,7 +247,8 @@ class LikelihoodMapDeclare(SourceDeclaration):
         "withdrawn_at", "superseded", "superseded_at", "upflow",
         "detections_used", "at_declaration", "search_target", "search_t",
         "evidence_t", "evidence_count", "search_given_up", "search_end", "sweep",
-        "sweeping", "last_level", "held_in_known_plume", "held_at", "blocked_s", "watch_t",
+        "sweeping", "last_level", "held_in_known_plume", "held_at", "blocked_s", "blocked_at",
+        "watch_t",
     )
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
@@ -274,6 +276,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         # time since the latest declaration a confident candidate was held or vetoed while
         # searching for a further source (search_give_up_s), and the latest cycle's time
         self.blocked_s = 0.0
+        self.blocked_at: Point | None = None  # the latest candidate held or vetoed
         self.watch_t = -math.inf
         self.cycle_s = 0.0
         self.upflow = UpflowCheck(
@@ -371,9 +374,9 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.search_end = (
             "no cell left outside the declared sources' masks (mask_radius_m)"
             if self.map.exhausted else
-            f"candidates held or vetoed {limit:g} s in all: none could be confirmed (held in "
-            "a declared source's plume: known_plume_max_prob; vetoed by plume up-flow of "
-            "them: the up-flow check; search_give_up_s)" if held else
+            f"candidates held or vetoed {limit:g} s in all, none confirmed (held in a "
+            "declared source's plume, vetoed by plume seen up-flow of them; "
+            "search_give_up_s)" if held else
             f"{limit:g} s without plume the declared sources do not explain (search_give_up_s)")
         self.at_declaration = self.map.belief()  # the map the search ended on (t3)
         self.bb.set("source_map_at_declaration", self.at_declaration)
@@ -396,17 +399,28 @@ class LikelihoodMapDeclare(SourceDeclaration):
             self.upflow.drop()  # held: the search goes on (class docstring)
             self.held_in_known_plume += 1
             self.held_at = mean
-            self.blocked_s += self.cycle_s
+            self._blocked(mean)
             self._report()
             return
         if not self._passed_upflow(p, mean):
             if self.upflow.vetoing and self.sources:
-                self.blocked_s += self.cycle_s
+                self._blocked(mean)
             return
         if self.params.flyby and p.flow is not None:
             self._start_flyby(p, mean)
         else:
             self._accept(mean)
+
+    def _blocked(self, candidate: Point) -> None:
+        """A cycle the confident ``candidate`` was held or vetoed (``search_give_up_s``'s other
+        clock); a candidate more than ``same_plume_m`` (or 50 m) from the last one blocked
+        starts the clock again: a review saw a third source's candidate, 10 m from it, cut off
+        by the time spent on another 80 m away."""
+        far = self.params.same_plume_m or 50.0
+        if self.blocked_at is not None and self.blocked_at.distance_to(candidate) > far:
+            self.blocked_s = 0.0
+        self.blocked_at = candidate
+        self.blocked_s += self.cycle_s
 
     def _passed_upflow(self, p: Percept, candidate: Point) -> bool:
         """The up-flow check (class docstring); counts it in the report."""
@@ -434,7 +448,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         self.upflow.restart(self.map.t)
         self.sweep.reset()
         self.evidence_t = self.map.t
-        self.blocked_s, self.held_at = 0.0, None
+        self.blocked_s, self.held_at, self.blocked_at = 0.0, None, None
         self.at_declaration = self.map.belief()
         self.bb.set("source_map_at_declaration", self.at_declaration)
         self.bb.declared_sources = self.sources

@@ -334,8 +334,8 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     )
     search_give_up_s: float | None = Field(
         default=None, gt=0, description="With max_sources > 1: the search for another source "
-        "ends after this long without a detection no declared source explains, or with a "
-        "candidate held this long in a declared source's plume (known_plume_max_prob), and "
+        "ends after this long without a detection no declared source explains, or once "
+        "candidates were held (known_plume_max_prob) or vetoed this long in all, and "
         "the vehicle goes home with the sources found; t3 is then when it gave up (None: it "
         "searches on to the time limit), s"
     )

@@ -276,6 +276,14 @@ def _two_figures(v: float) -> str:
     return f"{float(f'{v:.2g}'):,.0f}" if 100 <= v < 1e6 else f"{v:.2g}"
 
 
+def _two_figures_up(v: float) -> str:
+    """``v`` rounded *up* to two significant figures (a threshold to set must be enough)."""
+    if v <= 0.0 or not math.isfinite(v):
+        return f"{v:g}"
+    step = 10.0 ** (math.floor(math.log10(v)) - 1)
+    return _two_figures(math.ceil(v / step - 1e-9) * step)
+
+
 def noise_advice(mission: MissionBase) -> list[Problem]:
     """A fluorometer noise that makes detections in clean water common (measured on MSN007,
     20 runs each: noise 0.1 against TRO's threshold 0.2, ~19% of cycles, and the TRO rule
@@ -289,19 +297,24 @@ def noise_advice(mission: MissionBase) -> list[Problem]:
         return []
     threshold = mission.perception.threshold
     samples = max(sensor.rate_hz / mission.cycle_hz, 1.0)
-    alarm = clean_water_alarm(sensor.noise_std, max(threshold, sensor.tau), samples)
-    per_s = alarm * mission.cycle_hz
+    # a sensor slower than the cycle leaves cycles without a sample (no reading, no alarm)
+    cycles_hz = min(mission.cycle_hz, sensor.rate_hz)
+    bar = max(threshold, sensor.tau)
+    alarm = clean_water_alarm(sensor.noise_std, bar, samples)
+    per_s = alarm * cycles_hz
     if per_s <= NOISE_ALARMS_PER_S:
         return []
     share = "nearly all" if alarm >= 0.995 else f"{_two_figures(100 * alarm)}% of"
     every = ("nearly every cycle" if alarm >= 0.995
              else f"about one false detection every {_two_figures(1.0 / per_s)} s")
     each = f"the largest of {samples:.3g} samples each" if samples > 1 else "one sample each"
-    good = quiet_threshold(sensor.noise_std, samples, mission.cycle_hz)
-    fix = (f"a threshold of {_two_figures(good)} or more keeps it under one every 1 000 s"
+    good = quiet_threshold(sensor.noise_std, samples, cycles_hz)
+    fix = (f"a threshold of {_two_figures_up(good)} or more keeps it under one every 1 000 s"
            if math.isfinite(good) else "no threshold keeps it rare")
     return [(("environment", "fluorometer", "noise_std"),
-             f"{sensor.noise_std:g} against perception.threshold {threshold:g}: in clean water "
+             f"{sensor.noise_std:g} against perception.threshold {threshold:g}"
+             + (f" (the sensor's own tau {sensor.tau:g} above it)" if sensor.tau > threshold
+                else "") + ": in clean water "
              f"the noise alone reads above the threshold in {share} planning cycles ({each}), "
              f"{every}; the tracker chases them and a declaration can land anywhere ({fix})")]
 

@@ -83,6 +83,9 @@ def _alive(pid: int) -> bool:
 def flatten(summary: dict[str, Any]) -> dict[str, Any]:
     """One flat row of a run summary (nested places become ``<name>_<axis>`` columns)."""
     row: dict[str, Any] = {}
+    # a place's axes, as the mission gives them (x, y; north, east; lat, lon when geodetic)
+    truth = summary.get("true_source")
+    axes = tuple(truth) if isinstance(truth, dict) else ("x", "y", "north", "east")
     for key, value in summary.items():
         if key in ("time_in_behaviour_s", "time_share", "declared_sources", "true_sources"):
             continue
@@ -91,7 +94,7 @@ def flatten(summary: dict[str, Any]) -> dict[str, Any]:
                 row[f"{key}_{sub}"] = v
         elif value is None and key in ("declared_source", "held_candidate"):
             # a place that may be absent: its columns all the same (one schema for every study)
-            for sub in ("x", "y", "north", "east"):
+            for sub in axes:
                 row[f"{key}_{sub}"] = None
         else:
             row[key] = value

@@ -188,6 +188,10 @@ def test_a_place_a_run_may_lack_has_the_same_columns_either_way() -> None:
     none = flatten({"held_candidate": None})
     assert set(held) == set(none) and none["held_candidate_x"] is None
     assert "held_candidate" not in none
+    # in a geodetic mission a place has lat and lon too: so does an absent one
+    geo = {"x": 1.0, "y": 2.0, "north": 3.0, "east": 4.0, "lat": 32.9, "lon": -118.5}
+    row = flatten({"true_source": geo, "held_candidate": None, "declared_source": None})
+    assert row["held_candidate_lat"] is None and row["declared_source_lon"] is None
 
 
 @pytest.mark.parametrize(("args", "says"), [

@@ -405,3 +405,29 @@ def test_a_candidate_vetoed_by_a_known_plume_counts_toward_the_give_up(
             break
     assert node.upflow.vetoes >= 1 and node.search_given_up, (node.upflow.report(), t)
     assert node.sources == (Point(40.0, 0.0),) and node.held_at is None
+
+
+def test_a_candidate_far_from_the_last_blocked_one_starts_the_count_again(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Held 30 s at (60, 0), then at (5, -40), 68 m away (beyond same_plume_m): the second
+    gets its own 50 s (a review saw a third source's candidate cut off by the time spent on
+    another 80 m away)."""
+    node, harness, script = searching(search_give_up_s=50.0)
+    assert node.map is not None
+    where = [Point(60.0, 0.0)]
+    monkeypatch.setattr(node.map, "mass_and_mean",
+                        lambda centre, radius, post=None: (0.99, where[0]))
+    monkeypatch.setattr(node.map, "known_chance", lambda at: 0.5)
+    t = 30
+    while node.blocked_s < 30.0:
+        harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
+        t += 1
+    where[0] = Point(5.0, -40.0)
+    for _ in range(45):
+        harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
+        t += 1
+        assert not node.search_given_up, (t, node.blocked_s)
+    for _ in range(10):
+        harness.tick(script.step(t, 62.0, 40.0, conc=1.0))
+        t += 1
+    assert node.search_given_up and node.held_at == Point(5.0, -40.0)
