@@ -248,7 +248,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
         "detections_used", "at_declaration", "search_target", "search_t",
         "evidence_t", "evidence_count", "search_given_up", "search_end", "sweep",
         "sweeping", "last_level", "held_in_known_plume", "held_at", "blocked_s", "blocked_at",
-        "watch_t",
+        "watch_t", "cycle_s",
     )
 
     def __init__(self, params: BehaviourParams | None = None, **kwargs: Any) -> None:
