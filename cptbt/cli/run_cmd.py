@@ -89,6 +89,27 @@ def upflow_check_line(s: dict[str, Any]) -> str | None:
                if s["unchecked"] else ""))
 
 
+def sources_line(s: dict[str, Any]) -> str | None:
+    """Sources found and false, and how the search for more ended (None: one source, one
+    point, no fly-by)."""
+    if not (s["sources_true"] > 1 or s["sources_declared"] > 1 or s["withdrawn"]
+            or s["flybys"]):
+        return None
+    return (f"  sources: {s['sources_found']} of {s['sources_true']} found, "
+            f"{s['false_declarations']} false"
+            + (f"; the search for more ended (t3 is when): {s.get('search_end')}"
+               + (f", the latest at {place(s['held_candidate'])}"
+                  if s.get("held_candidate") and "held" in (s.get("search_end") or "")
+                  else "")
+               if s.get("search_given_up") else "")
+            + (f"; fly-bys {s['flybys']}, withdrawn {s['withdrawn']}"
+               if s["flybys"] is not None else "")
+            + (f"; {s['superseded']} declaration{'s' * (s['superseded'] != 1)} replaced "
+               "an earlier one taken for the same source (at "
+               + ", ".join(place(q) for q in s["superseded_points"] if q) + ")"
+               if s.get("superseded") else ""))
+
+
 def why_ended(s: dict[str, Any]) -> str | None:
     """Why a run ended without a declaration or an arrival (None when it did not)."""
     if s["outcome"] == "timeout":  # what the limit came before
@@ -288,21 +309,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                   f"{place(s['declared_source'])}; error {fmt(s['error_m'], ' m')}")
         if len(points) > 1 or (points and not s["declared_source"]):  # several, or timed out
             print("  declared points: " + "; ".join(place(q) for q in points))
-        if s["sources_true"] > 1 or s["sources_declared"] > 1 or s["withdrawn"] or s["flybys"]:
-            print(f"  sources: {s['sources_found']} of {s['sources_true']} found, "
-                  f"{s['false_declarations']} false"
-                  + (f"; the search for more ended (t3 is when): {s.get('search_end')}"
-                     + (f", the latest at {place(s['held_candidate'])}"
-                        if s.get("held_candidate") and "held" in (s.get("search_end") or "")
-                        else "")
-                     if s.get("search_given_up") else "")
-                  + (f"; fly-bys {s['flybys']}, withdrawn {s['withdrawn']}"
-                     if s["flybys"] is not None else "")
-                  + (f"; {s['superseded']} declaration{'s' * (s['superseded'] != 1)} replaced "
-                     "an earlier one taken for the same source (at "
-                     + ", ".join(place(q) for q in s["superseded_points"] if q) + ")"
-                     if s.get("superseded") else ""))
-        for line in (upflow_check_line(s), sensor_faults_line(s)):
+        for line in (sources_line(s), upflow_check_line(s), sensor_faults_line(s)):
             if line:
                 print(line)
         if s["criterion"] == "maintain":
@@ -389,7 +396,7 @@ def refly(args: argparse.Namespace) -> int:
               f"{summary['outcome']} ({short_verdict(summary)}), {same}")
         why = why_ended(summary)
         for line in ((f"  {summary['outcome']}: {why}" if why else None),
-                     sensor_faults_line(summary)):
+                     sources_line(summary), sensor_faults_line(summary)):
             if line:
                 print(line)
         print(f"  wrote {out}")

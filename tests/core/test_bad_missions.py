@@ -144,6 +144,8 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      32, "environment.fluorometer.noise_std", "expected a number, got True (a YAML boolean)"),
     ("quoted adcp noise", sub("  seed: 3", "  seed: 3\n  adcp: {noise_std_mps: '0.02'}"),
      32, "environment.adcp.noise_std_mps", "expected a number, got '0.02' (a quoted string)"),
+    ("boolean noise order", sub("  seed: 3", "  seed: 3\n  flow: {noise_order: true}"),
+     32, "environment.flow.noise_order", "expected one of 1, 2, got True (a YAML boolean)"),
     # -- the OpArea is a rectangle consistent with its bearing -------------------------------
     ("kite", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
                  "[[100, 0], [0, 50], [-100, 0], [0, -50]]"), 4, "op_area.corners",

@@ -105,3 +105,18 @@ def test_sensor_faults_are_told_only_when_there_were_some() -> None:
                     "for perception.stuck_after_s); 1 flow sample rejected (not finite, or "
                     "faster than perception.max_flow_speed_mps); 2 cycle times not after the "
                     "previous one, taken as one period later")
+
+
+def test_the_sources_line_says_how_the_search_for_more_ended() -> None:
+    from cptbt.cli.run_cmd import sources_line
+
+    one = {"sources_true": 1, "sources_declared": 1, "withdrawn": None, "flybys": None}
+    assert sources_line(one) is None  # one source, one point: the verdict says it all
+    held = {**one, "sources_true": 2, "sources_found": 1, "false_declarations": 0,
+            "search_given_up": True, "flybys": 0, "withdrawn": 0,
+            "search_end": "candidates held or vetoed 600 s in all, none confirmed (...)",
+            "held_candidate": {"x": 42.7, "y": 3.5}}
+    assert sources_line(held) == (
+        "  sources: 1 of 2 found, 0 false; the search for more ended (t3 is when): candidates "
+        "held or vetoed 600 s in all, none confirmed (...), the latest at x 42.7 m, y 3.5 m; "
+        "fly-bys 0, withdrawn 0")
