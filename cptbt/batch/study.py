@@ -10,6 +10,7 @@ the order in which groups finish.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import itertools
 import math
@@ -175,8 +176,13 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
     out: list[Config] = []
     by_text: dict[str, Config] = {}  # a configuration by its mission text: twins are refused
     combos = itertools.product(*(s.values for s in sweeps)) if sweeps else [()]
+    base = mission_to_data(mission)
+    # A configuration is one point of the study, not the study: without the study section
+    # (the plan, read from the mission itself), a 500-value sweep no longer writes, parses and
+    # checks its 500 values 1 000 times over (46 s to validate, most of it YAML).
+    base["study"] = None
     for i, combo in enumerate(combos):
-        data = mission_to_data(mission)
+        data = copy.deepcopy(base)
         coords = {}
         settings = [(path, value) for sweep, value in zip(sweeps, combo, strict=True)
                     for path in sweep.paths]

@@ -244,3 +244,24 @@ def test_validate_names_what_a_studys_variant_sweep_drops(
     # and the world no run of that configuration can succeed in is warned of, named
     assert any("[sweep declare_source.variant=upflow_spread]" in ln and "declares one source"
                in ln for ln in err), err
+
+
+def test_a_configuration_is_a_mission_without_the_study_it_belongs_to() -> None:
+    """Each configuration's mission drops the study section (the plan is the mission's own):
+    a 500-value sweep wrote and parsed its 500 values in each of its 1 000 mission texts."""
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.study import configurations
+    from cptbt.loader import loads_mission
+    from cptbt.registry import default_registry
+
+    root = Path(__file__).resolve().parents[2]
+    text = (root / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8")
+    text += "\nstudy:\n  runs_per_start: 3\n  sweeps:\n    speed_mps: [1.0, 1.2, 1.4]\n"
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    assert mission.study is not None
+    configs = configurations(mission, [Sweep(("speed_mps",), (1.0, 1.2, 1.4))], "m.yaml")
+    flown = [loads_mission(c.mission_yaml, "c.yaml", default_registry(), Environment)
+             for c in configs]
+    assert [m.speed_mps for m in flown] == [1.0, 1.2, 1.4]
+    assert all(m.study is None and "sweeps" not in c.mission_yaml
+               for m, c in zip(flown, configs, strict=True))
