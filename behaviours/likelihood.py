@@ -343,7 +343,7 @@ class LikelihoodMapDeclare(SourceDeclaration):
             explained = math.isfinite(reading) and bool(self.sources) and self._explained(
                 here, level)
             self.upflow.record(p.t, here, p.detected and not explained,
-                               math.nan if explained else reading, p.detected and p.in_op_area)
+                               math.nan if explained else reading, p.detected)
         post = self.map.posterior()
         if self.candidate is not None:
             self._flyby_step(p)

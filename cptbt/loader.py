@@ -12,7 +12,7 @@ import json
 import re
 from pathlib import Path
 from types import UnionType
-from typing import Annotated, Any, Union, get_args, get_origin
+from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
 import yaml
 from pydantic import BaseModel, ValidationError
@@ -373,16 +373,19 @@ def coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
     YAML has its own numbers and booleans, so a boolean or a quoted string where a number is
     meant is a slip (``yes`` for 1, ``"1.0"``), not a way of writing one. The mission is
     validated again in strict JSON mode (JSON arrays still fill tuples, integers floats), and
-    only these type errors are kept: strict mode's other opinions are not the mission's.
+    only these type errors are kept: strict mode's other opinions are not the mission's. Strict
+    mode still takes ``true`` for ``Literal[1, 2]`` (True is 1 in Python): a boolean for a
+    top-level field that does not take one is refused too (``flow: {noise_order: true}``).
     """
     try:
         text = json.dumps(data, allow_nan=False)
     except (TypeError, ValueError):  # values JSON cannot carry: the lax pass judged them
         return []
+    out = _literal_booleans(data, model)
     try:
         model.model_validate_json(text, strict=True, context={"problems": []})
     except ValidationError as exc:
-        out = []
+        seen = {path for path, _ in out}
         for err in exc.errors(include_url=False):
             want = _COERCIONS.get(err["type"])
             value = err.get("input")
@@ -391,11 +394,27 @@ def coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
             if isinstance(value, float) and value.is_integer() and err["type"] == "int_type":
                 continue  # 100.0 for a count: the value is whole, only its spelling is not
             path = _data_path(tuple(err["loc"]), data)
+            if path in seen:
+                continue
             shown = "a YAML boolean" if isinstance(value, bool) else (
                 "a quoted string" if isinstance(value, str) else type(value).__name__)
             out.append((path, f"expected {want}, got {value!r} ({shown})"))
-        return out
-    return []
+    return out
+
+
+def _literal_booleans(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
+    """Top-level booleans given for a ``Literal`` of other values, (path, message) each."""
+    if not isinstance(data, dict):
+        return []
+    out: list[tuple[Loc, str]] = []
+    for key, value in data.items():
+        field = model.model_fields.get(key)
+        if (isinstance(value, bool) and field is not None
+                and get_origin(field.annotation) is Literal
+                and not any(isinstance(o, bool) for o in get_args(field.annotation))):
+            options = ", ".join(repr(o) for o in get_args(field.annotation))
+            out.append(((key,), f"expected one of {options}, got {value!r} (a YAML boolean)"))
+    return out
 
 
 def load_mission(

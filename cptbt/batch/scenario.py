@@ -9,7 +9,6 @@ frame. Any simulator setting can be overridden by name under ``flow``, ``plume``
 from __future__ import annotations
 
 import math
-import typing
 from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema
@@ -193,30 +192,9 @@ def override_coercions(env: Environment) -> list[Problem]:
     out: list[Problem] = []
     for name, model in SECTIONS.items():
         given = getattr(env, name)
-        if not given:
-            continue
-        found = coercions(given, model)
-        seen = {path for path, _ in found}
-        for key, value in given.items():
-            # a YAML boolean for a field of numbers strict mode lets pass (True is 1 in
-            # Python): `noise_order: true` for Literal[1, 2]
-            field = model.model_fields.get(key)
-            if (isinstance(value, bool) and field is not None and (key,) not in seen
-                    and field.annotation is not bool
-                    and bool not in typing.get_args(field.annotation)):
-                found.append(((key,), f"expected {_kind(field.annotation)}, got {value!r} "
-                              "(a YAML boolean)"))
-        for path, why in found:
-            out.append((("environment", name, *path), why))
+        if given:
+            out += [(("environment", name, *path), why) for path, why in coercions(given, model)]
     return out
-
-
-def _kind(annotation: object) -> str:
-    """A field's type in a few words, for a refused YAML boolean."""
-    options = typing.get_args(annotation)
-    if typing.get_origin(annotation) is typing.Literal:
-        return "one of " + ", ".join(repr(o) for o in options)
-    return "a number"
 
 
 def advisories(mission: MissionBase) -> list[Problem]:

@@ -98,9 +98,8 @@ def sources_line(s: dict[str, Any]) -> str | None:
     return (f"  sources: {s['sources_found']} of {s['sources_true']} found, "
             f"{s['false_declarations']} false"
             + (f"; the search for more ended (t3 is when): {s.get('search_end')}"
-               + (f", the latest at {place(s['held_candidate'])}"
-                  if s.get("held_candidate") and "held" in (s.get("search_end") or "")
-                  else "")
+               + (f", the latest held candidate (unconfirmed) at {place(s['held_candidate'])}"
+                  if s.get("held_candidate") else "")
                if s.get("search_given_up") else "")
             + (f"; fly-bys {s['flybys']}, withdrawn {s['withdrawn']}"
                if s["flybys"] is not None else "")

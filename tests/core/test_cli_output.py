@@ -118,5 +118,5 @@ def test_the_sources_line_says_how_the_search_for_more_ended() -> None:
             "held_candidate": {"x": 42.7, "y": 3.5}}
     assert sources_line(held) == (
         "  sources: 1 of 2 found, 0 false; the search for more ended (t3 is when): candidates "
-        "held or vetoed 600 s in all, none confirmed (...), the latest at x 42.7 m, y 3.5 m; "
-        "fly-bys 0, withdrawn 0")
+        "held or vetoed 600 s in all, none confirmed (...), the latest held candidate "
+        "(unconfirmed) at x 42.7 m, y 3.5 m; fly-bys 0, withdrawn 0")
