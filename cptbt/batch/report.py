@@ -4,6 +4,7 @@ figures (AB Figs. 6, 10, 11; success, error, T_D share) in :mod:`cptbt.batch.stu
 
 from __future__ import annotations
 
+import json
 import math
 from collections import defaultdict
 from dataclasses import dataclass
@@ -271,6 +272,16 @@ def errors_note(rows: Rows) -> str | None:
             f"{first.get('replicate')} start {first.get('start')}: {first.get('error')}")
 
 
+def _declared_cell(row: dict[str, Any]) -> str:
+    """The declared point of a run, or every one with its own error when it declared several
+    (``declared_source_*`` is the last one alone, and the row's error is the worst one's)."""
+    text = row.get("declared_points")
+    points = json.loads(text) if isinstance(text, str) and text else []
+    if len(points) > 1:
+        return "; ".join(f"({_fmt(x)}, {_fmt(y)}) {_fmt(e)} m" for x, y, e in points)
+    return f"({_fmt(row.get('declared_source_x'))}, {_fmt(row.get('declared_source_y'))})"
+
+
 def _tables(groups: dict[str, Rows], path: Path) -> Path:
     every = [r for rows in groups.values() for r in rows]
     criterion = _criterion(every)
@@ -325,8 +336,11 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
         declared = [r for r in rows if r.get("t3") is not None]
         if not declared:
             continue  # TRO's tables are about declarations (AB's arrival runs declare nothing)
-        lines += ["", f"## {label}: times and paths (TRO Tables III and IV form)", "",
-                  "| run | start (x, y) | declared (x, y) | error (m) | T_F (s) | T_T (s) "
+        lines += ["", f"## {label}: times and paths (TRO Tables III and IV form)", ""]
+        if multi:
+            lines += ["Each declared point is listed with its own error (to its nearest true "
+                      "source); the error column is the worst of them.", ""]
+        lines += ["| run | start (x, y) | declared (x, y) | error (m) | T_F (s) | T_T (s) "
                   "| T_D (s) | T_D share | D0 (m) | D1 (m) | D2 (m) | D3 (m) | D1/D0 |",
                   "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         shown = declared if len(declared) <= 20 else []
@@ -334,9 +348,8 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
             share = _td_share(r)
             lines.append(
                 f"| r{r['replicate']}s{r['start']} | ({_fmt(r['start_x'])}, {_fmt(r['start_y'])}) "
-                f"| ({_fmt(r.get('declared_source_x'))}, "
-                f"{_fmt(r.get('declared_source_y'))}) "
-                f"| {_fmt(r.get('error_m'))} | {_fmt(r.get('T_F'))} | {_fmt(r.get('T_T'))} "
+                f"| {_declared_cell(r)} | {_fmt(r.get('error_m'))} "
+                f"| {_fmt(r.get('T_F'))} | {_fmt(r.get('T_T'))} "
                 f"| {_fmt(r.get('T_D'))} | {_fmt(share * 100 if share is not None else None)}% "
                 f"| {_fmt(r.get('D0'))} | {_fmt(r.get('D1'))} | {_fmt(r.get('D2'))} "
                 f"| {_fmt(r.get('D3'))} | {_fmt(r.get('D1_over_D0'), 2)} |")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -88,6 +89,26 @@ def test_a_two_source_study_counts_the_sources_found(tmp_path: Path) -> None:
     assert "| variant=map | 3 | 100.0% (43.8%–100.0%) | 6 / 6 | 0 |" in table, table
     write_report(line_rows(), tmp_path)
     assert "sources found" not in (tmp_path / "tables.md").read_text()
+
+
+def test_a_run_that_declared_several_points_lists_each_with_its_own_error(
+        tmp_path: Path) -> None:
+    # The row's declared_source_* is the last point and its error_m the worst point's: shown
+    # side by side they paired a point with another's error.
+    points = [[100.0, 5.0, 2.5], [40.0, -30.0, 21.0], [160.0, 20.0, 4.0]]
+    row = {**BASE, "configuration": "variant=map", "start": 0, "start_x": 0.0, "success": False,
+           "false_declaration": True, "t3": 300.0, "error_m": 21.0, "sources_true": 2,
+           "sources_found": 2, "declared_source_x": 160.0, "declared_source_y": 20.0,
+           "declared_points": json.dumps(points)}
+    one = {**row, "replicate": 1, "success": True, "false_declaration": False, "error_m": 1.5,
+           "sources_true": 1, "sources_found": 1, "declared_source_x": 99.0,
+           "declared_source_y": 1.0, "declared_points": json.dumps([[99.0, 1.0, 1.5]])}
+    write_report([row, one], tmp_path)
+    table = (tmp_path / "tables.md").read_text()
+    assert ("| (100.0, 5.0) 2.5 m; (40.0, -30.0) 21.0 m; (160.0, 20.0) 4.0 m | 21.0 |"
+            in table), table
+    assert "| (99.0, 1.0) | 1.5 |" in table, table
+    assert "the error column is the worst of them" in table
 
 
 def test_arrival_runs_get_no_error_histogram(tmp_path: Path) -> None:
