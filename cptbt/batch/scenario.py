@@ -9,6 +9,7 @@ frame. Any simulator setting can be overridden by name under ``flow``, ``plume``
 from __future__ import annotations
 
 import math
+from decimal import Decimal
 from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema
@@ -269,15 +270,25 @@ def quiet_threshold(noise_std: float, samples: float, cycle_hz: float) -> float:
     return hi
 
 
+def _plain(v: float) -> str:
+    """A number as a user writes it, without an exponent between 1e-6 and 1e15 (1000000,
+    0.00002; a noise of 1e6 had printed as 1e+06), with an exponent beyond."""
+    if not math.isfinite(v) or not 1e-6 <= abs(v) < 1e15:
+        return f"{v:g}"
+    text = format(Decimal(repr(float(v))), "f")  # the shortest digits that read back as v
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
 def _two_figures(v: float) -> str:
-    """Two significant figures, without an exponent up to a million (260, 0.39, 3.7)."""
-    return f"{float(f'{v:.2g}'):,.0f}" if 100 <= v < 1e6 else f"{v:.2g}"
+    """Two significant figures, without an exponent (260, 0.39, 3.7, 1,200,000)."""
+    r = float(f"{v:.2g}")
+    return f"{r:,.0f}" if 100 <= r < 1e15 else _plain(r)
 
 
 def _two_figures_up(v: float) -> str:
     """``v`` rounded *up* to two significant figures (a threshold to set must be enough)."""
     if v <= 0.0 or not math.isfinite(v):
-        return f"{v:g}"
+        return _plain(v)
     step = 10.0 ** (math.floor(math.log10(v)) - 1)
     return _two_figures(math.ceil(v / step - 1e-9) * step)
 
@@ -310,8 +321,9 @@ def noise_advice(mission: MissionBase) -> list[Problem]:
     fix = (f"a threshold of {_two_figures_up(good)} or more keeps it under one every 1 000 s"
            if math.isfinite(good) else "no threshold keeps it rare")
     return [(("environment", "fluorometer", "noise_std"),
-             f"{sensor.noise_std:g} against perception.threshold {threshold:g}"
-             + (f" (the sensor's own tau {sensor.tau:g} above it)" if sensor.tau > threshold
+             f"{_plain(sensor.noise_std)} against perception.threshold {_plain(threshold)}"
+             + (f" (the sensor's own tau {_plain(sensor.tau)} above it)"
+                if sensor.tau > threshold
                 else "") + ": in clean water "
              f"the noise alone reads above the threshold in {share} planning cycles ({each}), "
              f"{every}; the tracker chases them and a declaration can land anywhere ({fix})")]

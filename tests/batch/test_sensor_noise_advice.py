@@ -102,6 +102,12 @@ def test_the_figures_stay_readable_at_extremes() -> None:
     ((_, msg),) = _warned(_mission(1e6))
     assert "nearly all planning cycles" in msg and "nearly every cycle" in msg
     assert "e+02%" not in msg
+    # what the user wrote, as written (a review saw "1e+06 against ..."), and a threshold to set
+    assert msg.startswith("1000000 against perception.threshold 0.2:"), msg
+    assert "e+" not in msg and "e-" not in msg, msg
+    ((_, msg),) = _warned(_mission(0.00002, threshold=0.00003))
+    assert msg.startswith("0.00002 against perception.threshold 0.00003:"), msg
+    assert "e-" not in msg, msg
 
 
 def test_the_suggested_threshold_is_rounded_up_and_silences_the_warning() -> None:
