@@ -336,7 +336,7 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=None, gt=0, description="With max_sources > 1: the search for another source "
         "ends after this long without a detection no declared source explains, or once "
         "candidates were held (known_plume_max_prob) or vetoed this long in all, and "
-        "the vehicle goes home with the sources found; t3 is then when it gave up (None: it "
+        "the vehicle goes home with the sources found (search_end_t in the summary; None: it "
         "searches on to the time limit), s"
     )
 

@@ -33,8 +33,9 @@ class SeveralSources(SourceDeclaration):
     declarations: that long after the latest declaration, withdrawn fly-by or detection no
     declared source explains (and with no check leg, visit or fly-by under way), the search
     ends, ``declared_source`` is the latest point, and the vehicle heads home
-    (``search_given_up`` in ``declaration_report``; t3 is then when it gave up: the AMP was
-    declaring until then). It ends so too when the declared sources' masks cover every cell
+    (``search_given_up`` in ``declaration_report``; the planner's ``declared_source`` is
+    written then, and the run summary's ``search_end_t`` is that time, while its t3 is the
+    last declaration's). It ends so too when the declared sources' masks cover every cell
     (``search_end`` says which).
     Without it, the vehicle searches on to the time limit (sweeping the OpArea across the flow
     while nothing unexplained is seen: :meth:`_search_on`); a source lying

@@ -181,6 +181,7 @@ class FleetPerception:
         self._t_prev = -math.inf
         self.rejected_flow_samples = np.zeros(n, dtype=np.int64)
         self.stuck_samples = np.zeros(n, dtype=np.int64)
+        self.missing_samples = np.zeros(n, dtype=np.int64)
         self._run_value = np.full(n, np.nan)  # each vehicle's latest sample, since when
         self._run_t = np.full(n, np.nan)
 
@@ -189,6 +190,7 @@ class FleetPerception:
         reading stuck away from zero (``stuck_after_s``, as :class:`~cptbt.perception.Perception`)
         are ignored."""
         c = concentration
+        self.missing_samples[ids] += ~np.isfinite(c)
         limit = self.settings.stuck_after_s
         if limit is not None:
             # NaN and inf are faults of their own (dropped below), never a stuck reading
@@ -307,8 +309,10 @@ class FleetPerception:
 
     def faults(self, i: int) -> dict[str, int]:
         """Vehicle ``i``'s :meth:`~cptbt.perception.Perception.faults` (the fleet's cycles come
-        from the simulator's clock, never corrected)."""
-        return {"stuck_samples": int(self.stuck_samples[i]),
+        from the simulator's clock, never corrected, and its fixes from the simulated
+        navigation, never far out)."""
+        return {"missing_samples": int(self.missing_samples[i]),
+                "stuck_samples": int(self.stuck_samples[i]), "rejected_fixes": 0,
                 "rejected_flow_samples": int(self.rejected_flow_samples[i]),
                 "clock_corrections": 0}
 

@@ -54,11 +54,49 @@ MissionLoader.add_implicit_resolver(
 )
 
 
+_INT, _FLOAT = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
+_OLD_NUMBERS = (
+    (re.compile(r"^[-+]?0[0-7_]+$"), "octal"),
+    (re.compile(r"^[-+]?0x[0-9a-fA-F_]+$"), "hexadecimal"),
+    (re.compile(r"^[-+]?0b[01_]+$"), "binary"),
+    (re.compile(r"^[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?$"), "base 60"),
+    (re.compile(r"_"), "digits grouped with _"),
+)
+"""YAML 1.1's number forms besides plain decimal, which PyYAML reads (``seed: 017`` as 15,
+``speed_mps: 1_5`` as 15, ``beta_deg: 1:30`` as 90) and YAML 1.2 reads otherwise or not at
+all: a mission refuses them rather than fly a number its author did not write."""
+
+
+class OldNumberError(yaml.YAMLError):
+    """A plain scalar in one of :data:`_OLD_NUMBERS`' forms."""
+
+
+def old_number(node: yaml.Node) -> str | None:
+    """Why a plain scalar that YAML 1.1 reads as a number is refused (None: it is not)."""
+    if not isinstance(node, yaml.ScalarNode) or node.style or node.tag not in (_INT, _FLOAT):
+        return None
+    text = node.value
+    for pattern, kind in _OLD_NUMBERS:
+        if pattern.search(text):
+            value = yaml.safe_load(text)
+            return (f"{text!r} is read by YAML 1.1 as {value!r} ({kind}): write the number "
+                    "in plain decimal (or quote it, if it is text)")
+    return None
+
+
 def load_scalar(text: str) -> Any:
-    """One YAML value read as a mission would read it (e.g. a ``--sweep`` value)."""
+    """One YAML value read as a mission would read it (e.g. a ``--sweep`` value).
+
+    Raises:
+        OldNumberError: a number in an old YAML 1.1 form (:func:`old_number`).
+    """
     loader = MissionLoader(text)
     try:
-        return loader.get_single_data()
+        node = loader.get_single_node()
+        why = old_number(node) if node is not None else None
+        if why:
+            raise OldNumberError(why)
+        return loader.construct_document(node) if node is not None else None
     finally:
         loader.dispose()
 
@@ -113,6 +151,9 @@ class _Walk:
         if node.tag in _OTHER_TYPES:  # !!set {100, 0} read as the point (0, 100)
             raise self.fail(line, path, f"!!{node.tag.rsplit(':', 1)[1]}: a mission value is "
                             "a number, text, true/false, a list or a mapping")
+        why = old_number(node)
+        if why:
+            raise self.fail(line, path, why)
         if not isinstance(node, yaml.MappingNode | yaml.SequenceNode):
             return
         if id(node) in self.on_path:
@@ -231,7 +272,14 @@ def _data_path(loc: Loc, data: Any) -> Loc:
 
 
 def _line(path: Loc, lines: dict[Loc, int]) -> int:
-    return next((lines[path[:i]] for i in range(len(path), -1, -1) if path[:i] in lines), 1)
+    """The line of ``path``'s deepest part the file has (a key YAML read as a number, such
+    as ``1: foo``, is recorded as it was written)."""
+    for i in range(len(path), -1, -1):
+        head = path[:i]
+        for key in (head, (*head[:-1], str(head[-1])) if head else head):
+            if key in lines:
+                return lines[key]
+    return 1
 
 
 def _at(data: Any, path: Loc) -> Any:
@@ -480,9 +528,9 @@ def loads_mission(
     """Like :func:`load_mission`, from text."""
     data, lines = parse_yaml(text, source)
     if not isinstance(data, dict):
-        raise MissionError(
-            [f"{source}:1: (top): a mission is a mapping of keys, not {type(data).__name__}"]
-        )
+        what = ("an empty document (only '---' or comments)" if data is None
+                else type(data).__name__)
+        raise MissionError([f"{source}:1: (top): a mission is a mapping of keys, not {what}"])
     model = mission_model(registry or default_registry(), environment)
     return validate_data(data, lines, source, model)  # type: ignore[return-value]
 

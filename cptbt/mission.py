@@ -258,18 +258,24 @@ class MissionBase(BaseModel):
                  f"not a rectangle: a corner lies {misfit:.1f} m off the fitted rectangle "
                  f"(tolerance {tol:.1f} m, 1% of the diagonal); sides at {sides}")]
 
+    def commanded_speeds(self) -> list[tuple[Loc, float]]:
+        """Every speed the mission commands, by key: the cruise speed, mission A's (if any)
+        and each behaviour's own."""
+        speeds: list[tuple[Loc, float]] = [(("speed_mps",), self.speed_mps)]
+        if self.mission_a is not None:
+            speeds.append((("mission_a", "speed_mps"), self.mission_a.speed_mps))
+        for i, e in enumerate(self.entries()):
+            if e.params.speed_mps is not None:
+                speeds.append((("behaviours", i, e.family, "speed_mps"), e.params.speed_mps))
+        return speeds
+
     def _limit_problems(self) -> list[Problem]:
         a = self.mission_a
         if a is None:
             return []
         lim = a.limits
         out: list[Problem] = []
-        speeds: list[tuple[Loc, float]] = [(("speed_mps",), self.speed_mps),
-                                           (("mission_a", "speed_mps"), a.speed_mps)]
-        for i, e in enumerate(self.entries()):
-            if e.params.speed_mps is not None:
-                speeds.append((("behaviours", i, e.family, "speed_mps"), e.params.speed_mps))
-        for loc, v in speeds:
+        for loc, v in self.commanded_speeds():
             if not lim.min_speed_mps <= v <= lim.max_speed_mps:
                 out.append((loc, f"{v:g} m/s is outside the vehicle's limits "
                                  f"[{lim.min_speed_mps:g}, {lim.max_speed_mps:g}] m/s "

@@ -26,6 +26,10 @@ STUCK_FLOOR = 1e-12
 """Readings no farther from zero than this are never taken for a stuck sensor: a low-pass
 filter's output decays to the smallest float (5e-324) in clean water and stays there exactly."""
 
+MAX_FIX_OUTSIDE_M = 1e6
+"""A navigation fix more than this outside the OpArea (1000 km: beyond any AUV mission's reach
+of its area, and the planning frame's flat-earth geometry) is a broken message, not a position."""
+
 
 class PerceptionSettings(BaseModel):
     """The ``perception:`` section of a mission: how raw samples become percepts (SPEC §2).
@@ -116,15 +120,18 @@ class Perception:
         self.rejected_flow_samples = 0
         self.clock_corrections = 0
         self.stuck_samples = 0
+        self.missing_samples = 0  # fluorometer samples not finite (dropouts)
+        self.rejected_fixes = 0  # navigation fixes ignored as impossibly far out
         self._run_value = math.nan  # the latest sample, and since when it has read so
         self._run_t = math.nan
         self.latest: Percept | None = None
 
     def faults(self) -> dict[str, int]:
         """What the perception has dropped or corrected so far (the run summary's sensor
-        faults): fluorometer samples dropped as stuck, flow samples rejected, clock steps back
-        corrected."""
-        return {"stuck_samples": self.stuck_samples,
+        faults): fluorometer samples missing (not finite) or dropped as stuck, flow samples and
+        navigation fixes rejected, clock steps back corrected."""
+        return {"missing_samples": self.missing_samples, "stuck_samples": self.stuck_samples,
+                "rejected_fixes": self.rejected_fixes,
                 "rejected_flow_samples": self.rejected_flow_samples,
                 "clock_corrections": self.clock_corrections}
 
@@ -138,6 +145,7 @@ class Perception:
         """One fluorometer sample; NaN or infinite values and a reading stuck away from zero
         (sensor faults: the class docstring) are ignored."""
         if not math.isfinite(concentration):
+            self.missing_samples += 1
             return  # a dropout between two frozen readings does not unfreeze the sensor
         if self.settings.stuck_after_s is not None and self._stuck(self._clock(t), concentration):
             self.stuck_samples += 1
@@ -174,10 +182,24 @@ class Perception:
         self._flows.append((self._clock(t), vx, vy))
 
     def set_pose(self, pose: Pose) -> None:
-        """The latest navigation estimate; a non-finite one keeps the previous estimate."""
-        if math.isfinite(pose.x) and math.isfinite(pose.y):
-            heading = pose.heading_deg if math.isfinite(pose.heading_deg) else 0.0
-            self._pose = Pose(pose.x, pose.y, heading)
+        """The latest navigation estimate; a non-finite one, or one more than
+        :data:`MAX_FIX_OUTSIDE_M` outside the OpArea (a fill value, a corrupt message: a review's
+        ``x_m: 1e308`` ended the override as an excursion), keeps the previous estimate."""
+        if not (math.isfinite(pose.x) and math.isfinite(pose.y)):
+            return
+        if self.op_area.distance_outside(pose.x, pose.y) > MAX_FIX_OUTSIDE_M:
+            self.rejected_fixes += 1
+            log.info("navigation fix (%.3g, %.3g) m is more than %g m outside the OpArea: "
+                     "ignored (%d so far)", pose.x, pose.y, MAX_FIX_OUTSIDE_M,
+                     self.rejected_fixes)
+            return
+        heading = pose.heading_deg if math.isfinite(pose.heading_deg) else 0.0
+        self._pose = Pose(pose.x, pose.y, heading)
+
+    @property
+    def pose(self) -> Pose:
+        """The navigation estimate the planner uses (NaN before the first usable fix)."""
+        return self._pose
 
     def _flow(self, t: float) -> FlowEstimate | None:
         while self._flows and self._flows[0][0] <= t - self.flow_window_s:

@@ -15,6 +15,11 @@ TIME_EPS_S = 1e-9
 """Slack on time comparisons (float cycle times)."""
 
 
+def metres_text(v: float) -> str:
+    """A distance for a message: 0.1 m, or three digits past a million (not 309 of them)."""
+    return f"{v:.1f}" if v < 1e6 else f"{v:.3g}"
+
+
 def give_back_trigger(
     done: bool, elapsed_s: float, time_limit_s: float, outside_m: float
 ) -> tuple[str, str] | None:
@@ -31,5 +36,5 @@ def give_back_trigger(
     if elapsed_s + TIME_EPS_S >= time_limit_s:
         return "amp_time_limit", f"{time_limit_s:g} s"
     if outside_m > RELINQUISH_OUTSIDE_M:
-        return "outside_op_area", f"{outside_m:.1f} m outside"
+        return "outside_op_area", f"{metres_text(outside_m)} m outside"
     return None

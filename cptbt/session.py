@@ -33,6 +33,7 @@ from cptbt.link import (
 )
 from cptbt.mission import MissionBase
 from cptbt.mission_a import MissionASpec
+from cptbt.perception import MAX_FIX_OUTSIDE_M
 from cptbt.phases import MissionPhases
 from cptbt.planner import Planner
 from cptbt.policy import give_back_trigger
@@ -75,6 +76,7 @@ class AmpSession:
         self.command: Command | None = None
         self.ticked = False
         self.refusals = 0
+        self.rejected_fixes = 0  # vehicle positions ignored as impossibly far out (_sane)
         self._last_refusal = ""
         self._period = 1.0 / mission.cycle_hz
         self._next_tick = math.inf
@@ -156,14 +158,25 @@ class AmpSession:
     def _sane(self, s: VehicleState) -> VehicleState | None:
         """A state with its faults repaired from the previous one; None if nothing is usable.
 
-        A non-finite clock keeps the previous time; a non-finite position or heading keeps the
-        previous fix (the planner's perception does the same), so one bad report can neither end
-        the override through the 30 m rule nor reach the planner.
+        A non-finite clock keeps the previous time; a non-finite position or heading, or a
+        position more than :data:`~cptbt.perception.MAX_FIX_OUTSIDE_M` outside the OpArea (a
+        review's ``x_m: 1e308`` ended the override as an excursion), keeps the previous fix (the
+        planner's perception does the same; the latter are counted in ``rejected_fixes``), so
+        one bad report can neither end the override through the 30 m rule nor reach the planner.
         """
         prev = self.state
         fixes: dict[str, Any] = {}
+        if (math.isfinite(s.x_m) and math.isfinite(s.y_m)
+                and self.planner.op_area.distance_outside(s.x_m, s.y_m) > MAX_FIX_OUTSIDE_M):
+            self.rejected_fixes += 1
+            log.warning("vehicle position (%.3g, %.3g) m is more than %g m outside the OpArea: "
+                        "ignored (%d so far)", s.x_m, s.y_m, MAX_FIX_OUTSIDE_M,
+                        self.rejected_fixes)
+            if prev is None:
+                return None
+            fixes = {"x_m": prev.x_m, "y_m": prev.y_m}
         for key in ("t_s", "x_m", "y_m", "heading_deg"):
-            if not math.isfinite(getattr(s, key)):
+            if key not in fixes and not math.isfinite(getattr(s, key)):
                 log.info("vehicle state with %s = %s ignored for that field", key,
                          getattr(s, key))
                 if prev is not None:

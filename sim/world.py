@@ -137,7 +137,10 @@ class EnvironmentParams(BaseModel):
         if self.plume_dt_s < self.dt_s:
             raise ValueError("plume_dt_s must be at least dt_s")
         if self.dt_s > 1.0 / self.fluorometer.rate_hz + 1e-12:
-            raise ValueError("dt_s must not exceed the fluorometer sample period")
+            raise ValueError(
+                f"the simulator's step dt_s ({self.dt_s:g} s) must not exceed the fluorometer's "
+                f"sample period 1/rate_hz ({1.0 / self.fluorometer.rate_hz:g} s): set dt_s to "
+                "at most that, or lower fluorometer.rate_hz")
         substep = flow_substep_s(self.flow, self.area_m)
         if substep is not None and substep < MIN_SUBSTEP_S:
             raise ValueError(

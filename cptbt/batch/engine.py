@@ -96,7 +96,10 @@ class VehicleRun:
         trace_recorder: every row of a traced run (for phased runs, Mission A's too).
         outcome: how the AMP's part ended.
         t_end: when it ended (mission clock).
-        t1: first detection; t3: declaration.
+        t1: first detection; t3: declaration (the planner's ``declared_source`` first set:
+            with several sources, when the last was declared or the search for more ended).
+        declared_at: when each point of ``declared_sources`` was first published (see
+            :meth:`note_declarations`).
         distance_at_end_m: the vehicle's true distance to the true source when it ended.
         closest_m: its closest true approach to the true source during the recorded part.
         declared: the declared source (planning frame).
@@ -119,6 +122,7 @@ class VehicleRun:
     closest_m: float = math.inf
     declared: Point | None = None
     declared_all: tuple[Point, ...] = ()
+    declared_at: dict[Point, float] = field(default_factory=dict)
     source_map: Any = None
     declaration_report: dict[str, Any] | None = None
     lost_contacts: tuple[Point, ...] = ()
@@ -158,6 +162,16 @@ class VehicleRun:
             return None
         table = rec.table(self.index, extra=("phase",) if len(rec.phases) > 1 else ())
         return {c: table[c] for c in (*TRACE, *(["phase"] if "phase" in table else []))}
+
+
+def note_declarations(run: VehicleRun, planner: Planner, t: float) -> None:
+    """A cycle's declarations: t3 when ``declared_source`` is first set, and the time each
+    declared point first appears among ``declared_sources`` (a several-source run's measures
+    end at the declaration that completed its set, not when its search ended)."""
+    if run.t3 is None and planner.declared_source is not None:
+        run.t3 = t
+    for q in planner.declared_sources:
+        run.declared_at.setdefault(q, t)
 
 
 def collect_declarations(run: VehicleRun, planner: Planner) -> None:
@@ -291,10 +305,9 @@ def simulate(
                     extra["flow_vx"][j], extra["flow_vy"][j] = p.flow.vx, p.flow.vy
             if p.detected and run.t1 is None:
                 run.t1 = t
-            if run.t3 is None and pl.declared_source is not None:
-                run.t3 = t
-                if plume_grid is not None:
-                    run.plume = PlumeSnapshot.of(world, plume_grid)
+            if run.t3 is None and pl.declared_source is not None and plume_grid is not None:
+                run.plume = PlumeSnapshot.of(world, plume_grid)
+            note_declarations(run, pl, t)
             d_true = math.hypot(float(out.true_xy[i, 0]) - source.x,
                                 float(out.true_xy[i, 1]) - source.y)
             run.closest_m = min(run.closest_m, d_true)

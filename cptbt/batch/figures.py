@@ -307,6 +307,10 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
         r = np.asarray(replaced, dtype=float)
         ax.plot(r[:, 0], r[:, 1], "o", mfc="none", mec="#9467bd", mew=2.0, ms=15, ls="none",
                 zorder=10, label="replaced declaration (taken for the same source)")
+    held = report.get("held_at")
+    if held:  # a probable source the rule could not confirm (summary: held_candidate)
+        ax.plot(*held, "D", mfc="none", mec="#ff7f0e", mew=2.0, ms=12, ls="none", zorder=10,
+                label="held candidate (unconfirmed: in a declared source's plume)")
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m), 90° clockwise from x")

@@ -16,7 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from cptbt.batch.engine import PlumeSnapshot, VehicleRun, collect_declarations, run_loop
+from cptbt.batch.engine import (
+    PlumeSnapshot,
+    VehicleRun,
+    collect_declarations,
+    note_declarations,
+    run_loop,
+)
 from cptbt.batch.outcome import Outcome, outcome_of
 from cptbt.batch.recorder import Recorder
 from cptbt.batch.scenario import environment_of, planning_angle
@@ -205,10 +211,9 @@ def _record_amp(run: VehicleRun, planner: Planner, t: float, values: dict[str, A
     rec.add(np.zeros(1, dtype=np.intp), values, p.detected, rec.code(planner.active))
     if p.detected and run.t1 is None:
         run.t1 = t
-    if run.t3 is None and planner.declared_source is not None:
-        run.t3 = t
-        if grid is not None:
-            run.plume = PlumeSnapshot.of(world, grid)
+    if run.t3 is None and planner.declared_source is not None and grid is not None:
+        run.plume = PlumeSnapshot.of(world, grid)
+    note_declarations(run, planner, t)
 
 
 def _record_row(

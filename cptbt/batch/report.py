@@ -279,6 +279,8 @@ def _declared_cell(row: dict[str, Any]) -> str:
     points = json.loads(text) if isinstance(text, str) and text else []
     if len(points) > 1:
         return "; ".join(f"({_fmt(x)}, {_fmt(y)}) {_fmt(e)} m" for x, y, e in points)
+    if points:  # also a run that ended still searching for more (no declared_source)
+        return f"({_fmt(points[0][0])}, {_fmt(points[0][1])})"
     return f"({_fmt(row.get('declared_source_x'))}, {_fmt(row.get('declared_source_y'))})"
 
 

@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSche
 
 from cptbt.loader import coercions
 from cptbt.mission import Coord, Loc, MissionBase, Problem, latlon_problem
-from cptbt.policy import RELINQUISH_OUTSIDE_M
+from cptbt.policy import RELINQUISH_OUTSIDE_M, metres_text
 from cptbt.schema import partial_schema
 from cptbt.sim.flow import MAX_FLOW_SPEED_MPS, FlowParams
 from cptbt.sim.plume import PlumeParams
@@ -59,7 +59,7 @@ class Environment(BaseModel):
         "OpArea unless the mission lists 'source' in allow_outside"
     )
     flow_toward_deg: float | None = Field(
-        default=None,
+        default=None, ge=-360.0, le=360.0,  # 1e300 degrees had been taken modulo 360
         description="Mean flow direction (toward), compass degrees for frames 'ne' and "
         "'geodetic', planning "
         "degrees for frame 'planning' (default: preset's)",
@@ -122,11 +122,6 @@ def environment_of(mission: MissionBase) -> Environment:
     return env if isinstance(env, Environment) else Environment.model_validate(env)
 
 
-def _metres(v: float) -> str:
-    """A distance for a message: 0.1 m, or three digits past a million (not 309 of them)."""
-    return f"{v:.1f}" if v < 1e6 else f"{v:.3g}"
-
-
 def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
     """What stops the mission's environment from being simulated, as (key path, message).
 
@@ -162,8 +157,8 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
             outside = area.distance_outside(at.x, at.y)
             if outside > RELINQUISH_OUTSIDE_M:
                 out.append((("environment", "launch"),
-                            f"{_metres(outside)} m outside the OpArea: without a mission_a the AMP "
-                            f"drives from the launch, and it gives control back "
+                            f"{metres_text(outside)} m outside the OpArea: without a mission_a "
+                            f"the AMP drives from the launch, and it gives control back "
                             f"{RELINQUISH_OUTSIDE_M:g} m outside the OpArea (TRO II); launch "
                             "within that distance, or add a mission_a that brings the vehicle in"))
     places: list[tuple[Loc, Coord]] = [(("environment", "source"), env.source)]
@@ -174,9 +169,24 @@ def problems(mission: MissionBase, simulate: bool) -> list[Problem]:
             continue
         src = mission.to_xy(coord)
         if "source" not in mission.allow_outside and not area.contains(src.x, src.y):
-            out.append((loc, f"{_metres(area.distance_outside(src.x, src.y))} m outside the OpArea "
-                             "(list 'source' in allow_outside if that is intended)"))
-    return out + override_coercions(env)
+            out.append((loc, f"{metres_text(area.distance_outside(src.x, src.y))} m outside the "
+                             "OpArea (list 'source' in allow_outside if that is intended)"))
+    return out + _speed_problems(mission) + override_coercions(env)
+
+
+def _speed_problems(mission: MissionBase) -> list[Problem]:
+    """A commanded speed the simulated vehicle cannot fly: it would clip it to its speeds
+    (a review's ``speed_mps: 16`` flew at 2.8 m/s through the water, and validated)."""
+    try:
+        vehicle = to_sim_params(mission).vehicle
+    except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
+        return []
+    lo, hi = vehicle.min_speed_mps, vehicle.max_speed_mps
+    return [(loc, f"{_plain(v)} m/s is outside the simulated vehicle's speeds [{_plain(lo)}, "
+                  f"{_plain(hi)}] m/s (environment.vehicle min_speed_mps, max_speed_mps): it "
+                  f"would fly at {_plain(min(max(v, lo), hi))} m/s; command a speed it can fly, "
+                  "or set the vehicle's")
+            for loc, v in mission.commanded_speeds() if not lo <= v <= hi]
 
 
 SECTIONS: dict[str, type[BaseModel]] = {
@@ -207,7 +217,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
     out = list(mission.advisories())
     if mission.environment is None:
         return out
-    out += noise_advice(mission)
+    out += noise_advice(mission) + dropout_advice(mission)
     if mission.evaluation.criterion != "declaration":
         return out
     try:
@@ -291,6 +301,27 @@ def _two_figures_up(v: float) -> str:
         return _plain(v)
     step = 10.0 ** (math.floor(math.log10(v)) - 1)
     return _two_figures(math.ceil(v / step - 1e-9) * step)
+
+
+def dropout_advice(mission: MissionBase) -> list[Problem]:
+    """A fluorometer that drops so many samples that half the planning cycles or more have no
+    reading at all (a cycle reads the largest of its samples; one with none reads nothing,
+    neither plume nor clean water): at ``dropout_prob: 1`` a review's runs timed out as if
+    in clean water."""
+    try:
+        sensor = to_sim_params(mission).fluorometer
+    except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
+        return []
+    samples = max(sensor.rate_hz / mission.cycle_hz, 1.0)
+    blind = sensor.dropout_prob ** samples
+    if blind < 0.5:
+        return []
+    what = ("every sample is dropped: the vehicle can never detect plume"
+            if sensor.dropout_prob >= 1.0 else
+            f"{_two_figures(100 * blind)}% of planning cycles would have no reading (every one "
+            f"of their {samples:.3g} samples dropped)")
+    return [(("environment", "fluorometer", "dropout_prob"),
+             f"{_plain(sensor.dropout_prob)}: {what}")]
 
 
 def noise_advice(mission: MissionBase) -> list[Problem]:

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from cptbt.batch.engine import VehicleRun
+from cptbt.batch.engine import VehicleRun, note_declarations
 from cptbt.batch.outcome import Outcome, outcome_of
 from cptbt.batch.phased import PhasedRun, phase_summary
 from cptbt.batch.recorder import Recorder
@@ -66,8 +66,7 @@ class AmpCycles:
         self.rows.add(self._one, values, p.detected, self.rows.code(planner.active))
         if p.detected and self.run.t1 is None:
             self.run.t1 = s.t_s
-        if self.run.t3 is None and planner.declared_source is not None:
-            self.run.t3 = s.t_s
+        note_declarations(self.run, planner, s.t_s)
 
     @staticmethod
     def _ended_now(session: AmpSession) -> bool:
@@ -100,6 +99,8 @@ def served_summary(result: ServeResult, cycles: AmpCycles, mission: MissionBase,
     run.declared = planner.declared_source
     run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
     run.sensor_faults = planner.perception.faults()
+    # the session repairs an impossibly far fix before the planner sees it: counted there
+    run.sensor_faults["rejected_fixes"] += session.rejected_fixes
     if cycles.rows.count[0]:
         run.start = (float(run.path_true[0, 0]), float(run.path_true[0, 1]))
     truth = source if source is not None else Point(math.nan, math.nan)

@@ -23,7 +23,14 @@ import yaml
 
 from cptbt import study_spec
 from cptbt.batch.integrity import digest
-from cptbt.loader import MissionError, dump_mission, load_scalar, loads_mission, located_errors
+from cptbt.loader import (
+    MissionError,
+    OldNumberError,
+    dump_mission,
+    load_scalar,
+    loads_mission,
+    located_errors,
+)
 from cptbt.mission import Loc, MissionBase, dotted, mission_to_data
 from cptbt.registry import RegistryError, default_registry
 
@@ -58,6 +65,8 @@ class Sweep:
         left, right = text.split("=", 1)
         try:
             values = tuple(load_scalar(v) for v in right.split(",") if v.strip())
+        except OldNumberError as exc:
+            raise ValueError(f"{text!r}: {exc}") from None
         except yaml.YAMLError as exc:
             raise ValueError(f"{text!r}: a value is not YAML: {' '.join(str(exc).split())}"
                              ) from None

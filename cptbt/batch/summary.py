@@ -98,6 +98,7 @@ class RunSummary:
     visits_ended: int | None = None
     search_given_up: bool | None = None
     search_end: str | None = None
+    search_end_t: float | None = None
     held_in_known_plume: int | None = None
     held_candidate: dict[str, float] | None = None
     unchecked: int | None = None
@@ -106,7 +107,9 @@ class RunSummary:
     path_m: float | None = None
     start_to_source_m: float | None = None
     path_efficiency: float | None = None
+    missing_samples: int = 0
     stuck_samples: int = 0
+    rejected_fixes: int = 0
     rejected_flow_samples: int = 0
     clock_corrections: int = 0
 
@@ -153,8 +156,10 @@ def summarise(
     was held where a declared source's plume blinds the up-flow check, ``held_candidate``
     the latest such candidate not resolved by a later declaration (a probable source the rule
     could not confirm; not a declaration, and not judged).
-    ``stuck_samples``, ``rejected_flow_samples`` and ``clock_corrections`` count what the
-    perception dropped or corrected (a fluorometer reading stuck away from zero, impossible
+    ``missing_samples``, ``stuck_samples``, ``rejected_fixes``, ``rejected_flow_samples`` and
+    ``clock_corrections`` count what the perception dropped or corrected (fluorometer samples
+    that were not finite, a dropout; a fluorometer reading stuck away from zero; navigation
+    fixes more than 1000 km outside the OpArea; impossible
     flow samples, cycle times not after the previous one) up to the end of the AMP's part.
     With several sources or declared points, the single-source fields keep their single
     meaning: ``true_source`` is the mission's ``source``, ``declared_source`` the declaration
@@ -162,9 +167,15 @@ def summarise(
     ended still searching for more, ``declared_sources`` then listing those found), and
     ``error_m`` the worst declared point's distance to its nearest true source;
     ``true_sources`` lists every true source (the mission's ``source`` first), and each entry
-    of ``declared_sources`` carries its own ``error_m`` (to its nearest true source). D0,
-    ``closest_approach_m``, ``start_to_source_m`` and ``path_efficiency`` are about the last
-    declared point and the mission's ``source``.
+    of ``declared_sources`` carries its own ``error_m`` (to its nearest true source). ``t3``,
+    and with it T_D, D0-D3, ``path_m`` and ``path_efficiency``, is the declaration that
+    completed the declared set (the latest first published of the points in
+    ``declared_sources``), even when the run then searched on for more to its time limit or
+    until the search gave up: a review saw the time limit, or the give-up time, measured as
+    the time to source of runs that had found every source (``max_sources`` above the sources
+    there are); ``search_end_t`` is when the search for more ended (``search_given_up``: when
+    ``declared_source`` was written). ``closest_approach_m`` and ``start_to_source_m`` are
+    about the mission's ``source``.
     ``closest_approach_m`` is the vehicle's closest true approach to the true source while the
     AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
     maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before
@@ -179,14 +190,25 @@ def summarise(
     """
     t1, t3 = run.t1, run.t3
     declared = run.declared
+    report = run.declaration_report or {}
+    truth = list(sources) if sources else [source]
+    declared_all = list(run.declared_all) or ([declared] if declared is not None else [])
+    several = mission.evaluation.criterion == "declaration" and (
+        len(truth) > 1 or len(declared_all) > 1 or bool(declared_all and declared is None))
+    # the measures' declaration: with several, the one that completed the declared set
+    last, search_end_t = declared, t3 if report.get("search_given_up") else None
+    times = [run.declared_at.get(q) for q in declared_all]
+    if declared_all and all(x is not None for x in times):
+        k = max(range(len(times)), key=lambda j: times[j] or 0.0)
+        t3, last = times[k], declared_all[k]
     path_t, est, true = run.path_t, run.path_est, run.path_true
     t2 = None
     i1 = i2 = i3 = None
     if t1 is not None:
         i1 = int(np.searchsorted(path_t, t1))
-    if declared is not None and i1 is not None and t3 is not None:
+    if last is not None and i1 is not None and t3 is not None:
         i3 = int(np.searchsorted(path_t, t3))
-        near = np.hypot(est[i1 : i3 + 1, 0] - declared.x, est[i1 : i3 + 1, 1] - declared.y)
+        near = np.hypot(est[i1 : i3 + 1, 0] - last.x, est[i1 : i3 + 1, 1] - last.y)
         hits = np.flatnonzero(near <= NEAR_SOURCE_M)
         # Declared before ever passing within 13 m of the spot: t2 = t3.
         i2 = i1 + int(hits[0]) if len(hits) else i3
@@ -196,20 +218,17 @@ def summarise(
         return None if a is None or b is None else b - a
 
     d0 = d1 = d2 = None
-    if declared is not None and i1 is not None:
-        d0 = math.hypot(declared.x - est[i1, 0], declared.y - est[i1, 1])
+    if last is not None and i1 is not None:
+        d0 = math.hypot(last.x - est[i1, 0], last.y - est[i1, 1])
     if i1 is not None and i2 is not None and i3 is not None:
         d1 = _path_length(true[i1 : i2 + 1])
         d2 = _path_length(true[i2 : i3 + 1])
     assert run.outcome is not None, "summarise a finished run"
     verdict = judge(run.outcome, declared, source, run.distance_at_end_m, mission.evaluation,
                     run.closest_m)
-    truth = list(sources) if sources else [source]
     radius = success_radius_m or mission.evaluation.success_radius_m
-    declared_all = list(run.declared_all) or ([declared] if declared is not None else [])
     found = _match(declared_all, truth, radius)
-    if mission.evaluation.criterion == "declaration" and (len(truth) > 1 or len(declared_all) > 1
-                                                          or (declared_all and declared is None)):
+    if several:
         verdict = _judge_set(declared_all, truth, found)
     i0 = int(np.searchsorted(path_t, t0)) if len(path_t) else 0
     i_end = int(np.searchsorted(path_t, t3)) + 1 if t3 is not None else len(path_t)
@@ -218,7 +237,6 @@ def summarise(
                 if i0 < len(true) else None)
     time_in = run.time_in
     total_time = sum(time_in.values()) or 1.0
-    report = run.declaration_report or {}
     return RunSummary(
         mission=mission.name,
         seed=seed,
@@ -260,6 +278,7 @@ def summarise(
         visits_ended=report.get("visits_ended"),
         search_given_up=report.get("search_given_up"),
         search_end=report.get("search_end"),
+        search_end_t=search_end_t,
         held_in_known_plume=report.get("held_in_known_plume"),
         held_candidate=(where(mission, Point(*report["held_at"])) if report.get("held_at")
                         else None),

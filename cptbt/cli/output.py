@@ -41,8 +41,12 @@ def place(d: dict[str, float]) -> str:
 def sensor_faults_line(s: dict[str, Any]) -> str | None:
     """What the perception dropped or corrected in a run summary (None: nothing)."""
     parts = []
-    for key, what in (("stuck_samples", "fluorometer sample{} dropped as stuck (the same "
+    for key, what in (("missing_samples", "fluorometer sample{} missing (not a finite number: "
+                       "a dropout)"),
+                      ("stuck_samples", "fluorometer sample{} dropped as stuck (the same "
                        "reading for perception.stuck_after_s)"),
+                      ("rejected_fixes", "navigation position{} ignored (more than 1000 km outside "
+                       "the OpArea)"),
                       ("rejected_flow_samples", "flow sample{} rejected (not finite, or faster "
                        "than perception.max_flow_speed_mps)"),
                       ("clock_corrections", "cycle time{} not after the previous one, taken as "

@@ -89,6 +89,35 @@ def upflow_check_line(s: dict[str, Any]) -> str | None:
                if s["unchecked"] else ""))
 
 
+def declaration_lines(s: dict[str, Any]) -> list[str]:
+    """What was declared, when and how far off: a one-point run's point and error; with several
+    points (or a search for more that gave up, or ran to the end) the worst error and every
+    point (the error is the worst point's: summary.py)."""
+    points = [q for q in s["declared_sources"] if q]
+    n = f"{len(points)} point{'s' * (len(points) != 1)}"
+    worst = (f"worst error {fmt(s['error_m'], ' m')} (each declared point against its nearest "
+             "true source)")
+    lines = []
+    if s["declared_source"] and s.get("search_given_up"):
+        lines.append(f"  the search for more sources gave up at {fmt(s.get('search_end_t'), ' s')}"
+                     f" with {n}, {'the last ' if len(points) > 1 else ''}declared at t3 = "
+                     f"{fmt(s['t3'], ' s')}; {worst}")
+    elif s["declared_source"] and len(points) > 1:
+        lines.append(f"  declared at t3 = {fmt(s['t3'], ' s')}: the last of {n} "
+                     f"{place(s['declared_source'])}; {worst}")
+    elif s["declared_source"]:
+        lines.append(f"  declared at t3 = {fmt(s['t3'], ' s')}: source "
+                     f"{place(s['declared_source'])}; error {fmt(s['error_m'], ' m')}")
+    elif points:  # the run ended still searching for more
+        lines.append(
+            f"  declared at t3 = {fmt(s['t3'], ' s')}, still searching for more at the end: "
+            + (f"error {fmt(s['error_m'], ' m')}" if len(points) == 1
+               else f"the last of {n}; {worst}"))
+    if len(points) > 1 or (points and not s["declared_source"]):
+        lines.append("  declared points: " + "; ".join(place(q) for q in points))
+    return lines
+
+
 def sources_line(s: dict[str, Any]) -> str | None:
     """Sources found and false, and how the search for more ended (None: one source, one
     point, no fly-by)."""
@@ -97,7 +126,8 @@ def sources_line(s: dict[str, Any]) -> str | None:
         return None
     return (f"  sources: {s['sources_found']} of {s['sources_true']} found, "
             f"{s['false_declarations']} false"
-            + (f"; the search for more ended (t3 is when): {s.get('search_end')}"
+            + (f"; the search for more ended at {fmt(s.get('search_end_t'), ' s')}: "
+               f"{s.get('search_end')}"
                + (f", the latest held candidate (unconfirmed) at {place(s['held_candidate'])}"
                   if s.get("held_candidate") else "")
                if s.get("search_given_up") else "")
@@ -293,21 +323,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         why = why_ended(s)
         if why:
             print(f"  {s['outcome']}: {why}")
-        points = [q for q in s["declared_sources"] if q]
-        if s["declared_source"] and (s.get("search_given_up") or len(points) > 1):
-            # the error is the worst point's (summary.py): not the last point's alone
-            lead = (f"the search for more sources gave up at t3 = {fmt(s['t3'], ' s')} with "
-                    f"{len(points)} point{'s' * (len(points) != 1)}, the last"
-                    if s.get("search_given_up") else
-                    f"declared at t3 = {fmt(s['t3'], ' s')}: the last of {len(points)} points")
-            print(f"  {lead} {place(s['declared_source'])}; worst error "
-                  f"{fmt(s['error_m'], ' m')} (each declared point against its nearest true "
-                  "source)")
-        elif s["declared_source"]:
-            print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source "
-                  f"{place(s['declared_source'])}; error {fmt(s['error_m'], ' m')}")
-        if len(points) > 1 or (points and not s["declared_source"]):  # several, or timed out
-            print("  declared points: " + "; ".join(place(q) for q in points))
+        for text in declaration_lines(s):
+            print(text)
         for line in (sources_line(s), upflow_check_line(s), sensor_faults_line(s)):
             if line:
                 print(line)
@@ -395,7 +412,8 @@ def refly(args: argparse.Namespace) -> int:
               f"{summary['outcome']} ({short_verdict(summary)}), {same}")
         why = why_ended(summary)
         for line in ((f"  {summary['outcome']}: {why}" if why else None),
-                     sources_line(summary), sensor_faults_line(summary)):
+                     *declaration_lines(summary), sources_line(summary),
+                     sensor_faults_line(summary)):
             if line:
                 print(line)
         print(f"  wrote {out}")

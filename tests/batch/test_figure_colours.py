@@ -22,3 +22,29 @@ def test_the_trip_home_and_a_visit_are_dashed_the_rest_solid() -> None:
     base = "declare_source.likelihood_map"
     assert _line_style(f"{base} (home)") == _line_style(f"{base} (visit)") == "--"
     assert _line_style(f"{base} (check leg)") == _line_style(base) == "-"
+
+
+def test_the_map_panel_marks_every_kind_of_point_the_report_names() -> None:
+    """A review saw a held candidate (on the true third source) left off the figure."""
+    import numpy as np
+
+    from cptbt.batch.figures import _map_panel, pyplot
+    from cptbt.frames import OpArea
+    from cptbt.types import Point, SourceBelief
+
+    plt = pyplot()
+    xs, ys = np.linspace(-45, 45, 10), np.linspace(-45, 45, 10)
+    post = np.full((10, 10), 0.01)
+    belief = SourceBelief(100.0, xs, ys, post, (Point(10, 0),))
+    fig, ax = plt.subplots()
+    report = {"withdrawn_at": [(1.0, 2.0)], "superseded_at": [(5.0, 0.0)],
+              "held_at": (-20.5, -34.7)}
+    _map_panel(ax, belief, OpArea(-50, 50, -50, 50), [Point(10, 0), Point(-20, -35)],
+               [Point(10, 0)], report, plt)
+    marks = {line.get_label(): (list(line.get_xdata()), list(line.get_ydata()))
+             for line in ax.lines}
+    assert marks["withdrawn after fly-by"] == ([1.0], [2.0])
+    assert marks["replaced declaration (taken for the same source)"] == ([5.0], [0.0])
+    assert marks["held candidate (unconfirmed: in a declared source's plume)"] == (
+        [-20.5], [-34.7])
+    plt.close(fig)

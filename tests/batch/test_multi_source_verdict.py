@@ -54,6 +54,32 @@ def test_asking_for_two_sources_where_there_is_one() -> None:
     assert s["success"] and s["error_m"] is not None and s["error_m"] <= 15.0
 
 
+def test_the_measures_end_at_the_declaration_not_at_the_time_limit_or_the_give_up() -> None:
+    """A review saw a success's time to source, T_D and path efficiency measure the time limit
+    (or the give-up) when max_sources was above the sources there are; the declared point
+    was the same as with max_sources 1, and so must its measures be."""
+    one = msn007_asking_for_two().copy()
+    text = (ROOT / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8")
+    start = text.index("declare_source:")
+    text = text[:start] + "declare_source: {variant: likelihood_map}" + text[
+        text.index("\n", start):]
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    mission = mission.model_copy(update={"mission_a": None, "time_limit_s": 900.0})
+    params = to_sim_params(mission, 1)
+    (run,), _, wall = simulate(mission, params, [launch_pose(mission)])
+    alone = summarise(run, mission, Point(*params.source_xy_m), 1, wall).to_dict()
+    gave_up = msn007_asking_for_two(", search_give_up_s: 120")
+    assert alone["outcome"] == "declared" and alone["t3"] is not None
+    for s in (one, gave_up):
+        assert s["declared_sources"][0] == alone["declared_sources"][0]
+        for key in ("t2", "t3", "T_D", "D0", "D1", "D2", "D3", "path_m", "path_efficiency",
+                    "T_total"):
+            assert s[key] == pytest.approx(alone[key]), key
+    assert one["search_end_t"] is None and alone["search_end_t"] is None
+    assert gave_up["search_end_t"] is not None
+    assert gave_up["search_end_t"] >= gave_up["t3"] + 120.0
+
+
 def test_a_search_that_gives_up_goes_home_with_the_sources_found() -> None:
     """The same with search_give_up_s: 120 s without a detection the declared source does not
     explain, the search ends, and the vehicle goes home (outcome declared)."""
@@ -73,5 +99,6 @@ def test_cptbt_run_says_the_search_gave_up_and_when(tmp_path: Path,
     mission.write_text(text, encoding="utf-8")
     assert main(["run", str(mission), "--out", str(tmp_path / "o"), "--no-figure"]) == 0
     out = capsys.readouterr().out
-    assert "the search for more sources gave up at t3 = " in out and "with 1 point, " in out
+    assert "the search for more sources gave up at " in out
+    assert "with 1 point, declared at t3 = " in out
     assert "the last of 1 points" not in out

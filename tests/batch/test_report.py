@@ -103,11 +103,14 @@ def test_a_run_that_declared_several_points_lists_each_with_its_own_error(
     one = {**row, "replicate": 1, "success": True, "false_declaration": False, "error_m": 1.5,
            "sources_true": 1, "sources_found": 1, "declared_source_x": 99.0,
            "declared_source_y": 1.0, "declared_points": json.dumps([[99.0, 1.0, 1.5]])}
-    write_report([row, one], tmp_path)
+    searching = {**one, "replicate": 2, "declared_source_x": None, "declared_source_y": None,
+                 "declared_points": json.dumps([[98.0, 2.0, 2.0]])}
+    write_report([row, one, searching], tmp_path)
     table = (tmp_path / "tables.md").read_text()
     assert ("| (100.0, 5.0) 2.5 m; (40.0, -30.0) 21.0 m; (160.0, 20.0) 4.0 m | 21.0 |"
             in table), table
     assert "| (99.0, 1.0) | 1.5 |" in table, table
+    assert "| (98.0, 2.0) | 1.5 |" in table, table  # ended searching for more: no declared_source
     assert "the error column is the worst of them" in table
 
 

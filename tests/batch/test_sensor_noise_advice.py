@@ -121,3 +121,17 @@ def test_a_sensor_slower_than_the_cycle_is_judged_by_its_samples() -> None:
     """One sample a second and four cycles a second: three cycles in four have no reading, so
     noise 0.06 gives one false detection in ~2 300 s, not ~580 s (no warning)."""
     assert not _warned(_mission(0.06, cycle_hz=4.0, extra=", rate_hz: 1"))
+
+
+@pytest.mark.parametrize(("drop", "warned"), [
+    (1.0, "1: every sample is dropped: the vehicle can never detect plume"),
+    (0.95, "0.95: 63% of planning cycles would have no reading (every one of their 9 samples "
+           "dropped)"),
+    (0.9, None),  # 0.9⁹: 39% of cycles blind, warned of by the sensor-faults line only
+])
+def test_a_sensor_that_drops_most_samples_is_warned_of(drop: float, warned: str | None) -> None:
+    """A review's dead sensor (dropout_prob 1) timed out as if the water were clean."""
+    mission = loads_mission(_mission(0.0, extra=f", dropout_prob: {drop}"), "m.yaml",
+                            default_registry(), Environment)
+    got = [msg for loc, msg in advisories(mission) if loc[-1] == "dropout_prob"]
+    assert got == ([warned] if warned else []), got

@@ -222,6 +222,27 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      "behaviours[2].maintain_plume.lambda_s", "moved to perception.lambda_s"),
     ("old oracle", sub("{variant: upflow_cluster}", "{variant: oracle, radius_m: 1}"), 16,
      "behaviours[1].declare_source.variant", "evaluation: {criterion: arrival"),
+    # a speed the simulated vehicle would clip (a review's speed_mps 16 flew at 2.8 m/s)
+    ("cruise beyond the simulated vehicle",
+     lambda t: sub("  seed: 3", "  seed: 3\n  vehicle: {max_speed_mps: 2}")(
+         sub("speed_mps: 1.5", "speed_mps: 2.5")(t)), 7, "speed_mps",
+     "2.5 m/s is outside the simulated vehicle's speeds [0.25, 2] m/s"),
+    ("behaviour below the simulated vehicle",
+     lambda t: sub("  seed: 3", "  seed: 3\n  vehicle: {min_speed_mps: 0.5}")(
+         sub("{variant: go_to}", "{variant: go_to, speed_mps: 0.3}")(t)), 20,
+     "behaviours[5].move_to_field.speed_mps", "it would fly at 0.5 m/s"),
+    ("only a document marker", whole("---\n"), 1, "(top)", "not an empty document"),
+    ("a number for a key", sub("cycle_hz: 1", "cycle_hz: 1\n1: foo"), 9, "[1]",
+     "Keys should be strings"),
+    # -- YAML 1.1's other number forms, which PyYAML reads and YAML 1.2 does not ----------------
+    ("octal seed", sub("seed: 3", "seed: 017"), 31, "environment.seed",
+     "'017' is read by YAML 1.1 as 15 (octal)"),
+    ("hexadecimal speed", sub("speed_mps: 1.5", "speed_mps: 0x1"), 7, "speed_mps",
+     "as 1 (hexadecimal)"),
+    ("grouped digits", sub("flow_speed_mps: 0.1", "flow_speed_mps: 1_0"), 30,
+     "environment.flow_speed_mps", "as 10 (digits grouped with _)"),
+    ("base-60 angle", sub("beta_deg: 10", "beta_deg: 1:30"), 17,
+     "behaviours[2].maintain_plume.beta_deg", "as 90 (base 60)"),
     ("maintain criterion with mission_a",
      sub("cycle_hz: 1", "cycle_hz: 1\nevaluation: {criterion: maintain}"), 9,
      "evaluation.criterion", "remove the mission_a section"),

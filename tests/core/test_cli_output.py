@@ -99,9 +99,10 @@ def test_sensor_faults_are_told_only_when_there_were_some() -> None:
     assert sensor_faults_line({"stuck_samples": 0, "rejected_flow_samples": 0,
                                "clock_corrections": 0}) is None
     assert sensor_faults_line({}) is None  # a summary from before the counts
-    line = sensor_faults_line({"stuck_samples": 976, "rejected_flow_samples": 1,
-                               "clock_corrections": 2})
-    assert line == ("  sensor faults: 976 fluorometer samples dropped as stuck (the same reading "
+    line = sensor_faults_line({"missing_samples": 1, "stuck_samples": 976,
+                               "rejected_flow_samples": 1, "clock_corrections": 2})
+    assert line == ("  sensor faults: 1 fluorometer sample missing (not a finite number: a "
+                    "dropout); 976 fluorometer samples dropped as stuck (the same reading "
                     "for perception.stuck_after_s); 1 flow sample rejected (not finite, or "
                     "faster than perception.max_flow_speed_mps); 2 cycle times not after the "
                     "previous one, taken as one period later")
@@ -113,10 +114,10 @@ def test_the_sources_line_says_how_the_search_for_more_ended() -> None:
     one = {"sources_true": 1, "sources_declared": 1, "withdrawn": None, "flybys": None}
     assert sources_line(one) is None  # one source, one point: the verdict says it all
     held = {**one, "sources_true": 2, "sources_found": 1, "false_declarations": 0,
-            "search_given_up": True, "flybys": 0, "withdrawn": 0,
+            "search_given_up": True, "search_end_t": 1234.0, "flybys": 0, "withdrawn": 0,
             "search_end": "candidates held or vetoed 600 s in all, none confirmed (...)",
             "held_candidate": {"x": 42.7, "y": 3.5}}
     assert sources_line(held) == (
-        "  sources: 1 of 2 found, 0 false; the search for more ended (t3 is when): candidates "
+        "  sources: 1 of 2 found, 0 false; the search for more ended at 1234.0 s: candidates "
         "held or vetoed 600 s in all, none confirmed (...), the latest held candidate "
         "(unconfirmed) at x 42.7 m, y 3.5 m; fly-bys 0, withdrawn 0")

@@ -174,6 +174,8 @@ def test_dropouts_do_not_hide_a_frozen_sensor() -> None:
         got.append(p.cycle(k + 1.0).concentration)
     assert got[:3] == [0.5] * 3 and all(math.isnan(c) for c in got[4:]), got
     assert p.stuck_samples == 6 + 4 * 6  # from t = 3 s on, the non-NaN samples
+    # the dropouts are told too (a review's dead sensor, dropout_prob 1, looked like clean water)
+    assert p.missing_samples == 8 * 3 and p.faults()["missing_samples"] == 24
 
 
 def test_stuck_detection_can_be_turned_off() -> None:
@@ -215,6 +217,9 @@ def test_the_fleet_drops_stuck_readings_as_the_scalar_perception_does() -> None:
         np.testing.assert_array_equal(out.detected, [w.detected for w in want])
     assert fleet.stuck_samples.tolist() == [p.stuck_samples for p in scalars]
     assert fleet.stuck_samples[0] > 0 and fleet.stuck_samples[2] == 0
+    assert [fleet.faults(i) for i in ids] == [p.faults() | {"clock_corrections": 0}
+                                              for p in scalars]
+    assert fleet.missing_samples.tolist() == [0, 0, 0, 0, 9, 36, 0]
 
 
 def test_the_scripted_perception_reads_a_script_as_written_unless_asked() -> None:

@@ -28,9 +28,10 @@ from cptbt.link import (
 from cptbt.loader import loads_mission
 from cptbt.mission import MissionBase
 from cptbt.mission_a import MissionASpec, VehicleLimits
+from cptbt.perception import Perception
 from cptbt.phases import MissionPhases, describe, leaf_states, to_dot
 from cptbt.session import AmpSession
-from cptbt.types import Command, Point
+from cptbt.types import Command, Point, Pose
 
 REG = scripted_registry("safety")
 
@@ -296,6 +297,30 @@ def test_a_non_finite_fix_neither_ends_the_override_nor_reaches_the_planner(bad:
     assert s.in_override and s.state is not None and s.state.x_m == 50
     step(s, link, VehicleState(math.nan, 50, 0, 0.0, 1.5, 3.0, "override", 0))
     assert s.in_override and s.t == 101.0
+
+
+def test_an_impossibly_far_fix_neither_ends_the_override_nor_reaches_the_planner() -> None:
+    """A review's vehicle sent x_m 1e308 for 20 s: the override ended as an excursion, its
+    distance printed with 300 digits. A position 1000 km out is a broken message."""
+    s, link, _ = session()
+    into_override(s, link)
+    for k, x in enumerate((1e308, -2e6, 9.97e36)):
+        step(s, link, state(101.0 + k, "override", x=x))
+        assert s.in_override and s.state is not None and s.state.x_m == 50
+    assert s.rejected_fixes == 3
+    step(s, link, state(105.0, "override", x=50, y=50 + 30.5))  # a true excursion still counts
+    assert s.phases.timeline[-1].trigger == "outside_op_area"
+    assert s.phases.timeline[-1].detail == "30.5 m outside"
+
+
+def test_the_planners_perception_ignores_an_impossibly_far_fix() -> None:
+    p = Perception(OpArea(0, 100, -50, 50))
+    p.set_pose(Pose(50, 0, 90))
+    p.set_pose(Pose(1e308, 0, 90))
+    p.set_pose(Pose(50, 2e6, 90))
+    assert (p.pose.x, p.pose.y) == (50, 0) and p.faults()["rejected_fixes"] == 2
+    p.set_pose(Pose(50, 999_000, 90))  # far, not impossible
+    assert p.pose.y == 999_000 and p.rejected_fixes == 2
 
 
 @pytest.mark.parametrize(("settings", "key", "says"), [
