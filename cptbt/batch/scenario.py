@@ -217,7 +217,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
     out = list(mission.advisories())
     if mission.environment is None:
         return out
-    out += noise_advice(mission) + dropout_advice(mission)
+    out += noise_advice(mission) + dropout_advice(mission) + leaf_advice(mission)
     if mission.evaluation.criterion != "declaration":
         return out
     try:
@@ -301,6 +301,25 @@ def _two_figures_up(v: float) -> str:
         return _plain(v)
     step = 10.0 ** (math.floor(math.log10(v)) - 1)
     return _two_figures(math.ceil(v / step - 1e-9) * step)
+
+
+def leaf_advice(mission: MissionBase) -> list[Problem]:
+    """A cloverleaf whose leaves (``d_leaf_m``) are no longer than the simulated vehicle's
+    tightest turn: its waypoints cannot be flown as drawn (a review's ``d_leaf_m: 1``
+    validated; the parameter's own description asks for more than the turning radius)."""
+    try:
+        radius = to_sim_params(mission).vehicle.turning_radius_m
+    except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
+        return []
+    out: list[Problem] = []
+    for i, e in enumerate(mission.entries()):
+        leaf = getattr(e.params, "d_leaf_m", None)
+        if leaf is not None and leaf <= radius:
+            out.append((("behaviours", i, e.family, "d_leaf_m"),
+                        f"{_plain(leaf)} m is not beyond the simulated vehicle's turning radius "
+                        f"({_plain(radius)} m, environment.vehicle.turning_radius_m): the vehicle "
+                        "cannot fly its leaves as drawn (each turn is wider than a leaf)"))
+    return out
 
 
 def dropout_advice(mission: MissionBase) -> list[Problem]:

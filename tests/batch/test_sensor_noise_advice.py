@@ -135,3 +135,17 @@ def test_a_sensor_that_drops_most_samples_is_warned_of(drop: float, warned: str 
                             default_registry(), Environment)
     got = [msg for loc, msg in advisories(mission) if loc[-1] == "dropout_prob"]
     assert got == ([warned] if warned else []), got
+
+
+@pytest.mark.parametrize(("leaf", "warned"), [(1.0, True), (7.5, True), (7.6, False)])
+def test_a_cloverleaf_tighter_than_the_vehicle_turns_is_warned_of(leaf: float,
+                                                                  warned: bool) -> None:
+    """A review's d_leaf_m: 1 validated, though the parameter asks for more than the simulated
+    vehicle's turning radius (7.5 m)."""
+    text = _mission(None).replace("d_leaf_m: 15,", f"d_leaf_m: {leaf},")
+    assert f"d_leaf_m: {leaf}" in text
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    got = [msg for loc, msg in advisories(mission) if loc[-1] == "d_leaf_m"]
+    assert bool(got) == warned, got
+    if warned:
+        assert "turning radius (7.5 m, environment.vehicle.turning_radius_m)" in got[0]
