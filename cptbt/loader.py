@@ -42,8 +42,9 @@ class MissionLoader(yaml.SafeLoader):
 
     PyYAML follows YAML 1.1, where a float needs a dot: ``1e-3`` and ``1E9`` are strings there,
     and a mission would refuse them as quoted strings. YAML 1.2 reads them as numbers, and
-    users write small probabilities so; this loader adds YAML 1.2's exponent floats. A quoted
-    ``'1e-3'`` stays a string (implicit resolution applies to plain scalars only).
+    users write small probabilities so; this loader adds YAML 1.2's exponent floats, and its
+    signed ``-.5`` and ``+.5``. A quoted ``'1e-3'`` stays a string (implicit resolution applies
+    to plain scalars only). YAML 1.1's other number forms are refused (:func:`old_number`).
     """
 
 
@@ -52,10 +53,15 @@ MissionLoader.add_implicit_resolver(
     re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)[eE][-+]?[0-9]+$"),
     list("-+0123456789."),
 )
+MissionLoader.add_implicit_resolver(  # -.5 and +.5, which YAML 1.1 reads as text (.5 it reads)
+    "tag:yaml.org,2002:float", re.compile(r"^[-+]\.[0-9]+$"), list("-+"))
+MissionLoader.add_implicit_resolver(  # 09, 0900: text in YAML 1.1, refused as such by name
+    "tag:yaml.org,2002:int", re.compile(r"^[-+]?0[0-9_]*[89][0-9_]*$"), list("-+0"))
 
 
 _INT, _FLOAT = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
 _OLD_NUMBERS = (
+    (re.compile(r"^[-+]?0[0-9_]*[89][0-9_]*$"), "leading zero"),
     (re.compile(r"^[-+]?0[0-7_]+$"), "octal"),
     (re.compile(r"^[-+]?0x[0-9a-fA-F_]+$"), "hexadecimal"),
     (re.compile(r"^[-+]?0b[01_]+$"), "binary"),
@@ -78,9 +84,11 @@ def old_number(node: yaml.Node) -> str | None:
     text = node.value
     for pattern, kind in _OLD_NUMBERS:
         if pattern.search(text):
-            value = yaml.safe_load(text)
-            return (f"{text!r} is read by YAML 1.1 as {value!r} ({kind}): write the number "
-                    "in plain decimal (or quote it, if it is text)")
+            fix = "write the number in plain decimal (or quote it, if it is text)"
+            if kind == "leading zero":
+                return (f"{text!r} has a leading zero, which YAML 1.1 reads as text (and 017 "
+                        f"as octal 15): {fix}")
+            return f"{text!r} is read by YAML 1.1 as {yaml.safe_load(text)!r} ({kind}): {fix}"
     return None
 
 
@@ -130,6 +138,7 @@ class _Walk:
         self.values = 0
         self.seen: set[int] = set()
         self.on_path: set[int] = set()
+        self.numbers: list[str] = []  # old YAML 1.1 number forms found (old_number)
 
     def fail(self, line: int, path: Loc, msg: str) -> MissionError:
         return MissionError([f"{self.source}:{line}: {dotted(path)}: {msg}"])
@@ -152,8 +161,8 @@ class _Walk:
             raise self.fail(line, path, f"!!{node.tag.rsplit(':', 1)[1]}: a mission value is "
                             "a number, text, true/false, a list or a mapping")
         why = old_number(node)
-        if why:
-            raise self.fail(line, path, why)
+        if why:  # every one in the file is told at once (after the walk)
+            self.numbers.append(f"{self.source}:{line}: {dotted(path)}: {why}")
         if not isinstance(node, yaml.MappingNode | yaml.SequenceNode):
             return
         if id(node) in self.on_path:
@@ -229,6 +238,8 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
             raise MissionError([f"{source}:1: (top): the file is empty"])
         walk = _Walk(source)
         walk.walk(node, ())
+        if walk.numbers:
+            raise MissionError(walk.numbers)
         data = loader.construct_document(node)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
@@ -445,9 +456,20 @@ def coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
             if path in seen:
                 continue
             shown = "a YAML boolean" if isinstance(value, bool) else (
-                "a quoted string" if isinstance(value, str) else type(value).__name__)
+                ("a quoted string" if _numeric(value) else "text") if isinstance(value, str)
+                else type(value).__name__)
             out.append((path, f"expected {want}, got {value!r} ({shown})"))
     return out
+
+
+def _numeric(text: str) -> bool:
+    """Whether text reads as a number (so in a YAML file it was quoted: every plain number
+    form is a number, or refused, at the door)."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _literal_booleans(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:

@@ -117,7 +117,8 @@ class FlowParams(BaseModel):
         "races run at about 5 m/s; AB: 1 m/s): the flow grid's step shrinks as the speed grows.",
     )
     mean_dir_deg: float = Field(
-        default=2.0, description="Mean direction the water moves toward, deg from +x."
+        default=2.0, ge=-360.0, le=360.0,
+        description="Mean direction the water moves toward, deg from +x."
     )
     noise_std_mps: float = Field(
         default=0.03,

@@ -189,8 +189,8 @@ def trajectory_figure(
             np.column_stack([trace.get("x", run.path_true[:, 0]),
                              trace.get("y", run.path_true[:, 1])]), det.reshape(-1, 2),
             np.array([(q.x, q.y) for q in marks]).reshape(-1, 2)])
-        _flow_arrow(ax, area, flow_deg, drawn,
-                    _north_points(area) if mission.frame != "planning" else None)
+        flow_arrow(ax, area, flow_deg, drawn,
+                   _north_points(area) if mission.frame != "planning" else None)
     if belief is not None:
         _map_panel(ax_map, belief, area, truth, declared, run.declaration_report or {}, plt)
         ax.tick_params(labelbottom=True)  # shared x: the top panel's numbers too
@@ -215,14 +215,16 @@ def trajectory_figure(
     plt.close(fig)
 
 
-def _flow_arrow(ax: Any, area: OpArea, flow_deg: float,
-                track: NDArray[np.float64] | None = None,
-                avoid: NDArray[np.float64] | None = None) -> None:
+def flow_arrow(ax: Any, area: OpArea, flow_deg: float,
+               track: NDArray[np.float64] | None = None,
+               avoid: NDArray[np.float64] | None = None) -> None:
     """The mean current's direction, in the OpArea corner that covers least of what else is
     drawn (``track``: the track, detections and markers as points), never the north arrow
     (``avoid``) if a corner is clear of it; among equals, the one farthest from the track
     (the plume alone can mislead: the meander bends it; in a small area a fixed corner put the
-    arrow and its label on the track)."""
+    arrow and its label on the track). Dark with a white halo: readable on white and on a
+    colour map alike. The axes draw y downward; the label sits on the side of the tail the
+    head does not reach (below it had covered the head of a current with a downward part)."""
     from matplotlib import patheffects
 
     w, h = area.xmax - area.xmin, area.ymax - area.ymin
@@ -255,8 +257,10 @@ def _flow_arrow(ax: Any, area: OpArea, flow_deg: float,
                         arrowprops={"arrowstyle": "-|>", "color": "#1f3b73", "lw": 1.8},
                         zorder=4)
     arrow.arrow_patch.set_path_effects(halo)
-    ax.text(cx, cy + 0.35 * size, "mean current", color="#1f3b73", fontsize=7, ha="center",
-            va="top", path_effects=halo, zorder=4)
+    down = math.sin(th) > 0.2  # the head ends below the tail (y drawn down)
+    ax.text(cx, cy - 0.35 * size if down else cy + 0.35 * size, "mean current",
+            color="#1f3b73", fontsize=7, ha="center", va="bottom" if down else "top",
+            path_effects=halo, zorder=4)
 
 
 def _sources(ax: Any, truth: Sequence[Point], declared: Sequence[Point],

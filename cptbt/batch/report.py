@@ -69,26 +69,30 @@ def _fmt(v: Any, digits: int = 1) -> str:
 
 @dataclass(frozen=True)
 class StudyGeometry:
-    """What the maps draw besides the results: the OpArea, the source and the mean flow.
+    """What the maps draw besides the results: the OpArea, the true sources and the mean flow.
 
-    Planning frame; ``flow_deg`` is the direction the flow moves toward. Saved in ``study.json``
-    so ``cptbt plot`` can redraw the maps from the folder alone.
+    Planning frame; ``flow_deg`` is the direction the flow moves toward; ``extra_sources`` the
+    world's other sources (a several-source study's map had drawn the mission's ``source``
+    alone). Saved in ``study.json`` so ``cptbt plot`` can redraw the maps from the folder alone.
     """
 
     area: tuple[float, float, float, float]
     source: tuple[float, float]
     flow_deg: float | None = None
+    extra_sources: tuple[tuple[float, float], ...] = ()
 
     def to_data(self) -> dict[str, Any]:
         """For ``study.json``."""
-        return {"area": list(self.area), "source": list(self.source), "flow_deg": self.flow_deg}
+        return {"area": list(self.area), "source": list(self.source), "flow_deg": self.flow_deg,
+                "extra_sources": [list(q) for q in self.extra_sources]}
 
     @classmethod
     def from_data(cls, data: dict[str, Any] | None) -> StudyGeometry | None:
         """From ``study.json`` (None if absent or malformed)."""
         try:
             assert data is not None
-            return cls(tuple(data["area"]), tuple(data["source"]), data.get("flow_deg"))
+            extra = tuple((float(q[0]), float(q[1])) for q in data.get("extra_sources") or ())
+            return cls(tuple(data["area"]), tuple(data["source"]), data.get("flow_deg"), extra)
         except (AssertionError, KeyError, TypeError, ValueError):
             return None
 

@@ -73,7 +73,8 @@ class Environment(BaseModel):
         default=None, description="Vehicle position at t = 0 (default: mission start, else home)"
     )
     launch_heading_deg: float = Field(
-        default=0.0, description="Vehicle heading at t = 0 (mission-frame convention)"
+        default=0.0, ge=-360.0, le=360.0,
+        description="Vehicle heading at t = 0 (mission-frame convention)"
     )
     seed: int = Field(default=0, ge=0, description="Seed of every random draw of a run")
     dt_s: float | None = Field(default=None, gt=0, description="Vehicle step, s")
@@ -182,11 +183,17 @@ def _speed_problems(mission: MissionBase) -> list[Problem]:
     except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
         return []
     lo, hi = vehicle.min_speed_mps, vehicle.max_speed_mps
+    speeds = mission.commanded_speeds()
+    env = mission.environment
+    given = getattr(env, "vehicle", None) or {}
+    if "initial_speed_mps" in given:  # the preset's own is clipped quietly under a slower max
+        speeds.append((("environment", "vehicle", "initial_speed_mps"),
+                       vehicle.initial_speed_mps))
     return [(loc, f"{_plain(v)} m/s is outside the simulated vehicle's speeds [{_plain(lo)}, "
                   f"{_plain(hi)}] m/s (environment.vehicle min_speed_mps, max_speed_mps): it "
                   f"would fly at {_plain(min(max(v, lo), hi))} m/s; command a speed it can fly, "
                   "or set the vehicle's")
-            for loc, v in mission.commanded_speeds() if not lo <= v <= hi]
+            for loc, v in speeds if not lo <= v <= hi]
 
 
 SECTIONS: dict[str, type[BaseModel]] = {
@@ -337,8 +344,9 @@ def dropout_advice(mission: MissionBase) -> list[Problem]:
         return []
     what = ("every sample is dropped: the vehicle can never detect plume"
             if sensor.dropout_prob >= 1.0 else
-            f"{_two_figures(100 * blind)}% of planning cycles would have no reading (every one "
-            f"of their {samples:.3g} samples dropped)")
+            f"{_two_figures(100 * blind)}% of planning cycles would have no reading "
+            + (f"(every one of their {samples:.3g} samples dropped)" if samples > 1
+               else "(their one sample dropped)"))
     return [(("environment", "fluorometer", "dropout_prob"),
              f"{_plain(sensor.dropout_prob)}: {what}")]
 

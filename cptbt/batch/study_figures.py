@@ -7,13 +7,13 @@ Only presentation: these change no row, so they are outside the code identity
 
 from __future__ import annotations
 
-import math
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from cptbt.batch.figures import flow_arrow
 from cptbt.batch.report import (
     Rows,
     StudyGeometry,
@@ -25,6 +25,7 @@ from cptbt.batch.report import (
     success_label,
     wilson,
 )
+from cptbt.frames import OpArea
 
 
 def _starts(rows: Rows) -> tuple[np.ndarray, np.ndarray]:
@@ -106,21 +107,12 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
             x0, x1, y0, y1 = geometry.area
             ax.add_patch(plt.Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ec="black",
                                        lw=1.2))
-            ax.plot(*geometry.source, "*", color="gold", mec="black", ms=15, label="source")
-            if geometry.flow_deg is not None:
-                size = 0.12 * min(x1 - x0, y1 - y0)
-                th = math.radians(geometry.flow_deg)
-                cx, cy = x0 + 1.5 * size, y0 + 1.2 * size
-                # White with a dark outline: readable on every colour of the map.
-                from matplotlib import patheffects
-
-                halo = [patheffects.withStroke(linewidth=2.0, foreground="black")]
-                arrow = ax.annotate("", xy=(cx + size * math.cos(th), cy + size * math.sin(th)),
-                                    xytext=(cx, cy),
-                                    arrowprops={"arrowstyle": "-|>", "color": "white", "lw": 2})
-                arrow.arrow_patch.set_path_effects(halo)
-                ax.text(cx, cy - 0.3 * size, "mean flow", color="white", fontsize=8,
-                        ha="center", path_effects=halo)
+            stars = np.asarray([geometry.source, *geometry.extra_sources], dtype=float)
+            ax.plot(stars[:, 0], stars[:, 1], "*", color="gold", mec="black", ms=15, ls="none",
+                    label="source" if len(stars) == 1 else "sources")
+            if geometry.flow_deg is not None:  # off the starts and sources where it can be
+                marks = np.asarray([*by, *stars.tolist()], dtype=float)
+                flow_arrow(ax, OpArea(x0, x1, y0, y1), geometry.flow_deg, marks)
         runs_n = sorted(set(counts[counts > 0].ravel().tolist()))
         per_cell = f"n = {runs_n[0]}" if len(runs_n) == 1 else f"n = {runs_n[0]}–{runs_n[-1]}"
         ok = sum(bool(r["success"]) for r in rows)
@@ -135,9 +127,11 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
         ax.set_ylabel("start y (m), drawn down")
     # One bar for the panels' one scale: beside tall maps, under wide ones (never taller than
     # the map, its label never longer than the bar).
-    fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8 if n == 1 else 0.5,
-                 location="right" if aspect >= 0.75 else "bottom",
-                 label="mean time to source (s); a failure counts as the time it ran")
+    beside = aspect >= 0.75
+    fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8 if n == 1 or beside else 0.5,
+                 location="right" if beside else "bottom",
+                 label="mean time to source (s);" + ("\n" if beside else " ")
+                 + "a failure counts as the time it ran")
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path
@@ -237,15 +231,15 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
                    if r.get("success_radius_m") is not None), None)
     top = max([v for vals in err.values() for v in vals] + [radius or 0.0, 1.0])
     edges = np.linspace(0.0, top * 1.02, 31)  # one set of bins for every configuration
-    # Several configurations: outlines, each its own colour (filled bars at alpha 0.6 blended
-    # into colours no configuration has, a review found); one: filled bars.
-    style: dict[str, Any] = ({"histtype": "step", "lw": 1.8} if len(judged) > 1
-                             else {"alpha": 0.8})
-    for k in judged:
-        if err[k]:
-            a1.hist(err[k], bins=edges, label=f"{k} (n = {len(err[k])})", **style)
-        if share[k]:
-            a2.hist(share[k], bins=20, range=(0, 1), label=f"{k} (n = {len(share[k])})", **style)
+    # Several configurations: their bars side by side in each bin (filled bars at alpha 0.6
+    # blended into colours no configuration has, and outlines of equal height hid each other:
+    # two reviews); the colours follow the configurations whether or not a panel has them all.
+    colours = {k: f"C{i}" for i, k in enumerate(judged)}
+    for ax, values, bins in ((a1, err, edges), (a2, share, np.linspace(0.0, 1.0, 21))):
+        have = [k for k in judged if values[k]]
+        if have:
+            ax.hist([values[k] for k in have], bins=bins, color=[colours[k] for k in have],
+                    label=[f"{k} (n = {len(values[k])})" for k in have])
     if radius is not None:
         a1.axvline(radius, color="#d62728", ls="--", lw=1, label=f"success radius {radius:g} m")
     a1.set_xlabel("declaration error (m)")

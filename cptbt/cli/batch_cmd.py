@@ -53,7 +53,8 @@ def add_parsers(sub: Any) -> None:
     p = sub.add_parser("batch", help="run a Monte Carlo study", description=cmd_batch.__doc__)
     # "-60,71" (a start south-west of the centre) is a value, not an option: argparse's test
     # for negative numbers, widened to lists of them (X,Y;X,Y and X0:X1:STEP).
-    p._negative_number_matcher = re.compile(r"^-\d*\.?\d+([,;:]\s*-?\d*\.?\d+)*$")
+    num = r"\d*\.?\d+(?:[eE][-+]?\d+)?"  # exponents too (a review's -40,1e1)
+    p._negative_number_matcher = re.compile(rf"^-{num}([,;:]\s*[-+]?{num})*$")
     p.add_argument("mission", metavar="MISSION",
                    help="mission YAML file (its study: section, if any, is the default study)")
     where = p.add_mutually_exclusive_group()
@@ -173,7 +174,7 @@ def geometry_of(mission: MissionBase) -> StudyGeometry:
     area = mission.op_area_geometry()
     params = to_sim_params(mission)
     return StudyGeometry((area.xmin, area.xmax, area.ymin, area.ymax), params.source_xy_m,
-                         params.flow.mean_dir_deg)
+                         params.flow.mean_dir_deg, tuple(params.extra_sources_xy_m))
 
 
 def _check_planner(mission: MissionBase) -> None:
@@ -363,7 +364,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
                        "runs with a contact" if t_m else "no run made contact")
         else:
             outcome = f"success {stats['successes'] / max(stats['runs'], 1):.1%}"
-        print(f"{stats['runs']} missions ({resumed} groups resumed from disk): "
+        print(f"{stats['runs']} mission{'s' * (stats['runs'] != 1)} ({resumed} groups resumed "
+              "from disk): "
               f"{outcome}; {wall:.1f} s wall, {rate:.1f} missions/s")
         print(f"  wrote {table}")
         if args.log_runs:

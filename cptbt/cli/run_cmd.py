@@ -99,9 +99,11 @@ def declaration_lines(s: dict[str, Any]) -> list[str]:
              "true source)")
     lines = []
     if s["declared_source"] and s.get("search_given_up"):
-        lines.append(f"  the search for more sources gave up at {fmt(s.get('search_end_t'), ' s')}"
-                     f" with {n}, {'the last ' if len(points) > 1 else ''}declared at t3 = "
-                     f"{fmt(s['t3'], ' s')}; {worst}")
+        end = f"  the search for more sources gave up at {fmt(s.get('search_end_t'), ' s')}"
+        lines.append(f"{end} with {n}, the last declared at t3 = {fmt(s['t3'], ' s')}; {worst}"
+                     if len(points) > 1 else
+                     f"{end} with 1 point, declared at t3 = {fmt(s['t3'], ' s')}: source "
+                     f"{place(s['declared_source'])}; error {fmt(s['error_m'], ' m')}")
     elif s["declared_source"] and len(points) > 1:
         lines.append(f"  declared at t3 = {fmt(s['t3'], ' s')}: the last of {n} "
                      f"{place(s['declared_source'])}; {worst}")

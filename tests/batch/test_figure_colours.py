@@ -48,3 +48,22 @@ def test_the_map_panel_marks_every_kind_of_point_the_report_names() -> None:
     assert marks["held candidate (unconfirmed: in a declared source's plume)"] == (
         [-20.5], [-34.7])
     plt.close(fig)
+
+
+def test_the_current_arrows_label_keeps_off_its_head() -> None:
+    """A review: the label below the tail covered the head of a current with a downward part
+    (y is drawn down); it goes on the side of the tail the head does not reach."""
+    from cptbt.batch.figures import flow_arrow, pyplot
+    from cptbt.frames import OpArea
+
+    plt = pyplot()
+    for flow_deg, label_above in ((90.0, True), (135.0, True), (270.0, False), (0.0, False)):
+        fig, ax = plt.subplots()
+        flow_arrow(ax, OpArea(-50, 50, -50, 50), flow_deg)
+        arrow = next(t for t in ax.texts if t.get_text() == "")
+        label = next(t for t in ax.texts if t.get_text() == "mean current")
+        tail_y, head_y = arrow.xyann[1], arrow.xy[1]
+        assert (label.get_position()[1] < tail_y) == label_above, flow_deg
+        if abs(head_y - tail_y) > 1e-9:  # the label lies away from the head
+            assert (label.get_position()[1] - tail_y) * (head_y - tail_y) < 0, flow_deg
+        plt.close(fig)

@@ -100,5 +100,5 @@ def test_cptbt_run_says_the_search_gave_up_and_when(tmp_path: Path,
     assert main(["run", str(mission), "--out", str(tmp_path / "o"), "--no-figure"]) == 0
     out = capsys.readouterr().out
     assert "the search for more sources gave up at " in out
-    assert "with 1 point, declared at t3 = " in out
+    assert "with 1 point, declared at t3 = " in out and ": source N " in out
     assert "the last of 1 points" not in out

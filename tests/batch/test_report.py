@@ -73,6 +73,30 @@ def test_a_grid_of_two_configs_gives_maps_rates_and_counts_false_declarations(
         assert cells[1:4] == ["12", "66.7% (39.1%–86.2%)", "1"], cells
 
 
+def test_the_study_map_draws_every_true_source_on_one_colour_scale(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review: a two-source study's map drew the mission's source alone, and each panel had a
+    colour scale of its own (0-950 s beside 0-1200 s)."""
+    from matplotlib.figure import Figure
+
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    geometry = StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0, ((70.0, 30.0),))
+    rows = grid_rows()
+    for r in rows:  # the second configuration's runs end earlier: its own maximum is lower
+        r["sim_time_s"] = 300.0 if r["config"] == 0 else 200.0
+    write_report(rows, tmp_path, geometry)
+    fig = seen[0]  # the map
+    panels = [ax for ax in fig.axes if ax.get_title()]
+    assert len(panels) == 2
+    for ax in panels:
+        stars = next(line for line in ax.lines if line.get_label() == "sources")
+        assert list(stars.get_xdata()) == [20.0, 70.0] and list(stars.get_ydata()) == [0.0, 30.0]
+    scales = {(c.norm.vmin, c.norm.vmax) for ax in panels for c in ax.collections
+              if getattr(c, "norm", None) is not None and c.get_array() is not None}
+    assert scales == {(0.0, 300.0)}, scales
+
+
 def test_a_two_source_study_counts_the_sources_found(tmp_path: Path) -> None:
     # A rule that can declare one source alone: every run fails with no false declaration;
     # the sources-found column says why (1 of 2 each time), and a one-source study has none.
@@ -128,6 +152,10 @@ def test_arrival_runs_get_no_error_histogram(tmp_path: Path) -> None:
 def test_geometry_round_trips_through_study_json_data() -> None:
     g = StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 12.5)
     assert StudyGeometry.from_data(g.to_data()) == g
+    two = StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 12.5, ((60.0, 10.0),))
+    assert StudyGeometry.from_data(two.to_data()) == two
+    old = {k: v for k, v in g.to_data().items() if k != "extra_sources"}  # an older study.json
+    assert StudyGeometry.from_data(old) == g
     assert StudyGeometry.from_data(None) is None
     assert StudyGeometry.from_data({"area": "x"}) is None
 

@@ -128,8 +128,11 @@ def test_a_sensor_slower_than_the_cycle_is_judged_by_its_samples() -> None:
     (0.95, "0.95: 63% of planning cycles would have no reading (every one of their 9 samples "
            "dropped)"),
     (0.9, None),  # 0.9⁹: 39% of cycles blind, warned of by the sensor-faults line only
+    ("0.6, rate_hz: 1", "0.6: 60% of planning cycles would have no reading (their one sample "
+                        "dropped)"),
 ])
-def test_a_sensor_that_drops_most_samples_is_warned_of(drop: float, warned: str | None) -> None:
+def test_a_sensor_that_drops_most_samples_is_warned_of(drop: float | str,
+                                                      warned: str | None) -> None:
     """A review's dead sensor (dropout_prob 1) timed out as if the water were clean."""
     mission = loads_mission(_mission(0.0, extra=f", dropout_prob: {drop}"), "m.yaml",
                             default_registry(), Environment)

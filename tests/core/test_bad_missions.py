@@ -231,6 +231,11 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      lambda t: sub("  seed: 3", "  seed: 3\n  vehicle: {min_speed_mps: 0.5}")(
          sub("{variant: go_to}", "{variant: go_to, speed_mps: 0.3}")(t)), 20,
      "behaviours[5].move_to_field.speed_mps", "it would fly at 0.5 m/s"),
+    ("initial speed beyond the simulated vehicle",
+     sub("  seed: 3", "  seed: 3\n  vehicle: {initial_speed_mps: 10}"), 32,
+     "environment.vehicle.initial_speed_mps", "10 m/s is outside the simulated vehicle's"),
+    ("launch heading beyond a turn", sub("  seed: 3", "  seed: 3\n  launch_heading_deg: 1e300"),
+     32, "environment.launch_heading_deg", "less than or equal to 360"),
     ("only a document marker", whole("---\n"), 1, "(top)", "not an empty document"),
     ("a number for a key", sub("cycle_hz: 1", "cycle_hz: 1\n1: foo"), 9, "[1]",
      "Keys should be strings"),
@@ -243,6 +248,8 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      "environment.flow_speed_mps", "as 10 (digits grouped with _)"),
     ("base-60 angle", sub("beta_deg: 10", "beta_deg: 1:30"), 17,
      "behaviours[2].maintain_plume.beta_deg", "as 90 (base 60)"),
+    ("leading-zero decimal", sub("time_limit_s: 1800", "time_limit_s: 01800"), 9,
+     "time_limit_s", "'01800' has a leading zero, which YAML 1.1 reads as text"),
     ("maintain criterion with mission_a",
      sub("cycle_hz: 1", "cycle_hz: 1\nevaluation: {criterion: maintain}"), 9,
      "evaluation.criterion", "remove the mission_a section"),
@@ -332,6 +339,32 @@ def test_whole_floats_for_counts_and_integers_for_floats_stay_valid(
     path = tmp_path / "fine.yaml"
     path.write_text(text, encoding="utf-8")
     assert main(["validate", str(path)]) == 0, capsys.readouterr().err
+
+
+def test_every_old_number_form_in_a_file_is_told_at_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A review fixed one, ran again, and met the next: each is a line of its own."""
+    path = tmp_path / "old.yaml"
+    path.write_text(BASE.replace("seed: 3", "seed: 0x10").replace("beta_deg: 10", "beta_deg: 1:30")
+                    .replace("time_limit_s: 1800", "time_limit_s: 017"), encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert [line.split(": ")[1] for line in lines] == [
+        "time_limit_s", "behaviours[2].maintain_plume.beta_deg", "environment.seed"], lines
+
+
+@pytest.mark.parametrize("spelling", ["-.5", "+.5"])
+def test_signed_leading_dot_floats_are_numbers(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], spelling: str
+) -> None:
+    # YAML 1.2 reads -.5 as a number; PyYAML reads it as text, which had been refused as "a
+    # quoted string" though nothing was quoted
+    path = tmp_path / "dot.yaml"
+    path.write_text(BASE.replace("flow_toward_deg: 180", f"flow_toward_deg: {spelling}"),
+                    encoding="utf-8")
+    assert main(["validate", "--dump", str(path)]) == 0, capsys.readouterr().err
+    assert f"flow_toward_deg: {float(spelling)}" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("spelling", ["15e-1", "1.5E0", "+.15e+1", "150e-2"])

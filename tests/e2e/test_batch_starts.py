@@ -37,3 +37,19 @@ def test_negative_starts_parse_and_fly(tmp_path: Path) -> None:
                  "--time-limit", "5", "--workers", "1", "--no-plots", "--quiet",
                  "--out", str(out)]) == 0
     assert (out / "results.parquet").exists()
+
+
+def test_a_leading_minus_with_an_exponent_parses_and_grouped_digits_are_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A review: --starts "-40,1e1" was taken for an option, and "1_0" read as 10 (Python's
+    float takes it; a mission file refuses it)."""
+    out = tmp_path / "study"
+    assert main(["batch", AB2, "--starts", "-1e1,5e0", "--runs-per-start", "1",
+                 "--time-limit", "5", "--workers", "1", "--no-plots", "--quiet",
+                 "--out", str(out)]) == 2  # parsed: refused as outside the OpArea, not as usage
+    assert "outside the OpArea" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as stop:  # a usage error, as argparse reports one
+        main(["batch", AB2, "--starts=50,1_0", "--runs-per-start", "1", "--quiet",
+              "--out", str(tmp_path / "s2")])
+    assert stop.value.code == 2
+    assert "'1_0' is not a number" in capsys.readouterr().err
