@@ -64,7 +64,11 @@ def _search_time(row: dict[str, Any]) -> float:
 def _fmt(v: Any, digits: int = 1) -> str:
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return "—"
-    return f"{v:.{digits}f}" if isinstance(v, float) else str(v)
+    if not isinstance(v, float):
+        return str(v)
+    text = f"{v:.{digits}f}"
+    # a start on an axis, turned into the planning frame, is -0.0 or -1e-15: 0.0, not -0.0
+    return text[1:] if text.startswith("-") and not text.strip("-0.") else text
 
 
 @dataclass(frozen=True)
@@ -346,6 +350,8 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
         if multi:
             lines += ["Each declared point is listed with its own error (to its nearest true "
                       "source); the error column is the worst of them.", ""]
+        lines += ["Places in the planning frame (x along the OpArea's long axis), whatever "
+                  "frame the mission and --starts use.", ""]
         lines += ["| run | start (x, y) | declared (x, y) | error (m) | T_F (s) | T_T (s) "
                   "| T_D (s) | T_D share | D0 (m) | D1 (m) | D2 (m) | D3 (m) | D1/D0 |",
                   "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]

@@ -123,8 +123,9 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
         # of the figure (a review): it widens its limits instead
         ax.set_aspect("equal", adjustable="box" if aspect >= 0.75 else "datalim")
         ax.invert_yaxis()
-        ax.set_xlabel("start x (m)")
-        ax.set_ylabel("start y (m), drawn down")
+        # the planning frame (x along the OpArea's long axis), whatever frame --starts took
+        ax.set_xlabel("start x (m), planning frame")
+        ax.set_ylabel("start y (m), planning frame, drawn down")
     # One bar for the panels' one scale: beside tall maps, under wide ones (never taller than
     # the map, its label never longer than the bar).
     beside = aspect >= 0.75

@@ -251,3 +251,13 @@ def test_rates_chart_gives_each_swept_setting_a_line_and_room(tmp_path: Path,
                                      "n = 1"]
     per_bar_in = (fig.get_size_inches()[0] - 2.5) / len(groups)
     assert per_bar_in >= 0.075 * len("maintain_plume.speed_mps=1.0")
+
+
+def test_places_print_without_a_negative_zero_and_say_their_frame(tmp_path: Path) -> None:
+    """A review saw a start typed on an axis in N-E metres printed as (-50.0, -0.0), with
+    nothing saying the table is in the planning frame."""
+    from cptbt.batch.report import _fmt
+
+    assert [_fmt(v) for v in (-0.0, -1e-15, -0.5, 2.0)] == ["0.0", "0.0", "-0.5", "2.0"]
+    write_report(line_rows(), tmp_path)
+    assert "Places in the planning frame" in (tmp_path / "tables.md").read_text()
