@@ -132,6 +132,7 @@ class SeveralSources(SourceDeclaration):
     detections_used: int  # the map's unexplained detections the latest declaration used
     last_level: int  # the latest detection's level (2: strong; SourceMap.level)
     cycle_s: float  # this cycle's length
+    held_in_known_plume: int  # cycles a confident candidate was held in a known plume
     groups: tuple[tuple[Point, ...], ...] = ()
     evidence_count: int = 0
 
@@ -176,12 +177,15 @@ class SeveralSources(SourceDeclaration):
         self.bb.declared_source = source
         self.heading_home = True
         self.search_given_up = True
+        # which of the two blocked them (a review read "held ..., vetoed ..." on a run with no
+        # veto): the run's counts, as the report has them
+        why = [w for w, n in (("held in a declared source's plume", self.held_in_known_plume),
+                              ("vetoed by plume seen up-flow of them", self.upflow.vetoes)) if n]
         self.search_end = (
             "no cell left outside the declared sources' masks (mask_radius_m)"
             if self.map.exhausted else
-            f"candidates held or vetoed {limit:g} s in all, none confirmed (held in a "
-            "declared source's plume, vetoed by plume seen up-flow of them; "
-            "search_give_up_s)" if held else
+            f"candidates held or vetoed {limit:g} s in all, none confirmed ("
+            + "; ".join([*why, "search_give_up_s"]) + ")" if held else
             f"{limit:g} s without plume the declared sources do not explain (search_give_up_s)")
         self.at_declaration = self.map.belief()  # the map the search ended on (t3)
         self.bb.set("source_map_at_declaration", self.at_declaration)

@@ -369,6 +369,7 @@ def test_a_candidate_held_in_a_known_plume_is_reported_and_can_end_the_search(
     assert node.search_given_up and node.heading_home
     assert node.search_end is not None and node.search_end.startswith(
         "candidates held or vetoed 50 s in all")
+    assert node.search_end.endswith("(held in a declared source's plume; search_give_up_s)")
     assert node.sources == (Point(40.0, 0.0),)  # the held point was never declared
 
 
