@@ -132,6 +132,16 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     77's first 390 replicates (trace veto alone: T_D share 24.3%): 10° 1 beyond 15 m, 25.7%;
     15° 1, 26.3%; 20° 0, 26.8%: still too dear.
 
+    Looked at on the nine declarations beyond 15 m of seeds 2024-2026 (replicates 977; 319,
+    612, 716; 3, 247, 270, 470, 723) and dropped before any study: a veto band widened
+    up-flow by 20° or 35° while the crossing's stays 5 m (no longer legs) changed none of the
+    nine (their crossings saw no plume at all: at ~0.1 m/s the plume a crossing 10-20 m
+    up-flow meets left the source 100-200 s earlier, and the meander had moved it); the
+    principal axis of the detections within 30 m of the candidate, as a second check
+    direction, pointed 45°, 21° and 3° off the source on seed 2025's three (the flow line
+    25°, 27° and 13°), and turned as far from the flow line in six correct declarations (up
+    to 40°): it does not tell a short candidate from a right one.
+
     The visit (``upflow_seen_near``) was made after inspecting seed 2024's remaining false
     declarations: MSN007 replicate 495 and two-source replicate 85 declared 14-18 m up-flow of
     a source the vehicle had overshot, and two-source replicate 110 against the OpArea's wall
