@@ -101,8 +101,10 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
                     ax.annotate(f"n={len(runs)}", (x, y), xytext=(0, 9),
                                 textcoords="offset points", ha="center", fontsize=7)
                 else:
+                    # viridis is light at its top: dark text there (white was unreadable)
+                    light = grid[ys.index(y), xs.index(x)] > 0.7 * top
                     ax.text(x, y, f"n={len(runs)}", ha="center", va="center", fontsize=6,
-                            color="white")
+                            color="black" if light else "white")
         if geometry is not None:
             x0, x1, y0, y1 = geometry.area
             ax.add_patch(plt.Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ec="black",
