@@ -462,14 +462,14 @@ def coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
     return out
 
 
+_DECIMAL = re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$")
+
+
 def _numeric(text: str) -> bool:
-    """Whether text reads as a number (so in a YAML file it was quoted: every plain number
-    form is a number, or refused, at the door)."""
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+    """Whether text is a decimal number (so in a YAML file it was quoted: every plain number
+    form is a number, or refused, at the door; Python's ``float`` also takes ``nan``, which a
+    plain YAML ``nan`` is text for)."""
+    return bool(_DECIMAL.match(text))
 
 
 def _literal_booleans(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
