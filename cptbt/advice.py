@@ -40,6 +40,12 @@ def advisories(mission: MissionBase) -> list[Problem]:
     for i, e in enumerate(mission.entries()):
         for key, why in e.contract.advise(e.params, area) if e.contract.advise else []:
             out.append((("behaviours", i, e.family, key), why))
+    cycle, lam = 1.0 / mission.cycle_hz, mission.perception.lambda_s
+    if cycle > lam:  # a review's AB strategy at 0.2 Hz never reacquired
+        out.append((("cycle_hz",), f"{mission.cycle_hz:g} Hz is a cycle of {cycle:g} s, "
+                    f"longer than perception.lambda_s ({lam:g} s): contact is lost between any "
+                    "two cycles, so maintain-plume hands over at once and timed behaviours "
+                    "act late"))
     return out + mission_a_advice(mission)
 
 
@@ -50,6 +56,16 @@ def mission_a_advice(mission: MissionBase) -> list[Problem]:
         return []
     out: list[Problem] = []
     last = len(a.waypoints) - 1
+    if a.amp_enable_waypoint is not None:
+        from cptbt.policy import RELINQUISH_OUTSIDE_M
+
+        at = mission.to_xy(a.waypoints[a.amp_enable_waypoint])
+        outside = mission.op_area_geometry().distance_outside(at.x, at.y)
+        if outside > RELINQUISH_OUTSIDE_M:  # a review's AMP took over and gave back at once
+            out.append((("mission_a", "waypoints", a.amp_enable_waypoint),
+                        f"the take-over waypoint is {outside:.1f} m outside the OpArea: the AMP "
+                        f"gives control back {RELINQUISH_OUTSIDE_M:g} m outside it (TRO II), so "
+                        "it would give back in its first cycle"))
     if a.amp_enable_waypoint == last and not a.loop:
         out.append((("mission_a", "amp_enable_waypoint"), f"{last} is the last waypoint: "
                     "Mission A ends on reaching it, before the AMP can take over"))

@@ -239,7 +239,7 @@ def _base_attrs() -> set[str]:
 
 
 def check_behaviour(
-    spec: BehaviourSpec,
+    spec: BehaviourSpec | type[PlanBehaviour],
     params: BehaviourParams | None = None,
     *,
     ticks: int = 400,
@@ -258,9 +258,15 @@ def check_behaviour(
       per-activation state equals that of a freshly built leaf; attributes a class lists in
       ``persistent_state`` (kept on purpose across activations) are exempt.
 
+    ``spec`` is a registered variant's spec, or a single-leaf behaviour class (taken as
+    ``BehaviourSpec.of(cls)``: a review passed the class, as a user testing a variant of
+    their own would).
+
     Raises:
         AssertionError: naming the rule broken and the tick.
     """
+    if isinstance(spec, type):
+        spec = BehaviourSpec.of(spec)
     rng = np.random.default_rng(seed)
     params = params if params is not None else spec.params()
     area = square_area(100.0)

@@ -234,12 +234,20 @@ class Recorder:
 
     def time_in(self, i: int, period_s: float, where: NDArray[np.bool_] | None = None
                 ) -> dict[str, float]:
-        """Seconds vehicle ``i`` spent in each behaviour ('none' for no output)."""
-        codes = self.active[i, : int(self.count[i])]
+        """Seconds vehicle ``i`` spent in each behaviour ('none' for no output): each cycle
+        holds until the next one (the last, when the run ended, for no time), so the times add
+        up to the span of the cycles. Crediting each cycle a nominal period had counted the
+        last one past the end, and under-counted a 10 Hz cycle that the simulator's 9 Hz step
+        could only tick every 0.111 s (two reviews). ``period_s`` is unused, kept for callers."""
+        k = int(self.count[i])
+        codes = self.active[i, :k]
+        t = self.column("t", i)
+        held = np.diff(t, append=t[-1]) if k else np.zeros(0)
         if where is not None:
-            codes = codes[where]
+            codes, held = codes[where], held[where]
+        seconds = np.bincount(codes, weights=held, minlength=len(self.names))
         counts = np.bincount(codes, minlength=len(self.names))
-        return {(self.names[c] or "none"): float(n) * period_s for c, n in enumerate(counts) if n}
+        return {(self.names[c] or "none"): float(seconds[c]) for c, n in enumerate(counts) if n}
 
     def table(self, i: int, extra: Sequence[str] = ()) -> dict[str, Any]:
         """Vehicle ``i``'s rows as columns (numpy arrays; names as strings), for Parquet/CSV."""

@@ -224,7 +224,8 @@ def advisories(mission: MissionBase) -> list[Problem]:
     out = list(mission.advisories())
     if mission.environment is None:
         return out
-    out += noise_advice(mission) + dropout_advice(mission) + leaf_advice(mission)
+    out += (noise_advice(mission) + dropout_advice(mission) + leaf_advice(mission)
+            + pace_advice(mission))
     if mission.evaluation.criterion != "declaration":
         return out
     try:
@@ -308,6 +309,32 @@ def _two_figures_up(v: float) -> str:
         return _plain(v)
     step = 10.0 ** (math.floor(math.log10(v)) - 1)
     return _two_figures(math.ceil(v / step - 1e-9) * step)
+
+
+def pace_advice(mission: MissionBase) -> list[Problem]:
+    """A planning cycle faster than the simulator's step, which the simulated planner cannot
+    keep (it ticks at most once a step: a review's 10 Hz ran at 9 Hz), and a current that
+    carries the vehicle at half its cruise speed or more: the behaviours steer through the
+    water, not over ground, so legs across the flow drift down-flow (a review's 1 m/s current
+    against 1.5 m/s: find-plume swept the down-flow wall, a declaration fell 181 m off)."""
+    try:
+        params = to_sim_params(mission)
+    except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
+        return []
+    out: list[Problem] = []
+    step_hz = 1.0 / params.dt_s
+    if mission.cycle_hz > step_hz * (1 + 1e-9):
+        out.append((("cycle_hz",), f"{_plain(mission.cycle_hz)} Hz is faster than the "
+                    f"simulator's step ({_two_figures(params.dt_s)} s, the fluorometer's rate): "
+                    f"simulated, the planner ticks once a step, {_two_figures(step_hz)} Hz; "
+                    "raise environment.fluorometer.rate_hz (or lower dt_s) to fly it"))
+    current = params.flow.mean_speed_mps
+    if params.vehicle.advected and current >= 0.5 * mission.speed_mps:
+        out.append((("environment", "flow_speed_mps"), f"the mean current ({_plain(current)} "
+                    f"m/s) is half the cruise speed ({_plain(mission.speed_mps)} m/s) or more: "
+                    "the behaviours steer through the water, not over ground, so legs across "
+                    "the flow drift down-flow and find-plume may never reach up-flow water"))
+    return out
 
 
 def leaf_advice(mission: MissionBase) -> list[Problem]:

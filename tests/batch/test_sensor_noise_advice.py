@@ -152,3 +152,29 @@ def test_a_cloverleaf_tighter_than_the_vehicle_turns_is_warned_of(leaf: float,
     assert bool(got) == warned, got
     if warned:
         assert "turning radius (7.5 m, environment.vehicle.turning_radius_m)" in got[0]
+
+
+def _advice(text: str, key: str) -> list[str]:
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    return [msg for loc, msg in advisories(mission) if loc[-1] == key]
+
+
+def test_a_cycle_the_simulator_cannot_keep_or_longer_than_lambda_is_warned_of() -> None:
+    """Reviews: a 10 Hz cycle ran at the 9 Hz simulator step; a 5 s cycle against lambda_s
+    1 s never reacquired. Both validated silently."""
+    assert _advice(_mission(None), "cycle_hz") == []
+    (fast,) = _advice(_mission(None, cycle_hz=10.0), "cycle_hz")
+    assert "faster than the simulator's step" in fast and "9 Hz" in fast, fast
+    (slow,) = _advice(_mission(None, cycle_hz=0.05), "cycle_hz")
+    assert "a cycle of 20 s, longer than perception.lambda_s" in slow, slow
+
+
+def test_a_current_at_half_the_cruise_speed_is_warned_of() -> None:
+    """A review's 1 m/s current against a 1.5 m/s vehicle: find-plume swept the down-flow wall
+    (the behaviours steer through the water)."""
+    text = _mission(None)
+    assert _advice(text, "flow_speed_mps") == []
+    fast = text.replace("flow_speed_mps: 0.1", "flow_speed_mps: 0.8")
+    assert fast != text
+    (why,) = _advice(fast, "flow_speed_mps")
+    assert "half the cruise speed" in why, why

@@ -45,3 +45,11 @@ def test_registry_holds_every_variant_of_the_papers() -> None:
         "declare_source.upflow_spread",
     }
     assert expected <= keys, sorted(expected - keys)
+
+
+def test_a_behaviour_class_can_be_checked_as_it_is() -> None:
+    """A review passed its own class (as the README then said: check_behaviour(spec)) and met
+    AttributeError: 'ZigZag' has no attribute 'params'."""
+    from cptbt.behaviours.maintain_plume import TrackOut
+
+    check_behaviour(TrackOut)

@@ -323,6 +323,17 @@ def test_the_planners_perception_ignores_an_impossibly_far_fix() -> None:
     assert p.pose.y == 999_000 and p.rejected_fixes == 2
 
 
+def test_a_take_over_waypoint_beyond_the_give_back_distance_is_warned_of() -> None:
+    """A review's AMP took over 38 m outside the OpArea and gave back in the same cycle."""
+    far = mission(waypoints="[[-35, 0], [50, 0], [90, 0]]", amp_enable_s=None,
+                  amp_enable_waypoint=0)
+    ((loc, why),) = far.advisories()
+    assert loc == ("mission_a", "waypoints", 0) and "35.0 m outside the OpArea" in why, why
+    near = mission(waypoints="[[-25, 0], [50, 0], [90, 0]]", amp_enable_s=None,
+                   amp_enable_waypoint=0)
+    assert near.advisories() == []
+
+
 @pytest.mark.parametrize(("settings", "key", "says"), [
     ({"amp_enable_s": None, "amp_enable_waypoint": 2}, "amp_enable_waypoint",
      "2 is the last waypoint"),
