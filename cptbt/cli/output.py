@@ -21,6 +21,17 @@ def fmt(v: float | None, unit: str = "") -> str:
     return "—" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.1f}{unit}"
 
 
+def times_line(s: dict[str, Any]) -> str:
+    """TRO's times and path ratio of a run summary (SPEC §11). D1 ends at t2, the first pass
+    within 13 m of the declared point, so D1/D0 can fall below 1: said so when it does (a
+    review read 0.4 as an impossible efficiency)."""
+    ratio = s.get("D1_over_D0")
+    return (f"  T_F {fmt(s['T_F'], ' s')}  T_T {fmt(s['T_T'], ' s')}  T_D {fmt(s['T_D'], ' s')}"
+            f"  D1/D0 {fmt(ratio)}"
+            + ("  (D1 ends within 13 m of the declared point: SPEC §11)"
+               if ratio is not None and ratio < 1 else ""))
+
+
 def time_share(shares: dict[str, Any]) -> str:
     """``behaviour 12%, ...`` of a summary's ``time_share``; "none 0%" says nothing, left out."""
     return ", ".join(f"{k} {v:.0%}" for k, v in shares.items() if k != "none" or v >= 0.005)

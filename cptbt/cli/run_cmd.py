@@ -19,7 +19,14 @@ from cptbt.batch.summary import summarise
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
-from cptbt.cli.output import fmt, fresh_folder, place, sensor_faults_line, time_share
+from cptbt.cli.output import (
+    fmt,
+    fresh_folder,
+    place,
+    sensor_faults_line,
+    time_share,
+    times_line,
+)
 from cptbt.loader import dump_mission, loads_mission
 from cptbt.mission import MissionBase
 from cptbt.registry import default_registry
@@ -335,8 +342,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                   f"{fmt(s['T_M'], ' s')} (AB eq. 3); closest to the source "
                   f"{fmt(s['closest_approach_m'], ' m')}")
         else:
-            print(f"  T_F {fmt(s['T_F'], ' s')}  T_T {fmt(s['T_T'], ' s')}  "
-                  f"T_D {fmt(s['T_D'], ' s')}  D1/D0 {fmt(s['D1_over_D0'])}")
+            print(times_line(s))
         for c in s.get("phases", {}).get("timeline", []):
             print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})")
         share = time_share(s["time_share"])

@@ -17,7 +17,14 @@ from cptbt.bridge.serve import ServeOptions, serve
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import sigterm_as_interrupt
 from cptbt.cli.inspect_cmds import load
-from cptbt.cli.output import fmt, fresh_folder, place, sensor_faults_line, time_share
+from cptbt.cli.output import (
+    fmt,
+    fresh_folder,
+    place,
+    sensor_faults_line,
+    time_share,
+    times_line,
+)
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
 from cptbt.session import AmpSession
@@ -149,9 +156,7 @@ def print_summary(s: dict[str, Any], session: AmpSession) -> None:
     if s["declared_source"]:
         print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source {place(s['declared_source'])}"
               + (f"; error {fmt(s['error_m'], ' m')}" if s["error_m"] is not None else ""))
-    print(f"  T_F {fmt(s['T_F'], ' s')}  T_T {fmt(s['T_T'], ' s')}  "
-          f"T_D {fmt(s['T_D'], ' s')}  D1/D0 {fmt(s['D1_over_D0'])}"
-          + ("  (paths on the navigation track)" if "track" in s else ""))
+    print(times_line(s) + ("  (paths on the navigation track)" if "track" in s else ""))
     for c in s["phases"]["timeline"]:
         print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})"
               + (f" {c['detail']}" if c["detail"] else ""))

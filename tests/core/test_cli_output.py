@@ -121,3 +121,15 @@ def test_the_sources_line_says_how_the_search_for_more_ended() -> None:
         "  sources: 1 of 2 found, 0 false; the search for more ended at 1234.0 s: candidates "
         "held or vetoed 600 s in all, none confirmed (...), the latest held candidate "
         "(unconfirmed) at x 42.7 m, y 3.5 m; fly-bys 0, withdrawn 0")
+
+
+def test_a_d1_over_d0_below_one_is_explained() -> None:
+    """A review read D1/D0 0.4 as an impossible tracking efficiency: D1 ends at t2, within
+    13 m of the declared point (SPEC §11), so it can be shorter than D0."""
+    from cptbt.cli.output import times_line
+
+    base = {"T_F": 1.0, "T_T": 0.0, "T_D": 5.0}
+    assert times_line({**base, "D1_over_D0": 0.4}).endswith(
+        "D1/D0 0.4  (D1 ends within 13 m of the declared point: SPEC §11)")
+    assert times_line({**base, "D1_over_D0": 1.8}).endswith("D1/D0 1.8")
+    assert times_line({**base, "D1_over_D0": None}).endswith("D1/D0 —")
