@@ -182,9 +182,16 @@ def trajectory_figure(
     ax.plot(home.x, home.y, "^", mfc="#8c564b", mec="black", ms=9, label="home")
     declared = list(run.declared_all) or ([run.declared] if run.declared is not None else [])
     _sources(ax, truth, declared)
+    marks = [home, *truth, *declared, *([st] if st is not None else [])]
+    # every marker whole, with room around it: one at the plot's edge (a start outside the
+    # OpArea, at the plume grid's corner) had been half cut off (a review)
+    pad = 0.04 * max(area.xmax - area.xmin, area.ymax - area.ymin)
+    for x, y in [(q.x, q.y) for q in marks] + [tuple(run.start)]:
+        if math.isfinite(x) and math.isfinite(y):
+            ax.update_datalim([(x - pad, y - pad), (x + pad, y + pad)])
+    ax.autoscale_view()
     if flow_deg is not None:
         trace = run.trace or {}
-        marks = [home, *truth, *declared, *([st] if st is not None else [])]
         drawn = np.concatenate([
             np.column_stack([trace.get("x", run.path_true[:, 0]),
                              trace.get("y", run.path_true[:, 1])]), det.reshape(-1, 2),

@@ -351,7 +351,8 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
             lines += ["Each declared point is listed with its own error (to its nearest true "
                       "source); the error column is the worst of them.", ""]
         lines += ["Places in the planning frame (x along the OpArea's long axis), whatever "
-                  "frame the mission and --starts use.", ""]
+                  "frame the mission and --starts use. D1 ends at t2, the first pass within "
+                  "13 m of the declared point (SPEC §11), so D1/D0 can be below 1.", ""]
         lines += ["| run | start (x, y) | declared (x, y) | error (m) | T_F (s) | T_T (s) "
                   "| T_D (s) | T_D share | D0 (m) | D1 (m) | D2 (m) | D3 (m) | D1/D0 |",
                   "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]

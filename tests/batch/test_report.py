@@ -260,4 +260,5 @@ def test_places_print_without_a_negative_zero_and_say_their_frame(tmp_path: Path
 
     assert [_fmt(v) for v in (-0.0, -1e-15, -0.5, 2.0)] == ["0.0", "0.0", "-0.5", "2.0"]
     write_report(line_rows(), tmp_path)
-    assert "Places in the planning frame" in (tmp_path / "tables.md").read_text()
+    text = (tmp_path / "tables.md").read_text()
+    assert "Places in the planning frame" in text and "D1/D0 can be below 1" in text

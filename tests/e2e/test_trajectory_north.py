@@ -191,3 +191,18 @@ def test_the_mean_current_keeps_off_the_north_arrow(tmp_path: Path,
     assert north[:, 1].max() > 0  # it does reach into the lower half
     gap = min(((x - tail[0]) ** 2 + (y - tail[1]) ** 2) ** 0.5 for x, y in north)
     assert gap > 15.0, (tail, gap)
+
+
+def test_a_marker_at_the_plots_edge_is_drawn_whole(tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review's start outside the OpArea, at the plume grid's corner (10 m out on each
+    axis), was half cut off at the plot's edge: every marker gets room around it."""
+    mission = load(str(ROOT / "missions" / "small_oparea.yaml"), simulate=True)
+    corner = Point(35.0, 35.0)  # planning: 10 m beyond the 50 m square's corner, both ways
+    mission = mission.model_copy(update={"start": list(mission.to_ne(corner)),
+                                         "time_limit_s": 5.0})
+    fig, _ = drawn(mission, monkeypatch, tmp_path, seed=3)
+    ax = fig.axes[0]
+    x1, y1 = max(ax.get_xlim()), max(ax.get_ylim())  # y drawn down: max is the bottom
+    pad = 0.04 * 50.0
+    assert x1 >= corner.x + pad - 1e-9 and y1 >= corner.y + pad - 1e-9, (x1, y1)
