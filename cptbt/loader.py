@@ -19,6 +19,7 @@ from pydantic import BaseModel, ValidationError
 
 from cptbt.mission import Loc, MissionBase, Problem, dotted, mission_model, mission_to_data
 from cptbt.registry import Registry, default_registry
+from cptbt.yaml_dialect import MissionLoader, old_number
 
 MAX_BYTES = 1_000_000
 """A mission file larger than this is refused (the shipped ones are a few kB)."""
@@ -35,78 +36,6 @@ MOVED_KEYS: dict[tuple[str, ...], str] = {
     ("maintain_plume", "lambda_s"): "perception.lambda_s",
 }
 """Keys of earlier mission files that moved, by (parent, key): where they live now."""
-
-
-class MissionLoader(yaml.SafeLoader):
-    """The safe YAML loader of every mission, study and sweep value cptbt reads.
-
-    PyYAML follows YAML 1.1, where a float needs a dot: ``1e-3`` and ``1E9`` are strings there,
-    and a mission would refuse them as quoted strings. YAML 1.2 reads them as numbers, and
-    users write small probabilities so; this loader adds YAML 1.2's exponent floats, and its
-    signed ``-.5`` and ``+.5``. A quoted ``'1e-3'`` stays a string (implicit resolution applies
-    to plain scalars only). YAML 1.1's other number forms are refused (:func:`old_number`).
-    """
-
-
-MissionLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)[eE][-+]?[0-9]+$"),
-    list("-+0123456789."),
-)
-MissionLoader.add_implicit_resolver(  # -.5 and +.5, which YAML 1.1 reads as text (.5 it reads)
-    "tag:yaml.org,2002:float", re.compile(r"^[-+]\.[0-9]+$"), list("-+"))
-MissionLoader.add_implicit_resolver(  # 09, 0900: text in YAML 1.1, refused as such by name
-    "tag:yaml.org,2002:int", re.compile(r"^[-+]?0[0-9_]*[89][0-9_]*$"), list("-+0"))
-
-
-_INT, _FLOAT = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
-_OLD_NUMBERS = (
-    (re.compile(r"^[-+]?0[0-9_]*[89][0-9_]*$"), "leading zero"),
-    (re.compile(r"^[-+]?0[0-7_]+$"), "octal"),
-    (re.compile(r"^[-+]?0x[0-9a-fA-F_]+$"), "hexadecimal"),
-    (re.compile(r"^[-+]?0b[01_]+$"), "binary"),
-    (re.compile(r"^[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?$"), "base 60"),
-    (re.compile(r"_"), "digits grouped with _"),
-)
-"""YAML 1.1's number forms besides plain decimal, which PyYAML reads (``seed: 017`` as 15,
-``speed_mps: 1_5`` as 15, ``beta_deg: 1:30`` as 90) and YAML 1.2 reads otherwise or not at
-all: a mission refuses them rather than fly a number its author did not write."""
-
-
-class OldNumberError(yaml.YAMLError):
-    """A plain scalar in one of :data:`_OLD_NUMBERS`' forms."""
-
-
-def old_number(node: yaml.Node) -> str | None:
-    """Why a plain scalar that YAML 1.1 reads as a number is refused (None: it is not)."""
-    if not isinstance(node, yaml.ScalarNode) or node.style or node.tag not in (_INT, _FLOAT):
-        return None
-    text = node.value
-    for pattern, kind in _OLD_NUMBERS:
-        if pattern.search(text):
-            fix = "write the number in plain decimal (or quote it, if it is text)"
-            if kind == "leading zero":
-                return (f"{text!r} has a leading zero, which YAML 1.1 reads as text (and 017 "
-                        f"as octal 15): {fix}")
-            return f"{text!r} is read by YAML 1.1 as {yaml.safe_load(text)!r} ({kind}): {fix}"
-    return None
-
-
-def load_scalar(text: str) -> Any:
-    """One YAML value read as a mission would read it (e.g. a ``--sweep`` value).
-
-    Raises:
-        OldNumberError: a number in an old YAML 1.1 form (:func:`old_number`).
-    """
-    loader = MissionLoader(text)
-    try:
-        node = loader.get_single_node()
-        why = old_number(node) if node is not None else None
-        if why:
-            raise OldNumberError(why)
-        return loader.construct_document(node) if node is not None else None
-    finally:
-        loader.dispose()
 
 
 class MissionError(Exception):

@@ -23,16 +23,10 @@ import yaml
 
 from cptbt import study_spec
 from cptbt.batch.integrity import digest
-from cptbt.loader import (
-    MissionError,
-    OldNumberError,
-    dump_mission,
-    load_scalar,
-    loads_mission,
-    located_errors,
-)
+from cptbt.loader import MissionError, dump_mission, loads_mission, located_errors
 from cptbt.mission import Loc, MissionBase, dotted, mission_to_data
 from cptbt.registry import RegistryError, default_registry
+from cptbt.yaml_dialect import OldNumberError, load_scalar
 
 MAX_STARTS = study_spec.MAX_STARTS
 """Most starts a study may have: a bound on typos such as ``--starts-x 0:100:0.0001``."""

@@ -20,7 +20,7 @@ Start = tuple[float, float]
 
 def _number(text: str, kind: type[int] | type[float]) -> float:
     try:
-        if "_" in text:  # Python reads 1_0 as 10; a mission refuses it (loader.old_number)
+        if "_" in text:  # Python reads 1_0 as 10; a mission refuses it (yaml_dialect.old_number)
             raise ValueError(text)
         return kind(text.strip())
     except ValueError:
