@@ -152,7 +152,7 @@ class VehicleRun:
     @property
     def time_in(self) -> dict[str, float]:
         """Seconds in each behaviour ('none': no output)."""
-        return self.recorder.time_in(self.index, self.period_s)
+        return self.recorder.time_in(self.index)
 
     @property
     def trace(self) -> dict[str, Any] | None:

@@ -232,13 +232,12 @@ class Recorder:
         """Vehicle ``i``'s active behaviour per row ('' for none)."""
         return [self.names[c] for c in self.active[i, : int(self.count[i])]]
 
-    def time_in(self, i: int, period_s: float, where: NDArray[np.bool_] | None = None
-                ) -> dict[str, float]:
+    def time_in(self, i: int, where: NDArray[np.bool_] | None = None) -> dict[str, float]:
         """Seconds vehicle ``i`` spent in each behaviour ('none' for no output): each cycle
         holds until the next one (the last, when the run ended, for no time), so the times add
         up to the span of the cycles. Crediting each cycle a nominal period had counted the
         last one past the end, and under-counted a 10 Hz cycle that the simulator's 9 Hz step
-        could only tick every 0.111 s (two reviews). ``period_s`` is unused, kept for callers."""
+        could only tick every 0.111 s (two reviews)."""
         k = int(self.count[i])
         codes = self.active[i, :k]
         t = self.column("t", i)

@@ -224,8 +224,13 @@ def advisories(mission: MissionBase) -> list[Problem]:
     out = list(mission.advisories())
     if mission.environment is None:
         return out
-    out += (noise_advice(mission) + dropout_advice(mission) + leaf_advice(mission)
-            + pace_advice(mission))
+    try:
+        params = to_sim_params(mission)
+    except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
+        params = None
+    if params is not None:
+        out += [a for advice in (noise_advice, dropout_advice, leaf_advice, pace_advice)
+                for a in advice(mission, params)]
     if mission.evaluation.criterion != "declaration":
         return out
     try:
@@ -311,16 +316,12 @@ def _two_figures_up(v: float) -> str:
     return _two_figures(math.ceil(v / step - 1e-9) * step)
 
 
-def pace_advice(mission: MissionBase) -> list[Problem]:
+def pace_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """A planning cycle faster than the simulator's step, which the simulated planner cannot
     keep (it ticks at most once a step: a review's 10 Hz ran at 9 Hz), and a current that
     carries the vehicle at half its cruise speed or more: the behaviours steer through the
     water, not over ground, so legs across the flow drift down-flow (a review's 1 m/s current
     against 1.5 m/s: find-plume swept the down-flow wall, a declaration fell 181 m off)."""
-    try:
-        params = to_sim_params(mission)
-    except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
-        return []
     out: list[Problem] = []
     step_hz = 1.0 / params.dt_s
     if mission.cycle_hz > step_hz * (1 + 1e-9):
@@ -337,14 +338,11 @@ def pace_advice(mission: MissionBase) -> list[Problem]:
     return out
 
 
-def leaf_advice(mission: MissionBase) -> list[Problem]:
+def leaf_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """A cloverleaf whose leaves (``d_leaf_m``) are no longer than the simulated vehicle's
     tightest turn: its waypoints cannot be flown as drawn (a review's ``d_leaf_m: 1``
     validated; the parameter's own description asks for more than the turning radius)."""
-    try:
-        radius = to_sim_params(mission).vehicle.turning_radius_m
-    except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
-        return []
+    radius = params.vehicle.turning_radius_m
     out: list[Problem] = []
     for i, e in enumerate(mission.entries()):
         leaf = getattr(e.params, "d_leaf_m", None)
@@ -356,15 +354,12 @@ def leaf_advice(mission: MissionBase) -> list[Problem]:
     return out
 
 
-def dropout_advice(mission: MissionBase) -> list[Problem]:
+def dropout_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """A fluorometer that drops so many samples that half the planning cycles or more have no
     reading at all (a cycle reads the largest of its samples; one with none reads nothing,
     neither plume nor clean water): at ``dropout_prob: 1`` a review's runs timed out as if
     in clean water."""
-    try:
-        sensor = to_sim_params(mission).fluorometer
-    except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
-        return []
+    sensor = params.fluorometer
     samples = max(sensor.rate_hz / mission.cycle_hz, 1.0)
     blind = sensor.dropout_prob ** samples
     if blind < 0.5:
@@ -378,17 +373,14 @@ def dropout_advice(mission: MissionBase) -> list[Problem]:
              f"{_plain(sensor.dropout_prob)}: {what}")]
 
 
-def noise_advice(mission: MissionBase) -> list[Problem]:
+def noise_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """A fluorometer noise that makes detections in clean water common (measured on MSN007,
     20 runs each: noise 0.1 against TRO's threshold 0.2, ~19% of cycles, and the TRO rule
     declared 17 times, 71 m off on average; 0.06, ~0.4%, and the likelihood map declared once
     30 m off). The rate is per second of mission, so a faster planning cycle (fewer samples
     a cycle, more cycles) is judged alike; a sensor's own output threshold ``tau`` above the
     perception's is the one a reading must pass."""
-    try:
-        sensor = to_sim_params(mission).fluorometer
-    except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
-        return []
+    sensor = params.fluorometer
     threshold = mission.perception.threshold
     samples = max(sensor.rate_hz / mission.cycle_hz, 1.0)
     # a sensor slower than the cycle leaves cycles without a sample (no reading, no alarm)

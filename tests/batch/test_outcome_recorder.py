@@ -76,8 +76,8 @@ def test_recorder_rows_per_vehicle_codes_and_growth() -> None:
     assert rec.xy(0, estimated=True)[0].tolist() == [1.0, 2.0]
     assert rec.column("detected", 1).all() and not rec.column("detected", 0).any()
     # each cycle holds until the next (t = 0..19 s: 19 s), whatever the nominal period
-    assert rec.time_in(1, 0.5) == {"maintain_plume.track_in": 19.0}
-    assert rec.time_in(2, 0.5) == {"find_plume.billiard": 4.0}
+    assert rec.time_in(1) == {"maintain_plume.track_in": 19.0}
+    assert rec.time_in(2) == {"find_plume.billiard": 4.0}
     assert rec.active_names(2) == ["find_plume.billiard"] * 5
     table = rec.table(0)
     assert set(table) == {"t", "x", "y", "x_est", "y_est", "detected", "active"}
