@@ -8,7 +8,6 @@ knows), so ``cptbt schema`` can print a JSON Schema that covers every installed 
 
 from __future__ import annotations
 
-import logging
 from functools import cache
 from typing import Annotated, Any, Literal, Union
 
@@ -27,15 +26,12 @@ from cptbt.geodesy import GeoPoint, LocalFrame
 from cptbt.mission_a import MissionASpec
 from cptbt.node import BehaviourParams, Contract
 from cptbt.perception import PerceptionSettings
-from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.registry import BehaviourSpec, Registry, UnknownBehaviourError
 from cptbt.study_spec import StudySpec
 from cptbt.types import Point
 
 Coord = tuple[float, float]
 
-
-log = logging.getLogger(__name__)
 
 FINITE = ConfigDict(frozen=True, extra="forbid", allow_inf_nan=False)
 """Every section of a mission: frozen, unknown keys rejected, numbers finite."""
@@ -65,7 +61,8 @@ class OpAreaSpec(BaseModel):
 
     corners: list[Coord] = Field(
         min_length=4, max_length=4, description="Four corners, [a, b] each, in the mission frame; "
-        "they must form a rectangle (each corner within 1% of the diagonal, or 1 m, of it)"
+        "they must form a rectangle (each corner within 1% of the diagonal, or 1 m, of it), "
+        "taken in any order (the rectangle is the one through the four points)"
     )
     x_axis_bearing_deg: float | None = Field(
         default=None, ge=-360, le=360,
@@ -184,79 +181,11 @@ class MissionBase(BaseModel):
         return advisories(self)
 
     def problems(self) -> list[Problem]:
-        """Every cross-field problem, as (key path, message); empty for a sound mission."""
-        out = self._coordinate_problems()
-        if out:
-            return out  # the geometry below needs sound coordinates
-        try:
-            area = self.op_area_geometry()
-        except ValueError as exc:
-            return [(("op_area", "corners"), str(exc))]
-        out += self._rectangle_problems(area)
-        if out:
-            return out  # places are judged against a sound OpArea
-        for key in ("start", "home"):
-            coord = getattr(self, key)
-            if coord is None:
-                continue
-            p = self.to_xy(coord)
-            outside = area.distance_outside(p.x, p.y)
-            if outside > RELINQUISH_OUTSIDE_M:  # allowed or not: the AMP cannot drive there
-                out.append(((key,), f"{outside:.1f} m outside the OpArea: the AMP gives control "
-                             f"back {RELINQUISH_OUTSIDE_M:g} m outside it (TRO II), so it could "
-                             "never fly there; place it within that distance"))
-            elif outside > 0 and key not in self.allow_outside:
-                out.append(((key,), f"{outside:.1f} m outside the OpArea "
-                             f"(list '{key}' in allow_outside if that is intended)"))
-        out += self._limit_problems()
-        out += self._rate_problems()
-        out += self._study_problems(area)
-        out += self._behaviour_problems()
-        return out
+        """Every cross-field problem, as (key path, message); empty for a sound mission
+        (:mod:`cptbt.mission_checks`)."""
+        from cptbt.mission_checks import problems
 
-    def _coordinate_problems(self) -> list[Problem]:
-        if self.frame != "geodetic":
-            if len({tuple(c) for c in self.op_area.corners}) != 4:
-                return [(("op_area", "corners"), "the four corners must be distinct")]
-            return []
-        out: list[Problem] = []
-        places: list[tuple[Loc, Coord | None]] = [
-            (("op_area", "corners", i), c) for i, c in enumerate(self.op_area.corners)
-        ]
-        places += [(("home",), self.home), (("start",), self.start),
-                   (("op_area", "geodetic_centre_deg"), self.op_area.geodetic_centre_deg)]
-        for loc, c in places:
-            why = latlon_problem(c) if c is not None else None
-            if why:
-                out.append((loc, why))
-        if not out and len({tuple(c) for c in self.op_area.corners}) != 4:
-            out.append((("op_area", "corners"), "the four corners must be distinct"))
-        return out
-
-    def _rectangle_problems(self, area: OpArea) -> list[Problem]:
-        if self.frame == "planning":
-            return []
-        ne = self.corners_ne()
-        tol = max(1.0, RECTANGLE_TOL_FRACTION * area.diagonal_m)
-        misfit = area.corner_misfit_m(ne)
-        if misfit <= tol:
-            if misfit > 0.01:
-                log.info("%s: op_area corners lie up to %.1f m off a rectangle (tolerance %.1f "
-                         "m); the OpArea is the rectangle that encloses them", self.name,
-                         misfit, tol)
-            return []
-        sides = "/".join(f"{b:.1f}°" for b in sorted({round(b, 1) for b in area.side_bearings(ne)}))
-        given = self.op_area.x_axis_bearing_deg
-        if given is not None:
-            own = OpArea.from_ne_corners(ne)
-            if own.corner_misfit_m(ne) <= tol:
-                return [(("op_area", "x_axis_bearing_deg"),
-                         f"{given:g}° is not parallel to the corners' sides ({sides}): the "
-                         f"OpArea would reach {misfit:.1f} m beyond them (tolerance {tol:.1f} m); "
-                         "give a side's bearing or leave it out")]
-        return [(("op_area", "corners"),
-                 f"not a rectangle: a corner lies {misfit:.1f} m off the fitted rectangle "
-                 f"(tolerance {tol:.1f} m, 1% of the diagonal); sides at {sides}")]
+        return problems(self)
 
     def commanded_speeds(self) -> list[tuple[Loc, float]]:
         """Every speed the mission commands, by key: the cruise speed, mission A's (if any)
@@ -268,83 +197,6 @@ class MissionBase(BaseModel):
             if e.params.speed_mps is not None:
                 speeds.append((("behaviours", i, e.family, "speed_mps"), e.params.speed_mps))
         return speeds
-
-    def _limit_problems(self) -> list[Problem]:
-        a = self.mission_a
-        if a is None:
-            return []
-        lim = a.limits
-        out: list[Problem] = []
-        for loc, v in self.commanded_speeds():
-            if not lim.min_speed_mps <= v <= lim.max_speed_mps:
-                out.append((loc, f"{v:g} m/s is outside the vehicle's limits "
-                                 f"[{lim.min_speed_mps:g}, {lim.max_speed_mps:g}] m/s "
-                                 "(mission_a.limits): the vehicle would refuse it"))
-        for key in ("depth_m", "amp_depth_m"):
-            depth = getattr(a, key)
-            if depth is not None and depth > lim.max_depth_m:
-                out.append((("mission_a", key), f"{depth:g} m is deeper than the vehicle's limit "
-                                                 f"{lim.max_depth_m:g} m (mission_a.limits)"))
-        return out
-
-    def _rate_problems(self) -> list[Problem]:
-        """A cycle period longer than a time limit: the run would end before a second tick."""
-        period = 1.0 / self.cycle_hz
-        limits = [("time_limit_s", self.time_limit_s)]
-        if self.study is not None and self.study.time_limit_s is not None:
-            limits.append(("study.time_limit_s", self.study.time_limit_s))
-        for name, limit in limits:
-            if period > limit:
-                return [(("cycle_hz",), f"{self.cycle_hz:g} Hz is a cycle of {period:g} s, "
-                                        f"longer than {name} ({limit:g} s): the planner would "
-                                        "tick once before the time limit")]
-        return []
-
-    def _study_problems(self, area: OpArea) -> list[Problem]:
-        if self.study is None or not self.study.starts or "start" in self.allow_outside:
-            return []
-        out: list[Problem] = []
-        for i, c in enumerate(self.study.starts):
-            p = self.to_xy(c)
-            if not area.contains(p.x, p.y):
-                out.append((("study", "starts", i),
-                            f"{area.distance_outside(p.x, p.y):.1f} m outside the OpArea (list "
-                            "'start' in allow_outside if that is intended)"))
-        return out
-
-    def _behaviour_problems(self) -> list[Problem]:
-        entries = self.entries()
-        out: list[Problem] = []
-        first: dict[str, int] = {}
-        for i, e in enumerate(entries):
-            if e.family in first:
-                out.append((("behaviours", i, e.family),
-                            f"behaviour listed twice (first at behaviours[{first[e.family]}])"))
-            first.setdefault(e.family, i)
-        chosen = {e.family: e.variant for e in entries}
-        paired: set[str] = set()  # a mismatched pair is reported once, at its first half
-        for i, e in enumerate(entries):
-            loc: Loc = ("behaviours", i, e.family, "variant")
-            for family, variant in e.contract.pairs_with:
-                if family in chosen and chosen[family] != variant and family not in paired:
-                    paired.add(e.family)
-                    out.append((loc, f"{e.family} {e.variant} must be paired with {family} "
-                                     f"{variant}, not {chosen[family]}"))
-            why = e.contract.check(e.params, self.perception) if e.contract.check else None
-            if why:
-                out.append((("behaviours", i, e.family), why))
-        if self.evaluation.criterion == "maintain":
-            if "maintain_plume" not in chosen:
-                out.append((("evaluation", "criterion"),
-                            "'maintain' measures a maintain_plume behaviour, and there is none"))
-            if self.mission_a is not None:
-                out.append((("evaluation", "criterion"),
-                            "'maintain' studies the AMP alone: remove the mission_a section"))
-        needy = [f"{e.family} {e.variant}" for e in entries if e.contract.needs_flow]
-        if needy and self.perception.flow_source == "none":
-            out.append((("perception", "flow_source"),
-                        f"'none', but {', '.join(needy)} steer by the flow estimate"))
-        return out
 
     # -- geometry --------------------------------------------------------------------------
     def corners_ne(self) -> list[tuple[float, float]]:
