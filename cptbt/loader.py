@@ -446,7 +446,7 @@ def read_mission_text(path: str | Path) -> str:
         with Path(path).open("rb") as f:
             raw = f.read(MAX_BYTES + 1)
     except OSError as exc:
-        raise MissionError([f"{source}:0: (file): {exc.strerror or exc}"]) from None
+        raise MissionError([f"{source}: (file): cannot be read: {exc.strerror or exc}"]) from None
     if len(raw) > MAX_BYTES:
         raise MissionError([f"{source}:1: (file): more than {MAX_BYTES} bytes; a mission file "
                             f"may have at most {MAX_BYTES}"])
