@@ -31,8 +31,11 @@ def where(mission: MissionBase, p: Point | None) -> dict[str, float] | None:
     A planning-frame mission has no compass: its points have ``x`` and ``y`` only (they were
     copied into ``north`` and ``east``, which said a bearing nobody gave).
     """
-    if p is None:
-        return None
+    return None if p is None else place(mission, p)
+
+
+def place(mission: MissionBase, p: Point) -> dict[str, float]:
+    """:func:`where` of a point that is there."""
     out = {"x": p.x, "y": p.y}
     if mission.frame != "planning":
         n, e = mission.to_ne(p)
@@ -49,6 +52,9 @@ class RunSummary:
 
     ``success`` and ``false_declaration`` judge the run by the mission's ``evaluation`` section
     (:func:`cptbt.batch.outcome.judge`); every time is the mission clock, s; every distance m.
+    Places (``start``, the sources) are given as :func:`where` gives them; ``start`` is where
+    the recorded run began: the launch point of the AMP alone, the AMP's take-over point of a
+    phased run.
     """
 
     mission: str
@@ -245,7 +251,7 @@ def summarise(
         false_declaration=verdict.false_declaration,
         criterion=mission.evaluation.criterion,
         success_radius_m=mission.evaluation.success_radius_m,
-        start={"x": run.start[0], "y": run.start[1]},
+        start=place(mission, Point(*run.start)),
         declared_source=where(mission, declared),
         true_source=where(mission, source),
         error_m=verdict.error_m,

@@ -171,3 +171,4 @@ def test_cptbt_run_reports_phases_and_geodetic_positions(tmp_path: Path) -> None
     assert true["lat"] == pytest.approx(32 + 58.867 / 60, abs=1e-7)
     assert true["lon"] == pytest.approx(-(118 + 32.248 / 60), abs=1e-7)
     assert {"x", "y", "north", "east", "lat", "lon"} <= set(s["declared_source"])
+    assert {"x", "y", "north", "east", "lat", "lon"} <= set(s["start"])  # the take-over point

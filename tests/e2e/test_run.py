@@ -74,6 +74,7 @@ def test_cptbt_run_writes_summary_trace_and_figure(tmp_path: Path) -> None:
     assert summary["seed"] == 3 and summary["outcome"] == "declared"
     src = summary["true_source"]
     assert src["north"] == pytest.approx(43) and src["east"] == pytest.approx(-55)
+    assert set(summary["start"]) == set(src)  # the start in every frame the sources are in
     assert (tmp_path / "trace.parquet").exists() or (tmp_path / "trace.csv").exists()
     png = (tmp_path / "trajectory.png").read_bytes()
     assert png.startswith(b"\x89PNG") and len(png) > 20_000
