@@ -16,15 +16,15 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import yaml
 
 from cptbt import study_spec
 from cptbt.batch.integrity import digest
-from cptbt.loader import MissionError, dump_mission, loads_mission, located_errors
-from cptbt.mission import Loc, MissionBase, dotted, mission_to_data
+from cptbt.loader import MissionError, dump_mission, located_errors, validate_data
+from cptbt.mission import Loc, MissionBase, dotted, mission_model, mission_to_data
 from cptbt.registry import RegistryError, default_registry
 from cptbt.yaml_dialect import OldNumberError, load_scalar
 
@@ -161,6 +161,8 @@ class Config:
     index: int
     coords: dict[str, Any]
     mission_yaml: str
+    mission: MissionBase = field(compare=False, repr=False)
+    """The mission validated (what ``mission_yaml`` loads to): no need to parse it again."""
 
 
 def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
@@ -184,6 +186,8 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
     # (the plan, read from the mission itself), a 500-value sweep no longer writes, parses and
     # checks its 500 values 1 000 times over (46 s to validate, most of it YAML).
     base["study"] = None
+    env = type(mission.environment) if mission.environment is not None else None
+    model = mission_model(default_registry(), env)
     for i, combo in enumerate(combos):
         data = copy.deepcopy(base)
         coords = {}
@@ -195,12 +199,10 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
             apply_setting(data, path, value)
         for sweep, value in zip(sweeps, combo, strict=True):
             coords[sweep.name] = value
-        text = yaml.safe_dump(data, sort_keys=False)
-        env = type(mission.environment) if mission.environment is not None else None
         swept = ", ".join(f"{k}={v}" for k, v in coords.items())
-        try:
-            validated = loads_mission(text, f"{source} [sweep {swept}]" if swept else source,
-                                      default_registry(), env)
+        try:  # the data as it is: what YAML text of it would parse back to
+            validated = cast(MissionBase, validate_data(
+                data, {}, f"{source} [sweep {swept}]" if swept else source, model))
         except MissionError as exc:
             if not swept or exc.located is None:
                 raise
@@ -226,7 +228,7 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
             same = ", ".join(f"{k}={v}" for k, v in twin.coords.items())
             raise ValueError(f"sweep {swept} flies the same mission as {same}: give each "
                              "value once")
-        by_text[text] = Config(i, coords, text)
+        by_text[text] = Config(i, coords, text, validated)
         out.append(by_text[text])
     return out
 

@@ -16,7 +16,7 @@ from cptbt import __version__
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
-from cptbt.batch.scenario import Environment, environment_of, to_sim_params
+from cptbt.batch.scenario import environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
 from cptbt.batch.study import (
     Study,
@@ -201,15 +201,11 @@ def _planner_record(configs: list[Any], n_starts: int, source: str) -> dict[str,
     """
     from cptbt.batch.engine import FLEET_MIN_VEHICLES
     from cptbt.fleet import fleet_support, planner_choice
-    from cptbt.loader import loads_mission
-    from cptbt.registry import default_registry
 
     choice = planner_choice()
     flown = []
     for c in configs:
-        m = loads_mission(c.mission_yaml, f"{source} [{c.coords}]", default_registry(),
-                          Environment)
-        support = fleet_support(m)
+        support = fleet_support(c.mission)
         big = choice == "auto" and n_starts >= FLEET_MIN_VEHICLES
         if support.ok and (choice == "fleet" or big):
             flown.append("fleet")

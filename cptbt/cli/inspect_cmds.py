@@ -108,7 +108,6 @@ def warn_swept(mission: MissionBase, configs: list[Config], source: str,
     lines (``FILE:LINE: path: warning:``) if some configuration keeps them (not those every
     sweep overrides; ``own=False``: none, they were printed already), then each swept
     configuration's others, one ``FILE [sweep ...]: path: warning:`` line each."""
-    env = environment_model()
     shown = advisories_of(mission)
     if not configs:
         if own:
@@ -117,7 +116,7 @@ def warn_swept(mission: MissionBase, configs: list[Config], source: str,
     kept: set[tuple[Loc, str]] = set()
     extra: list[str] = []
     for c in configs:
-        m = loads_mission(c.mission_yaml, source, default_registry(), env)
+        m = c.mission
         sweep = ", ".join(f"{k}={v}" for k, v in c.coords.items())
         for loc, msg in advisories_of(m):
             if (loc, msg) in shown:
