@@ -95,16 +95,27 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
         if len(xs) >= 10 and len(ys) >= 10 and not np.isnan(grid).any():
             ax.contour(xs, ys, grid, levels=6, colors="white", linewidths=0.6, alpha=0.7)
         scattered = bool(np.isnan(grid).any())
-        if grid.size <= 64 or scattered:
+        labels = []  # where the "n=" labels are: the arrow keeps off them
+        # Per start only when the counts differ (--until-sem): the title gives a single count,
+        # and 64 cells of "n=1" left the current's arrow no free corner.
+        varied = len(set(counts[counts > 0].ravel().tolist())) > 1
+        if varied and (grid.size <= 64 or scattered):
+            y_edges = _edges(ys)
             for (x, y), runs in by.items():
                 if scattered:  # beside the point, not on it
                     ax.annotate(f"n={len(runs)}", (x, y), xytext=(0, 9),
                                 textcoords="offset points", ha="center", fontsize=7)
+                    labels.append((x, y))
                 else:
-                    # viridis is light at its top: dark text there (white was unreadable)
-                    light = grid[ys.index(y), xs.index(x)] > 0.7 * top
-                    ax.text(x, y, f"n={len(runs)}", ha="center", va="center", fontsize=6,
+                    # viridis is light at its top: dark text there (white was unreadable).
+                    # At the cell's top edge (y drawn down), not its centre: a source there,
+                    # or the current's arrow in a corner cell, had covered it.
+                    j = ys.index(y)
+                    at = y_edges[j] + 0.06 * (y_edges[j + 1] - y_edges[j])
+                    light = grid[j, xs.index(x)] > 0.7 * top
+                    ax.text(x, at, f"n={len(runs)}", ha="center", va="top", fontsize=6,
                             color="black" if light else "white")
+                    labels.append((x, at))
         if geometry is not None:
             x0, x1, y0, y1 = geometry.area
             ax.add_patch(plt.Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ec="black",
@@ -113,7 +124,7 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
             ax.plot(stars[:, 0], stars[:, 1], "*", color="gold", mec="black", ms=15, ls="none",
                     label="source" if len(stars) == 1 else "sources")
             if geometry.flow_deg is not None:  # off the starts and sources where it can be
-                marks = np.asarray([*by, *stars.tolist()], dtype=float)
+                marks = np.asarray([*by, *labels, *stars.tolist()], dtype=float)
                 flow_arrow(ax, OpArea(x0, x1, y0, y1), geometry.flow_deg, marks)
         runs_n = sorted(set(counts[counts > 0].ravel().tolist()))
         per_cell = f"n = {runs_n[0]}" if len(runs_n) == 1 else f"n = {runs_n[0]}–{runs_n[-1]}"

@@ -262,3 +262,35 @@ def test_places_print_without_a_negative_zero_and_say_their_frame(tmp_path: Path
     write_report(line_rows(), tmp_path)
     text = (tmp_path / "tables.md").read_text()
     assert "Places in the planning frame" in text and "D1/D0 can be below 1" in text
+
+
+def _map_figure(rows: list[dict[str, Any]], tmp_path: Path,
+                monkeypatch: pytest.MonkeyPatch) -> Any:
+    from matplotlib.figure import Figure
+
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    write_report(rows, tmp_path, StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0))
+    (fig,) = [f for f in seen if f.axes and "start x" in f.axes[0].get_xlabel()]
+    return fig.axes[0]
+
+
+def test_per_start_counts_are_drawn_only_when_they_differ_and_clear_of_the_current(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review: on a 3 x 3 grid the current's arrow sat on a corner cell's "n=" label (and a
+    source's star on another), while every label said what the title says."""
+    rows = grid_rows(1)  # 3 runs at each of 4 starts
+    ax = _map_figure(rows, tmp_path, monkeypatch)
+    assert not [t for t in ax.texts if t.get_text().startswith("n=")]
+    assert "n = 3 per start" in ax.get_title()
+    rows = [r for r in rows if not (r["start_x"] == 20.0 and r["start_y"] == 20.0
+                                    and r["replicate"] == 2)]
+    ax = _map_figure(rows, tmp_path, monkeypatch)
+    labels = {t.get_position(): t.get_text() for t in ax.texts if t.get_text().startswith("n=")}
+    # at each cell's top edge (y drawn down: its smallest y; cells -40..0 and 0..40), not its
+    # centre
+    assert {(x, round(y, 6)): n for (x, y), n in labels.items()} == {
+        (20.0, -37.6): "n=3", (20.0, 2.4): "n=2", (60.0, -37.6): "n=3", (60.0, 2.4): "n=3"}
+    (arrow,) = [a for a in ax.texts if type(a).__name__ == "Annotation"]
+    tail = arrow.xyann
+    assert all(math.hypot(tail[0] - x, tail[1] - y) > 10.0 for x, y in labels)
