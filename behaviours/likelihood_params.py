@@ -140,7 +140,19 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     principal axis of the detections within 30 m of the candidate, as a second check
     direction, pointed 45°, 21° and 3° off the source on seed 2025's three (the flow line
     25°, 27° and 13°), and turned as far from the flow line in six correct declarations (up
-    to 40°): it does not tell a short candidate from a right one.
+    to 40°): it does not tell a short candidate from a right one. Nor does a longer flow
+    memory (session 15, the same nine and seed 2024's replicates 0-39): the bearing from
+    candidate to source lay 2-41° off the 100-s flow line, and 2-40° off a 200-600 s vector
+    mean or the back-trajectory the map itself integrates from the flow history (the two
+    differ from the 100-s line by 0.6-5.3°: 146-505 s of history is all a run has, and at
+    ~0.1 m/s over a 24-m flow grid the water turns slowly); the true water path traced back
+    from the candidate passes 1-14 m beside the source in seven of the nine. The candidate
+    lies beside the plume's path, not down a bent one. What failed in seven of the nine was
+    the single crossing: plume was in its zone 96% or more of the seconds before declaring,
+    but a thin, patchy one (1-7% of the zone at a time) that the vehicle's true track passed
+    1-5 m from. Nor is slow flow a mark of these runs: the flow estimate when the check
+    passed was 0.098-0.124 m/s in the nine and 0.103 m/s median (0.047-0.168) in seed 77's
+    first 300 runs, so a fan only in slow flow would be the fan.
 
     The visit (``upflow_seen_near``) was made after inspecting seed 2024's remaining false
     declarations: MSN007 replicate 495 and two-source replicate 85 declared 14-18 m up-flow of
