@@ -20,6 +20,7 @@ from typing import Any, cast
 
 import numpy as np
 import yaml
+from pydantic import BaseModel
 
 from cptbt import study_spec
 from cptbt.batch.integrity import digest
@@ -186,7 +187,8 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
     # (the plan, read from the mission itself), a 500-value sweep no longer writes, parses and
     # checks its 500 values 1 000 times over (46 s to validate, most of it YAML).
     base["study"] = None
-    env = type(mission.environment) if mission.environment is not None else None
+    env: type[BaseModel] | None = (type(mission.environment) if mission.environment is not None
+                                   else None)
     model = mission_model(default_registry(), env)
     for i, combo in enumerate(combos):
         data = copy.deepcopy(base)
