@@ -83,7 +83,8 @@ class LikelihoodMapDeclare(SeveralSources):
       map dipping below ``confidence`` resumes it (same clock) if the candidate has moved less
       than ``radius_m``;
     - *veto*: a detection no declared source explains, made since the search for this source
-      began (within ``upflow_memory_s`` if set), lying more than ``radius_m`` and at most three
+      began (within ``upflow_memory_s`` if set), lying more than ``upflow_veto_near_m`` (5 m;
+      ``None``: ``radius_m``, as before session 15) and at most three
       times ``upflow_check_m`` up-flow of the candidate and within ``upflow_band_m`` of its
       line, vetoes it (counted once per run of vetoed cycles): a source is not down-flow of
       its own plume, and the map, having ruled that water out, had put such a detection down to
@@ -181,7 +182,8 @@ class LikelihoodMapDeclare(SeveralSources):
             self.params.upflow_check_m or 0.0, self.params.upflow_band_m, self.params.radius_m,
             self.params.arrive_radius_m, self.params.upflow_memory_s,
             self.params.upflow_timeout_s, self.params.upflow_fan_deg,
-            near_m=self.params.radius_m if self.params.upflow_seen_near else None)
+            near_m=self.params.radius_m if self.params.upflow_seen_near else None,
+            veto_near_m=self.params.upflow_veto_near_m)
         self.upflow.known_veto = self.params.upflow_known_veto
         self.detections_used = 0
 

@@ -154,6 +154,18 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     passed was 0.098-0.124 m/s in the nine and 0.103 m/s median (0.047-0.168) in seed 77's
     first 300 runs, so a fan only in slow flow would be the fan.
 
+    The veto's near edge (``upflow_veto_near_m`` 5 m; it had been ``radius_m``, 10 m) was
+    made after the nine declarations beyond 15 m of seeds 2024-2026 above: in four of them
+    (2025's 319, 612, 716; 2026's 470) the track had read plume, or a trace of it, 5-10 m
+    up-flow of the candidate within the band, and in none of seed 2024's first 60 correct
+    declarations (one had a trace there, 0.17, outside the band). With it those four declare
+    2.6-5.0 m off, the other five as before (their tracks read nothing up-flow at all). On a
+    seed flown for the first time (2027; 1000 MSN007 runs, 200 two-source runs, paired):
+    beyond 15 m 5 against 7 (the two mended 21.8 and 17.2 m short, now 5.0 and 4.6 m off),
+    error median 3.4 against 3.5 m, 95th percentile 8.3 against 8.7 m, T_D share 24.8%
+    against 24.6% (31 vetoes against 3; 20 runs changed, one of them waiting 622 s against
+    83 s); two sources both found in 198 against 197, 2 false against 3.
+
     The visit (``upflow_seen_near``) was made after inspecting seed 2024's remaining false
     declarations: MSN007 replicate 495 and two-source replicate 85 declared 14-18 m up-flow of
     a source the vehicle had overshot, and two-source replicate 110 against the OpArea's wall
@@ -276,6 +288,12 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         default=0.0, ge=0, le=60, description="The band widens up-flow by tan(this) per metre "
         "(the flow estimate's direction error): at a up-flow of the candidate its half-width is "
         "upflow_band_m + a·tan(upflow_fan_deg), deg"
+    )
+    upflow_veto_near_m: float | None = Field(
+        default=5.0, gt=0, description="Plume seen more than this up-flow of the candidate "
+        "(within upflow_band_m of its line) vetoes it; 5 rather than radius_m: a source is "
+        "not down-flow of plume seen 5-10 m up-flow of the candidate either (measured: class "
+        "docstring; None: radius_m), m"
     )
     upflow_trace_fraction: float | None = Field(
         default=0.25, gt=0, le=1, description="With the up-flow check, a reading above this "

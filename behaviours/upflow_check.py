@@ -63,8 +63,10 @@ class UpflowCheck:
 
     def __init__(self, reach_m: float, band_m: float, veto_beyond_m: float, slack_m: float,
                  memory_s: float | None, timeout_s: float, fan_deg: float = 0.0,
-                 trace_level: float | None = None, near_m: float | None = None) -> None:
+                 trace_level: float | None = None, near_m: float | None = None,
+                 veto_near_m: float | None = None) -> None:
         self.reach_m, self.band_m, self.veto_beyond_m = reach_m, band_m, veto_beyond_m
+        self.veto_near_m = veto_beyond_m if veto_near_m is None else veto_near_m
         self.near_m = near_m
         self.visit_for: Point | None = None  # the candidate the visit under way goes to
         self.visit_t0 = math.nan
@@ -149,7 +151,7 @@ class UpflowCheck:
         # A sub-threshold trace there says the same: up-flow of a source there is no dye at all.
         hit = np.asarray(self._hit, dtype=bool)
         half = w + np.maximum(upflow, 0.0) * self.fan  # the band's half-width there
-        where = ((t > self.search_t0) & (upflow > self.veto_beyond_m)
+        where = ((t > self.search_t0) & (upflow > self.veto_near_m)
                  & (upflow <= 3 * self.reach_m) & (np.abs(across) <= half))
         if self.memory_s is not None:
             where &= t >= p.t - self.memory_s

@@ -93,6 +93,23 @@ def test_the_veto_reaches_three_reaches_up_flow_and_is_forgotten_after_its_memor
     assert short.passed(at(s, 9), CAND, AREA)  # 9 s old: forgotten
 
 
+def test_the_veto_can_begin_nearer_than_the_declaration_radius() -> None:
+    """Plume 7 m up-flow of the candidate: inside the 10-m radius it is the candidate's own
+    plume by default; with ``veto_near_m`` 5 it says the source is farther up-flow."""
+    for near, vetoed in ((None, False), (5.0, True)):
+        c, s = check(veto_near_m=near), ScriptedPerception(AREA)
+        c.record(0, Point(43.0, 1.0), hit=True)  # 7 m up-flow, 1 m off the line
+        for t, y in ((1, 4.0), (2, -4.0)):  # the crossing, 12 m up-flow
+            c.record(t, Point(38.0, y), hit=False)
+        assert c.passed(at(s, 3), CAND, AREA) is not vetoed
+        assert c.vetoes == int(vetoed)
+        c2 = check(veto_near_m=near)
+        c2.record(0, Point(46.0, 0.0), hit=True)  # 4 m up-flow: never a veto
+        for t, y in ((1, 4.0), (2, -4.0)):
+            c2.record(t, Point(38.0, y), hit=False)
+        assert c2.passed(at(s, 3), CAND, AREA) and c2.vetoes == 0
+
+
 def test_a_new_search_starts_from_a_clean_track() -> None:
     c, s = check(), ScriptedPerception(AREA)
     c.record(0, Point(30.0, 0.0), hit=True)  # the previous source's plume
