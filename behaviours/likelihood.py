@@ -84,7 +84,7 @@ class LikelihoodMapDeclare(SeveralSources):
       than ``radius_m``;
     - *veto*: a detection no declared source explains, made since the search for this source
       began (within ``upflow_memory_s`` if set), lying more than ``upflow_veto_near_m`` (5 m;
-      ``None``: ``radius_m``, as before session 15) and at most three
+      ``None``: ``radius_m``, the earlier default) and at most three
       times ``upflow_check_m`` up-flow of the candidate and within ``upflow_band_m`` of its
       line, vetoes it (counted once per run of vetoed cycles): a source is not down-flow of
       its own plume, and the map, having ruled that water out, had put such a detection down to

@@ -141,7 +141,7 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     direction, pointed 45°, 21° and 3° off the source on seed 2025's three (the flow line
     25°, 27° and 13°), and turned as far from the flow line in six correct declarations (up
     to 40°): it does not tell a short candidate from a right one. Nor does a longer flow
-    memory (session 15, the same nine and seed 2024's replicates 0-39): the bearing from
+    memory (2026-11-23, the same nine and seed 2024's replicates 0-39): the bearing from
     candidate to source lay 2-41° off the 100-s flow line, and 2-40° off a 200-600 s vector
     mean or the back-trajectory the map itself integrates from the flow history (the two
     differ from the 100-s line by 0.6-5.3°: 146-505 s of history is all a run has, and at
