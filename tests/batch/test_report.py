@@ -200,21 +200,26 @@ def test_rates_chart_survives_wilson_bounds_a_rounding_error_past_the_rate(
     assert "success_and_false_declarations.png" in names
 
 
+def _map_figure(rows: list[dict[str, Any]], tmp_path: Path,
+                monkeypatch: pytest.MonkeyPatch) -> Any:
+    from matplotlib.figure import Figure
+
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    write_report(rows, tmp_path, StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0))
+    (fig,) = [f for f in seen if f.axes and "start x" in f.axes[0].get_xlabel()]
+    return fig.axes[0]
+
+
+
 def test_scattered_starts_are_drawn_as_points_not_cells(tmp_path: Path,
                                                        monkeypatch: pytest.MonkeyPatch) -> None:
     from matplotlib.collections import PathCollection, QuadMesh
-    from matplotlib.figure import Figure
 
     rows = [r for r in grid_rows(1) if (r["start_x"], r["start_y"]) != (60.0, 20.0)]
-    seen: list[Figure] = []
-    real = Figure.savefig
-    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: (seen.append(self),
-                                                                  real(self, *a, **k)))
-    write_report(rows, tmp_path, StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0))
-    (fig,) = [f for f in seen if f.axes and "start x" in f.axes[0].get_xlabel()]
-    kinds = {type(c) for c in fig.axes[0].collections}
+    ax = _map_figure(rows, tmp_path, monkeypatch)
+    kinds = {type(c) for c in ax.collections}
     assert PathCollection in kinds and QuadMesh not in kinds  # 3 of a 2 x 2 grid's starts
-
 
 def test_config_label_names_each_setting_unambiguously() -> None:
     assert config_label({}, "msn") == "msn"
@@ -262,17 +267,6 @@ def test_places_print_without_a_negative_zero_and_say_their_frame(tmp_path: Path
     write_report(line_rows(), tmp_path)
     text = (tmp_path / "tables.md").read_text()
     assert "Places in the planning frame" in text and "D1/D0 can be below 1" in text
-
-
-def _map_figure(rows: list[dict[str, Any]], tmp_path: Path,
-                monkeypatch: pytest.MonkeyPatch) -> Any:
-    from matplotlib.figure import Figure
-
-    seen: list[Figure] = []
-    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
-    write_report(rows, tmp_path, StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0))
-    (fig,) = [f for f in seen if f.axes and "start x" in f.axes[0].get_xlabel()]
-    return fig.axes[0]
 
 
 def test_per_start_counts_are_drawn_only_when_they_differ_and_clear_of_the_current(
