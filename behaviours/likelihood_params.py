@@ -52,139 +52,16 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     not ``σi(0)`` is made persistent too (the vehicle's navigation drift, absent from the
     measurement, is of that size and persists for minutes between fixes).
 
-    Weights, chosen on tuning replicates (root seeds 77 and 78, 40 MSN007 runs each, 20 two-source
-    runs each) with the meander state: ``nondetection_weight`` 1 (no tempering; the previous 0.3 was
-    the independent-cycle model's stand-in for the misses' correlation) and ``detection_weight``
-    0.6. Seed 77 / 78: T_D share 25.7% / 25.5% against the independent-cycle model's 36.2% / 32.5%
-    (weights 0.3 / 0.3), 0 / 0 declarations beyond 15 m (largest errors 10.4 / 8.2 m against 12.7 /
-    9.1 m), median error 3.8 / 4.1 m against 2.6 / 3.0 m (upflow_cluster on seed 78: 3.6 m); both
-    sources found in 40 of 40 two-source runs, none falsely. ``detection_weight`` 0.5: T_D 27.7% /
-    27.5%, the same two-source result; 0.7: 23.7% / 23.9%, one false declaration in the 40
-    two-source runs (a first declaration 15.6 m short of the down-flow source, on the strength of a
-    run of strong detections on the approach); 1: 23.3% / 24.1%, two false in 20 (seed 78). A run of
-    strong detections from one filament patch says "close" several times over and the state does not
-    carry that correlation, hence the remaining tempering. ``σi(0)`` 1 m against 1.5 m or all of σ0
-    (3 m, ``None``), with detection tempering 0.5 on seed 77: T_D 27.7% / 27.2% / 26.0%, largest
-    errors 10.9 / 12.9 / 16.4 m (the last one beyond 15 m); τ 60 s against 150 s: T_D 29.1% against
-    27.7%, τ 300 s: 25.6% against 25.7%. Widening σi near the source so that the average over the
-    meander reproduces the measured chance there exactly (instead of capping ``p_in``) gave largest
-    errors of 15.0 and 14.6 m on seed 77 (detection tempering 0.5 and 0.6). The study
-    (``benchmarks/likelihood_map.py``) flies the independent-cycle model (weights 0.3 / 0.3, the
-    previous default, and 0.5 / 0.3) and ``detection_weight`` 0.7 as rows of their own.
-
-    The up-flow check (``upflow_check_m`` 10 m, ``upflow_band_m`` 5 m; the declaring class's
-    docstring) was made after inspecting the five declarations beyond 15 m of the 1000-run study
-    on the reporting seed 2024 (each had either not crossed up-flow of its candidate or had seen
-    plume there), then measured on tuning seeds 77 and 78, 300 MSN007 runs and 100 two-source
-    runs each: without the check 4 (19-29 m) and 1 (16.4 m) declarations beyond 15 m, T_D share
-    24.0% / 24.7%; with it, ``radius_m`` 8: 0 and 1 (the same 16.4 m: the vehicle flew over the
-    source seeing nothing, and its misses there are what the map is right to believe), T_D share
-    26.5% / 27.1%; ``radius_m`` 10: 0 and 1 (30.6 m: a cloverleaf crossed up-flow of the
-    candidate while the meander had carried the plume aside), T_D 24.1% / 24.3%; ``radius_m``
-    12 (seed 78): 1, 23.3%; 10 with ``confidence`` 0.85 (seed 78): 1, 23.1%; ``confidence``
-    0.85 at 8 m (seed 77): 0, 25.0%. Two sources: one false declaration on each seed before the
-    veto remembered plume seen before the map became sure; none in 100 + 100 after (both found in
-    all 200; seed 77 flown with ``radius_m`` 8, seed 78 with 10). The check's leg is part of
-    T_D, hence the larger radius. With 10 m, seed 77's replicate 50 declares one source twice,
-    and a wider ``mask_radius_m`` does not stop that: the second declaration of a source
-    declared 12.6 m off fell 17.8, 20.6 and 25.2 m from the first with masks of 15, 20 and
-    25 m. The first point's plume does not explain the detections next to the true source, and
-    the mass they leave settles just outside the mask; carrying a declared source's own
-    uncertainty into the explanation is what it would take. ``same_source_m`` (18 m) is a
-    step that way: a declaration within it of a declared source is the same source again,
-    replaces it, and both points go on explaining its plume. The double declarations seen fell
-    15.5-17.8 m apart (seed 2024's two-source replicates 83 and 132, seed 77's 50). 25 m was
-    tried first: on tuning seed 77 (200 two-source runs) both sources were found in 99.0% of
-    runs against 97.5% without the rule, 1 false declaration against 2 (replicate 50 now finds
-    both; the one left was declared 1.6 m inside the OpArea's cross-flow wall after 1 770 s of
-    searching, where the map's mass piles up for want of evidence: the vehicle's passes there
-    were outside the OpArea, whose cycles are no observations); but two sources 20 m apart
-    across the flow (the shipped two-source mission with the second source moved) were then
-    found in 0 of 3 seeds against 3 of 3 without it, each declared once and merged. With 18 m,
-    and without the rule, 4 of 5; with 20 m, 3 of 5. With 18 m, seed 77's 200 two-source runs
-    came out as with 25 m (99.0%, 1 false). The rule compares declared points: real sources
-    up to ~30 m apart can be merged when a declaration of one falls near the other (a review
-    saw it in 2 of 10 runs of pairs 20 m apart); ``same_source_m: null`` keeps them apart.
-
-    Tried on tuning seed 77 (1000 MSN007 runs each; the default: 2 declarations beyond 15 m,
-    T_D share 24.3%) and not taken: widening the check's band up-flow by the flow estimate's
-    direction error (``upflow_fan_deg``: the held-out seed 2025's six declarations beyond 15 m
-    lay 3-36° off the flow line through the true source, the plume having come in at an angle
-    the 100-s flow did not show): 20° gave 1 beyond 15 m at a T_D share of 26.8%, 15° 2 at
-    26.2%, 20° with ``confidence`` 0.85 2 at 25.8%, 20° with ``upflow_check_m`` 8 4 at 25.9%; a
-    wider kernel (``spread_deg`` 18 and 24, the first 616 runs): 1 and 0 beyond 15 m at 33.9% and
-    42.6%. Whatever removes these declarations here costs T_D share beyond the issue's 25%; the
-    fan stays at 0, a setting for a user who would rather pay that.
-
-    The trace veto (``upflow_trace_fraction`` 0.25) was made after inspecting the six
-    declarations beyond 15 m of seed 2025 (no longer a held-out seed for it; seed 2026 is):
-    in the veto band of three of them (replicates 45, 639, 932, 16-40 m short) the track had
-    read 0.28-0.45 of the threshold, and in that of each of 41 correct declarations of seed
-    2024 (replicates 0-40) exactly 0 (no dye up-flow of a source; the simulated sensor, like a
-    real one after its own offset is removed, reads 0 in clean water). With it those three
-    declare 4.6-7.7 m from the source. On tuning seed 77 (1000 MSN007 runs, 200 two-source
-    runs) it changed nothing measurable: 2 beyond 15 m (the same replicates, 528 and 732:
-    patterns that crossed the line with nothing to read), T_D share 24.3%, both sources in 198
-    of 200, 1 false. The noise floor (three times the median reading of the track's cycles
-    without a detection) keeps a noisy sensor from vetoing everything: MSN007 replicates 0-19
-    with the fluorometer's noise at 0.015, 0.03 and 0.06 (7-30% of the threshold) gave no trace
-    veto and the same declarations as without the trace veto. The fan on top of it, on seed
-    77's first 390 replicates (trace veto alone: T_D share 24.3%): 10° 1 beyond 15 m, 25.7%;
-    15° 1, 26.3%; 20° 0, 26.8%: still too dear.
-
-    Looked at on the nine declarations beyond 15 m of seeds 2024-2026 (replicates 977; 319,
-    612, 716; 3, 247, 270, 470, 723) and dropped before any study: a veto band widened
-    up-flow by 20° or 35° while the crossing's stays 5 m (no longer legs) changed none of the
-    nine (their crossings saw no plume at all: at ~0.1 m/s the plume a crossing 10-20 m
-    up-flow meets left the source 100-200 s earlier, and the meander had moved it); the
-    principal axis of the detections within 30 m of the candidate, as a second check
-    direction, pointed 45°, 21° and 3° off the source on seed 2025's three (the flow line
-    25°, 27° and 13°), and turned as far from the flow line in six correct declarations (up
-    to 40°): it does not tell a short candidate from a right one. Nor does a longer flow
-    memory (2026-11-23, the same nine and seed 2024's replicates 0-39): the bearing from
-    candidate to source lay 2-41° off the 100-s flow line, and 2-40° off a 200-600 s vector
-    mean or the back-trajectory the map itself integrates from the flow history (the two
-    differ from the 100-s line by 0.6-5.3°: 146-505 s of history is all a run has, and at
-    ~0.1 m/s over a 24-m flow grid the water turns slowly); the true water path traced back
-    from the candidate passes 1-14 m beside the source in seven of the nine. The candidate
-    lies beside the plume's path, not down a bent one. What failed in seven of the nine was
-    the single crossing: plume was in its zone 96% or more of the seconds before declaring,
-    but a thin, patchy one (1-7% of the zone at a time) that the vehicle's true track passed
-    1-5 m from. Nor is slow flow a mark of these runs: the flow estimate when the check
-    passed was 0.098-0.124 m/s in the nine and 0.103 m/s median (0.047-0.168) in seed 77's
-    first 300 runs, so a fan only in slow flow would be the fan.
-
-    The veto's near edge (``upflow_veto_near_m`` 5 m; it had been ``radius_m``, 10 m) was
-    made after the nine declarations beyond 15 m of seeds 2024-2026 above: in four of them
-    (2025's 319, 612, 716; 2026's 470) the track had read plume, or a trace of it, 5-10 m
-    up-flow of the candidate within the band, and in none of seed 2024's first 60 correct
-    declarations (one had a trace there, 0.17, outside the band). With it those four declare
-    2.6-5.0 m off, the other five as before (their tracks read nothing up-flow at all). On a
-    seed flown for the first time (2027; 1000 MSN007 runs, 200 two-source runs, paired):
-    beyond 15 m 5 against 7 (the two mended 21.8 and 17.2 m short, now 5.0 and 4.6 m off),
-    error median 3.4 against 3.5 m, 95th percentile 8.3 against 8.7 m, T_D share 24.8%
-    against 24.6% (31 vetoes against 3; 20 runs changed, one of them waiting 622 s against
-    83 s); two sources both found in 198 against 197, 2 false against 3.
-
-    The visit (``upflow_seen_near``) was made after inspecting seed 2024's remaining false
-    declarations: MSN007 replicate 495 and two-source replicate 85 declared 14-18 m up-flow of
-    a source the vehicle had overshot, and two-source replicate 110 against the OpArea's wall
-    47 m from either source; the nearest detection to those candidates was 12.5, 14.4 and 49.7
-    m away, against at most 9.8 m (median ~2 m) for the correct declarations of replicates
-    0-30. With it those three declare within 15 m (495: 14.8 m). On tuning seed 77: MSN007
-    (1000 runs) the same 2 beyond 15 m (528 and 732: short of the source, plume seen around
-    them), T_D share 24.4% against 24.3% (paired); two sources (200 runs) both found in 199
-    against 198, no false declaration against 1 (replicate 170, at the wall). Flown again
-    once a timed-out visit held its candidate back instead of passing it unchecked: the same
-    figures (2 beyond 15 m, T_D share 24.4%; 199 of 200 both found, none false), one visit
-    timed out (MSN007 replicate 293, which then declared 4.2 m off, at t = 327 s).
-
-    The independent-cycle model's own tuning (``meander_memory_s`` None): with the sharper
-    model a run of correlated detections made the map confident on the first approach, some
-    15-50 m short of the source when the meander then carried the plume off the axis the
-    100-s flow gives and the misses of the reacquire pattern ruled out the true source;
-    ``detection_weight`` 0.3 against 0.5 gave 0 against 0 and 0 against 1 declarations beyond
-    15 m on seeds 77 and 78, at the price of a T_D share of 36% and 33% against 30% and 25%.
+    How the rule's other defaults were chosen, on tuning seeds 77 and 78 and after inspecting the
+    study's failures, and every idea measured and dropped, with its figures, is recorded in
+    ``benchmarks/results/likelihood_map_tuning.md``. In short: ``detection_weight`` 0.6 and
+    ``nondetection_weight`` 1 (the meander state carries the misses' correlation; a run of
+    strong detections from one filament patch is still tempered); the up-flow check's
+    ``upflow_check_m`` 10 m and ``upflow_band_m`` 5 m, its trace veto at 0.25 of the
+    threshold, its veto from 5 m up-flow (``upflow_veto_near_m``) and the visit
+    (``upflow_seen_near``), each made from the study's declarations beyond 15 m; a fan
+    (``upflow_fan_deg``) or a wider kernel removes more of them but costs more T_D share than
+    issue 13's 25% allows, so it stays 0, a setting for a user who would rather pay that.
     """
 
     detection_prob: float = Field(
