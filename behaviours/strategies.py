@@ -18,6 +18,7 @@ mismatched mission never reaches set-up. They share state through blackboard key
 
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -275,13 +276,26 @@ class CastParams(BehaviourParams):
     cast_deg: float = Field(default=90.0, ge=0, le=180, description="|gamma|: cast angle, deg")
 
 
+def _cast_needs_time(params: BehaviourParams, perception: Any) -> str | None:
+    """Why the cast can never drive: it runs from λ (contact lost) to T_W, so T_W must exceed λ
+    (a TRO mission's λ of 8.5 s with AB's T_W of 4 s flew with no reacquire at all)."""
+    give_up = getattr(params, "give_up_s", math.inf)
+    if perception.lambda_s >= give_up:
+        return (f"the cast runs from perception.lambda_s (contact lost) to give_up_s, but "
+                f"lambda_s = {perception.lambda_s:g} s is not below give_up_s = {give_up:g} s, "
+                "so it would never run; set lambda_s below give_up_s (AB Table 3: λ = 1 s, "
+                "T_W = 4 s)")
+    return None
+
+
 class _CrosswindCast(PlanBehaviour):
     """Reacquire half of an AB strategy: ``psi_u - cast_deg*cast_sign`` from λ to T_W (SPEC §6c).
 
     Output only when not in the plume, after a detection, while ``t - t_last <= give_up_s``
     (T_W), and with a flow estimate; afterwards none, so find-plume takes over. The cast sign is
     the blackboard's ``cast_sign`` (from the paired maintain half), else ``beta_sign``, else +1.
-    It writes ``casting`` every tick it runs.
+    It writes ``casting`` every tick it runs. ``validate`` refuses ``give_up_s <=
+    perception.lambda_s``: the cast would never run.
     """
 
     family: ClassVar[str] = "reacquire_plume"
@@ -315,21 +329,24 @@ class StrategyICast(_CrosswindCast):
     """AB Strategy I, reacquire: cast the way the maintain half's ``cast_rule`` chose."""
 
     variant: ClassVar[str] = "strategy_1"
-    contract: ClassVar[Contract] = Contract(pairs_with=(("maintain_plume", "strategy_1"),))
+    contract: ClassVar[Contract] = Contract(pairs_with=(("maintain_plume", "strategy_1"),),
+                                            check=_cast_needs_time)
 
 
 class StrategyIICast(_CrosswindCast):
     """AB Strategy II, reacquire: counterturn, cast against ``sign(beta)`` (pairs with II)."""
 
     variant: ClassVar[str] = "strategy_2"
-    contract: ClassVar[Contract] = Contract(pairs_with=(("maintain_plume", "strategy_2"),))
+    contract: ClassVar[Contract] = Contract(pairs_with=(("maintain_plume", "strategy_2"),),
+                                            check=_cast_needs_time)
 
 
 class StrategyIIICast(_CrosswindCast):
     """AB Strategy III, reacquire: counterturn, cast against ``sign(beta)`` (pairs with III)."""
 
     variant: ClassVar[str] = "strategy_3"
-    contract: ClassVar[Contract] = Contract(pairs_with=(("maintain_plume", "strategy_3"),))
+    contract: ClassVar[Contract] = Contract(pairs_with=(("maintain_plume", "strategy_3"),),
+                                            check=_cast_needs_time)
 
 
 # -- array forms (the fleet planner, cptbt.fleet) ---------------------------------------------

@@ -192,12 +192,18 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
                             "  - find_plume: {variant: billiard}\n  - safety: {}"), 20,
      "behaviours[5].safety", "listed twice (first at behaviours[0])"),
     ("AB halves mismatched", lambda s: AB_PAIRS(s).replace(
-        "reacquire_plume: {variant: cloverleaf}", "reacquire_plume: {variant: strategy_1}"), 17,
+        "reacquire_plume: {variant: cloverleaf}",
+        "reacquire_plume: {variant: strategy_1, give_up_s: 10}"), 17,
      "behaviours[2].maintain_plume.variant", "must be paired with reacquire_plume strategy_3"),
     ("AB half with cloverleaf", AB_PAIRS, 17, "behaviours[2].maintain_plume.variant",
      "not cloverleaf"),
     ("flow needed", sub("flow_window_s: 100", "flow_window_s: 100\n  flow_source: none"), 14,
      "perception.flow_source", "declare_source upflow_cluster, maintain_plume track_in_out"),
+    # the cast runs from lambda_s to give_up_s: a TRO lambda of 8.5 s with AB's T_W of 4 s
+    # flew with no reacquire at all (a review's strategy swap on a TRO mission timed out)
+    ("AB cast never casts", lambda s: AB_PAIRS(s).replace(
+        "reacquire_plume: {variant: cloverleaf}", "reacquire_plume: {variant: strategy_3}"), 18,
+     "behaviours[3].reacquire_plume", "lambda_s = 8.5 s is not below give_up_s = 4 s"),
     ("counter-turn never turns", sub("{variant: track_in_out, beta_deg: 10}",
                                      "{variant: counter_turn, hold_s: 10}"), 17,
      "behaviours[2].maintain_plume", "set perception.lambda_s above hold_s"),
