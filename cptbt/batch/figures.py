@@ -161,7 +161,7 @@ def trajectory_figure(
         bar.set_label(label, fontsize=8)
     ax.add_patch(plt.Rectangle((area.xmin, area.ymin), area.xmax - area.xmin,
                                area.ymax - area.ymin, fill=False, lw=1.5, ec="black"))
-    _graticule(ax, mission, area)
+    graticule = _graticule(ax, mission, area)
     _track(ax, run, waypoints)
     det = run.detections
     if len(det):
@@ -218,6 +218,7 @@ def trajectory_figure(
     ax.set_title("\n".join(textwrap.fill(line, chars) for line in title.split("\n")),
                  fontsize=10)
     fig.legend(loc="outside right upper", fontsize=8, frameon=False)
+    _place_labels(fig, ax, graticule)
     fig.savefig(path, dpi=150)
     plt.close(fig)
 
@@ -380,11 +381,13 @@ def _north_arrow(ax: Any, mission: MissionBase, area: OpArea) -> None:
             ha="center", va="center", fontsize=10, fontweight="bold")
 
 
-def _graticule(ax: Any, mission: MissionBase, area: OpArea) -> None:
-    """Lines of constant latitude and longitude, for missions with a geodetic anchor."""
+def _graticule(ax: Any, mission: MissionBase, area: OpArea) -> list[tuple[Any, Spots]]:
+    """Lines of constant latitude and longitude, for missions with a geodetic anchor; their
+    labels, each with the places it may stand (for :func:`_place_labels`)."""
+    labels: list[tuple[Any, Spots]] = []
     local = mission.local_frame()
     if local is None:
-        return
+        return labels
     corners = [mission.to_geodetic(Point(x, y)) for x in (area.xmin, area.xmax)
                for y in (area.ymin, area.ymax)]
     lats = [g.lat_deg for g in corners if g is not None]
@@ -409,12 +412,45 @@ def _graticule(ax: Any, mission: MissionBase, area: OpArea) -> None:
                 continue
             ax.plot(xs[inside], ys[inside], color="#4a90d9", lw=0.6, alpha=0.7, zorder=0)
             # Latitudes labelled where they enter the OpArea, longitudes where they leave it,
-            # so the two sets of labels do not pile up on one edge.
-            k = int(np.flatnonzero(inside)[0 if is_lat else -1])
-            ax.text(xs[k], ys[k], _dm(v if is_lat else _wrap180(v), "NS" if is_lat else "EW"),
-                    fontsize=6,
-                    color="#2a6099", ha="center", va="center", zorder=1,
-                    bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 0.5})
+            # so the two sets of labels do not pile up on one edge; where they still meet (a
+            # rotated area: both leave through one edge), _place_labels moves one along its line.
+            idx = np.flatnonzero(inside)
+            order = [idx[0], idx[-1]] if is_lat else [idx[-1], idx[0]]
+            order += [idx[int(f * (len(idx) - 1))] for f in (0.5, 0.25, 0.75)]
+            spots = [(float(xs[k]), float(ys[k])) for k in order]
+            text = ax.text(*spots[0], _dm(v if is_lat else _wrap180(v),
+                                          "NS" if is_lat else "EW"),
+                           fontsize=6, color="#2a6099", ha="center", va="center", zorder=1,
+                           bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 0.5})
+            labels.append((text, spots))
+    return labels
+
+
+Spots = list[tuple[float, float]]
+"""The places along its line a graticule label may stand, best first."""
+
+
+def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]]) -> None:
+    """Move each graticule label to the first place along its line where it overlaps no label
+    placed before it, nor another text of the axes (the north arrow's N, the current's label);
+    one with no such place is not drawn. Done once the layout is settled (before saving): a
+    label's size is in points, the spacing of the lines in metres."""
+    if not labels:
+        return
+    fig.canvas.draw()  # settle the constrained layout and the aspect before measuring
+    renderer = fig.canvas.get_renderer()
+    mine = {id(text) for text, _ in labels}
+    taken = [t.get_window_extent(renderer).expanded(1.1, 1.2) for t in ax.texts
+             if id(t) not in mine and t.get_visible() and t.get_text()]
+    for text, spots in labels:
+        for spot in spots:
+            text.set_position(spot)
+            box = text.get_window_extent(renderer).expanded(1.1, 1.2)
+            if not any(box.overlaps(other) for other in taken):
+                taken.append(box)
+                break
+        else:
+            text.set_visible(False)
 
 
 def _wrap180(deg: float) -> float:
@@ -432,8 +468,12 @@ def _nice_step(raw: float) -> float:
 
 
 def _dm(value: float, hemispheres: str) -> str:
-    """Degrees and decimal minutes, as TRO writes positions: 32°58.85'N."""
-    hemi = hemispheres[0] if value >= 0 else hemispheres[1]
-    v = abs(value)
-    d = int(v)
-    return f"{d}°{(v - d) * 60:.3f}'{hemi}"
+    """Degrees and decimal minutes, as TRO writes positions: 32°58.850'N.
+
+    Rounded to the thousandth of a minute before it is split, so a line a hair below a whole
+    degree reads 33°00.000'N, not 32°60.000'N (the 180° meridian read 179°60.000'E); a value
+    that rounds to zero takes the first hemisphere, not a "0°00.000'S"."""
+    minutes = round(abs(value) * 60.0, 3)
+    hemi = hemispheres[0] if value >= 0 or minutes == 0 else hemispheres[1]
+    d, m = divmod(minutes, 60.0)
+    return f"{int(d)}°{m:06.3f}'{hemi}"

@@ -87,6 +87,21 @@ def test_longitude_lines_across_the_antimeridian(centre_lon: float) -> None:
     assert len(ax.lines) >= 4 and len(lon_labels) >= 2, labels
     if centre_lon == 179.9995:  # the 120 m E-W box reaches 0.0011 deg past 180: both named
         assert {s[-1] for s in lon_labels} == {"E", "W"}, labels
+    assert not any("60.000'" in s for s in labels), labels  # 180°00.000'E, not 179°60.000'E
+
+
+@pytest.mark.parametrize(("value", "hemispheres", "text"), [
+    (32.98083333, "NS", "32°58.850'N"),
+    (32.9999999, "NS", "33°00.000'N"),     # rounded before it is split: not 32°60.000'N
+    (179.99999999, "EW", "180°00.000'E"),
+    (-118.0875, "EW", "118°05.250'W"),     # minutes keep two digits
+    (-0.0000001, "NS", "0°00.000'N"),      # nothing south of the equator to name
+    (-33.9, "NS", "33°54.000'S"),
+])
+def test_degrees_and_minutes(value: float, hemispheres: str, text: str) -> None:
+    from cptbt.batch.figures import _dm
+
+    assert _dm(value, hemispheres) == text
 
 
 def test_the_mean_current_is_drawn_when_given(tmp_path: Path,
@@ -206,3 +221,32 @@ def test_a_marker_at_the_plots_edge_is_drawn_whole(tmp_path: Path,
     x1, y1 = max(ax.get_xlim()), max(ax.get_ylim())  # y drawn down: max is the bottom
     pad = 0.04 * 50.0
     assert x1 >= corner.x + pad - 1e-9 and y1 >= corner.y + pad - 1e-9, (x1, y1)
+
+
+def test_graticule_labels_do_not_overlap(tmp_path: Path,
+                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a rotated geodetic box the latitude and longitude lines both leave through the top
+    edge: their labels had been drawn over each other (33°54.03… on 151°14.940'E). Each label
+    now stands where it meets no other, along its line."""
+    mission = load(str(ROOT / "tests/e2e/data/geodetic_rotated.yaml"), simulate=True)
+    mission = mission.model_copy(update={"time_limit_s": 5.0})
+    params = to_sim_params(mission)
+    (run,), _, _ = simulate(mission, params, [launch_pose(mission)], trace=True)
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    trajectory_figure(tmp_path / "t.png", run, mission, Point(*params.source_xy_m), "t",
+                      threshold=mission.perception.threshold)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = seen[0]
+    ax = fig.axes[0]
+    canvas = FigureCanvasAgg(fig)  # closed after saving: a canvas of its own to measure on
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    shown = [t for t in ax.texts if t.get_visible() and t.get_text()]
+    grid = [t for t in shown if t.get_text()[-1] in "NSEW" and "°" in t.get_text()]
+    assert len(grid) >= 8, [t.get_text() for t in grid]  # most of the lines keep a label
+    boxes = [t.get_window_extent(renderer) for t in shown]
+    for i, a in enumerate(boxes):
+        for j in range(i + 1, len(boxes)):
+            assert not a.overlaps(boxes[j]), (shown[i].get_text(), shown[j].get_text())
