@@ -313,7 +313,7 @@ class World:
             return crossing
         if (mean, diagonal) not in _CAP_WARNED:  # once per setting and process, not per group
             _CAP_WARNED.add((mean, diagonal))
-            took = f"would take {crossing:.3g} s to cross" if mean >= 1e-3 else "never crosses"
+            took = f"would take {crossing:,.0f} s to cross" if mean >= 1e-3 else "never crosses"
             log.warning("plume spin-up capped at %g s: a mean flow of %.3g m/s %s the "
                         "%.0f m domain (set environment.warm_up_s to choose)",
                         DEFAULT_WARM_UP_CAP_S, mean, took, diagonal)

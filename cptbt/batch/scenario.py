@@ -316,12 +316,18 @@ def _two_figures_up(v: float) -> str:
     return _two_figures(math.ceil(v / step - 1e-9) * step)
 
 
+WEAK_CURRENT_MPS = 0.02
+"""A mean current below this, with behaviours that steer by the flow, is warned of."""
+
+
 def pace_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """A planning cycle faster than the simulator's step, which the simulated planner cannot
-    keep (it ticks at most once a step: a review's 10 Hz ran at 9 Hz), and a current that
+    keep (it ticks at most once a step: a review's 10 Hz ran at 9 Hz); a current that
     carries the vehicle at half its cruise speed or more: the behaviours steer through the
     water, not over ground, so legs across the flow drift down-flow (a review's 1 m/s current
-    against 1.5 m/s: find-plume swept the down-flow wall, a declaration fell 181 m off)."""
+    against 1.5 m/s: find-plume swept the down-flow wall, a declaration fell 181 m off); and a
+    current too weak to lay a plume down-flow while behaviours steer by it (a review's 0 m/s
+    validated silently and declared 19.7 m off)."""
     out: list[Problem] = []
     step_hz = 1.0 / params.dt_s
     if mission.cycle_hz > step_hz * (1 + 1e-9):
@@ -330,6 +336,13 @@ def pace_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem
                     f"simulated, the planner ticks once a step, {_two_figures(step_hz)} Hz; "
                     "raise environment.fluorometer.rate_hz (or lower dt_s) to fly it"))
     current = params.flow.mean_speed_mps
+    steer = [f"{e.family} {e.variant}" for e in mission.entries() if e.contract.needs_flow]
+    if current < WEAK_CURRENT_MPS and steer:
+        out.append((("environment", "flow_speed_mps"), f"a mean current of {_plain(current)} "
+                    f"m/s hardly carries the plume from its source: it pools about it, and "
+                    f"{', '.join(steer)} steer by a flow estimate that is then its meander "
+                    "alone (TRO MSN007 at 0 m/s, seeds 1-5: 2 false declarations 30-54 m off "
+                    "and 3 none; at 0.05 m/s all 5 within 15 m)"))
     if params.vehicle.advected and current >= 0.5 * mission.speed_mps:
         out.append((("environment", "flow_speed_mps"), f"the mean current ({_plain(current)} "
                     f"m/s) is half the cruise speed ({_plain(mission.speed_mps)} m/s) or more: "

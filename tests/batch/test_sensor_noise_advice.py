@@ -178,3 +178,15 @@ def test_a_current_at_half_the_cruise_speed_is_warned_of() -> None:
     assert fast != text
     (why,) = _advice(fast, "flow_speed_mps")
     assert "half the cruise speed" in why, why
+
+
+@pytest.mark.parametrize(("speed", "warned"), [("0", True), ("0.01", True), ("0.02", False)])
+def test_a_current_too_weak_to_lay_a_plume_is_warned_of(speed: str, warned: bool) -> None:
+    """A review's 0 m/s current validated silently; flown, the plume pooled about the source
+    and the declaration fell 19.7 m off."""
+    text = _mission(None).replace("flow_speed_mps: 0.1", f"flow_speed_mps: {speed}")
+    assert f"flow_speed_mps: {speed}" in text
+    why = _advice(text, "flow_speed_mps")
+    assert bool(why) == warned, why
+    if warned:
+        assert "hardly carries the plume" in why[0] and "track_in_out" in why[0], why
