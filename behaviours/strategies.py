@@ -39,6 +39,10 @@ from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept
 
+AB_CYCLE_HZ = 10.0
+"""The planning rate AB's strategies need (SPEC §2: they switch at 0.2 s and 0.5 s, λ is 1 s);
+a mission ticking slower is warned of."""
+
 
 class _StrategyMaintain(PlanBehaviour):
     """Maintain half of an AB strategy: output while in the plume (a detection within λ)."""
@@ -108,7 +112,8 @@ class StrategyIMaintain(_StrategyMaintain):
     """
 
     variant: ClassVar[str] = "strategy_1"
-    contract: ClassVar[Contract] = Contract(pairs_with=(("reacquire_plume", "strategy_1"),))
+    contract: ClassVar[Contract] = Contract(pairs_with=(("reacquire_plume", "strategy_1"),),
+                                            min_cycle_hz=AB_CYCLE_HZ)
     Params: ClassVar[type[BehaviourParams]] = StrategyIParams
     params: StrategyIParams
 
@@ -175,7 +180,8 @@ class StrategyIIMaintain(_CounterturningMaintain):
     """
 
     variant: ClassVar[str] = "strategy_2"
-    contract: ClassVar[Contract] = Contract(pairs_with=(("reacquire_plume", "strategy_2"),))
+    contract: ClassVar[Contract] = Contract(pairs_with=(("reacquire_plume", "strategy_2"),),
+                                            min_cycle_hz=AB_CYCLE_HZ)
     Params: ClassVar[type[BehaviourParams]] = StrategyIIParams
     params: StrategyIIParams
 
@@ -246,7 +252,8 @@ class StrategyIIIMaintain(_CounterturningMaintain):
     """
 
     variant: ClassVar[str] = "strategy_3"
-    contract: ClassVar[Contract] = Contract(pairs_with=(("reacquire_plume", "strategy_3"),))
+    contract: ClassVar[Contract] = Contract(pairs_with=(("reacquire_plume", "strategy_3"),),
+                                            min_cycle_hz=AB_CYCLE_HZ)
     Params: ClassVar[type[BehaviourParams]] = StrategyIIIParams
     params: StrategyIIIParams
 

@@ -40,6 +40,11 @@ def advisories(mission: MissionBase) -> list[Problem]:
     for i, e in enumerate(mission.entries()):
         for key, why in e.contract.advise(e.params, area) if e.contract.advise else []:
             out.append((("behaviours", i, e.family, key), why))
+        need = e.contract.min_cycle_hz
+        if need is not None and mission.cycle_hz < need:  # a review's AB strategy at 1 Hz
+            out.append((("cycle_hz",), f"{mission.cycle_hz:g} Hz is slower than the "
+                        f"{need:g} Hz {e.family} {e.variant} needs: its timings are fractions "
+                        "of a second (SPEC §2), which a slower cycle only meets late"))
     cycle, lam = 1.0 / mission.cycle_hz, mission.perception.lambda_s
     if cycle > lam:  # a review's AB strategy at 0.2 Hz never reacquired
         out.append((("cycle_hz",), f"{mission.cycle_hz:g} Hz is a cycle of {cycle:g} s, "

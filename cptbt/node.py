@@ -35,12 +35,15 @@ class Contract:
         check: ``check(params, perception_settings)`` returns why the pair cannot work, or None.
         advise: ``advise(params, op_area)`` returns ``(parameter, why)`` for each setting that,
             valid, is likely not what the mission means (a warning at that parameter's line).
+        min_cycle_hz: the planning rate its timings need (AB's strategies switch within
+            fractions of a second: SPEC §2); a slower ``cycle_hz`` is warned of.
     """
 
     needs_flow: bool = True
     pairs_with: tuple[tuple[str, str], ...] = ()
     check: Callable[[BehaviourParams, Any], str | None] | None = None
     advise: Callable[[BehaviourParams, OpArea], list[tuple[str, str]]] | None = None
+    min_cycle_hz: float | None = None
 
 
 class BehaviourParams(BaseModel):

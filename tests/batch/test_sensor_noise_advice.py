@@ -190,3 +190,16 @@ def test_a_current_too_weak_to_lay_a_plume_is_warned_of(speed: str, warned: bool
     assert bool(why) == warned, why
     if warned:
         assert "hardly carries the plume" in why[0] and "track_in_out" in why[0], why
+
+
+@pytest.mark.parametrize("variant", ["strategy_1", "strategy_2", "strategy_3"])
+def test_an_ab_strategy_below_its_rate_is_warned_of(variant: str) -> None:
+    """A review flew AB's strategies at 1 Hz without a word; SPEC §2: they need 10 Hz."""
+    text = (ROOT / "missions/ab2001_strategy3.yaml").read_text(encoding="utf-8")
+    text = text.replace(", timer: last_detection", "").replace("variant: strategy_3",
+                                                                 f"variant: {variant}")
+    assert _advice(text, "cycle_hz") == []
+    slow = text.replace("cycle_hz: 10 ", "cycle_hz: 2 ")
+    assert slow != text
+    (why,) = _advice(slow, "cycle_hz")
+    assert f"2 Hz is slower than the 10 Hz maintain_plume {variant} needs" in why, why
