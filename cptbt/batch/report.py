@@ -16,6 +16,7 @@ import numpy as np
 from cptbt.batch.figures import pyplot
 from cptbt.batch.maintain_report import is_maintain_study, maintain_figure, maintain_table
 from cptbt.batch.outcome import ERROR_OUTCOME
+from cptbt.frames import PlanningFrame
 
 Rows = list[dict[str, Any]]
 
@@ -84,11 +85,17 @@ class StudyGeometry:
     source: tuple[float, float]
     flow_deg: float | None = None
     extra_sources: tuple[tuple[float, float], ...] = ()
+    ne_frame: PlanningFrame | None = None
+    """How planning points turn into the mission's North-East metres (None: a planning-frame
+    mission, which has no compass): the tables give places in the frame the mission is
+    written in."""
 
     def to_data(self) -> dict[str, Any]:
         """For ``study.json``."""
+        f = self.ne_frame
         return {"area": list(self.area), "source": list(self.source), "flow_deg": self.flow_deg,
-                "extra_sources": [list(q) for q in self.extra_sources]}
+                "extra_sources": [list(q) for q in self.extra_sources],
+                "ne_frame": None if f is None else [f.x_bearing_deg, f.origin_n, f.origin_e]}
 
     @classmethod
     def from_data(cls, data: dict[str, Any] | None) -> StudyGeometry | None:
@@ -96,7 +103,10 @@ class StudyGeometry:
         try:
             assert data is not None
             extra = tuple((float(q[0]), float(q[1])) for q in data.get("extra_sources") or ())
-            return cls(tuple(data["area"]), tuple(data["source"]), data.get("flow_deg"), extra)
+            f = data.get("ne_frame")  # absent from a study.json written before it
+            frame = None if f is None else PlanningFrame(*(float(v) for v in f))
+            return cls(tuple(data["area"]), tuple(data["source"]), data.get("flow_deg"), extra,
+                       frame)
         except (AssertionError, KeyError, TypeError, ValueError):
             return None
 
@@ -206,7 +216,8 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
         groups[_config_label(r)].append(r)
     from cptbt.batch.study_figures import _distributions, _line, _map, _rates
 
-    written: list[Path | None] = [_tables(groups, out / "tables.md")]
+    frame = geometry.ne_frame if geometry is not None else None
+    written: list[Path | None] = [_tables(groups, out / "tables.md", frame)]
     if not figures:
         return [p for p in written if p is not None]
     plt = pyplot()
@@ -280,19 +291,26 @@ def errors_note(rows: Rows) -> str | None:
             f"{first.get('replicate')} start {first.get('start')}: {first.get('error')}")
 
 
-def _declared_cell(row: dict[str, Any]) -> str:
+def _place(x: Any, y: Any, frame: PlanningFrame | None) -> str:
+    """A planning point as the tables give it: ``(x, y)``, or ``(N, E)`` in ``frame``."""
+    if frame is not None and x is not None and y is not None:
+        x, y = frame.xy_to_ne(float(x), float(y))
+    return f"({_fmt(x)}, {_fmt(y)})"
+
+
+def _declared_cell(row: dict[str, Any], frame: PlanningFrame | None = None) -> str:
     """The declared point of a run, or every one with its own error when it declared several
     (``declared_source_*`` is the last one alone, and the row's error is the worst one's)."""
     text = row.get("declared_points")
     points = json.loads(text) if isinstance(text, str) and text else []
     if len(points) > 1:
-        return "; ".join(f"({_fmt(x)}, {_fmt(y)}) {_fmt(e)} m" for x, y, e in points)
+        return "; ".join(f"{_place(x, y, frame)} {_fmt(e)} m" for x, y, e in points)
     if points:  # also a run that ended still searching for more (no declared_source)
-        return f"({_fmt(points[0][0])}, {_fmt(points[0][1])})"
-    return f"({_fmt(row.get('declared_source_x'))}, {_fmt(row.get('declared_source_y'))})"
+        return _place(points[0][0], points[0][1], frame)
+    return _place(row.get("declared_source_x"), row.get("declared_source_y"), frame)
 
 
-def _tables(groups: dict[str, Rows], path: Path) -> Path:
+def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = None) -> Path:
     every = [r for rows in groups.values() for r in rows]
     criterion = _criterion(every)
     mean_col, max_col = _DISTANCE_COLUMNS.get(criterion, _DISTANCE_COLUMNS["declaration"])
@@ -350,18 +368,21 @@ def _tables(groups: dict[str, Rows], path: Path) -> Path:
         if multi:
             lines += ["Each declared point is listed with its own error (to its nearest true "
                       "source); the error column is the worst of them.", ""]
-        lines += ["Places in the planning frame (x along the OpArea's long axis), whatever "
-                  "frame the mission and --starts use. D1 ends at t2, the first pass within "
-                  "13 m of the declared point (SPEC §11), so D1/D0 can be below 1.", ""]
-        lines += ["| run | start (x, y) | declared (x, y) | error (m) | T_F (s) | T_T (s) "
+        lines += [("Places in North-East metres from the OpArea's centre (the mission's "
+                   "compass)." if frame is not None else
+                   "Places in the planning frame (x along the OpArea's long axis).")
+                  + " D1 ends at t2, the first pass within 13 m of the declared point (SPEC "
+                  "§11), so D1/D0 can be below 1.", ""]
+        axes = "(N, E)" if frame is not None else "(x, y)"
+        lines += [f"| run | start {axes} | declared {axes} | error (m) | T_F (s) | T_T (s) "
                   "| T_D (s) | T_D share | D0 (m) | D1 (m) | D2 (m) | D3 (m) | D1/D0 |",
                   "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         shown = declared if len(declared) <= 20 else []
         for r in shown:
             share = _td_share(r)
             lines.append(
-                f"| r{r['replicate']}s{r['start']} | ({_fmt(r['start_x'])}, {_fmt(r['start_y'])}) "
-                f"| {_declared_cell(r)} | {_fmt(r.get('error_m'))} "
+                f"| r{r['replicate']}s{r['start']} | {_place(r['start_x'], r['start_y'], frame)} "
+                f"| {_declared_cell(r, frame)} | {_fmt(r.get('error_m'))} "
                 f"| {_fmt(r.get('T_F'))} | {_fmt(r.get('T_T'))} "
                 f"| {_fmt(r.get('T_D'))} | {_fmt(share * 100 if share is not None else None)}% "
                 f"| {_fmt(r.get('D0'))} | {_fmt(r.get('D1'))} | {_fmt(r.get('D2'))} "

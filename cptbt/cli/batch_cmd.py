@@ -174,7 +174,8 @@ def geometry_of(mission: MissionBase) -> StudyGeometry:
     area = mission.op_area_geometry()
     params = to_sim_params(mission)
     return StudyGeometry((area.xmin, area.xmax, area.ymin, area.ymax), params.source_xy_m,
-                         params.flow.mean_dir_deg, tuple(params.extra_sources_xy_m))
+                         params.flow.mean_dir_deg, tuple(params.extra_sources_xy_m),
+                         None if mission.frame == "planning" else area.frame)
 
 
 def _check_planner(mission: MissionBase) -> None:

@@ -138,6 +138,33 @@ def test_a_run_that_declared_several_points_lists_each_with_its_own_error(
     assert "the error column is the worst of them" in table
 
 
+def test_places_are_given_in_the_missions_compass_when_it_has_one(tmp_path: Path) -> None:
+    # A review typed N-E starts and read the planning-frame table as swapped: a mission in
+    # N-E metres or lat/lon now gets its places in North-East metres; a planning one as before.
+    from cptbt.frames import PlanningFrame
+
+    row = {**BASE, "configuration": "variant=map", "start": 0, "start_x": 10.0,
+           "start_y": 0.0, "success": True, "false_declaration": False, "t3": 300.0,
+           "error_m": 2.0, "declared_source_x": 0.0, "declared_source_y": 20.0,
+           "declared_points": json.dumps([[0.0, 20.0, 2.0]])}
+    east = PlanningFrame(x_bearing_deg=90.0)  # x toward east, y toward south
+    geometry = StudyGeometry((-50.0, 50.0, -30.0, 30.0), (0.0, 0.0), 0.0, (), east)
+    assert StudyGeometry.from_data(geometry.to_data()) == geometry  # study.json keeps it
+    write_report([row], tmp_path, geometry, figures=False)
+    table = (tmp_path / "tables.md").read_text()
+    assert "| start (N, E) | declared (N, E) |" in table, table
+    assert "| (0.0, 10.0) | (-20.0, 0.0) | 2.0 |" in table, table
+    assert "North-East metres" in table
+    planning = StudyGeometry((-50.0, 50.0, -30.0, 30.0), (0.0, 0.0), 0.0)
+    write_report([row], tmp_path, planning, figures=False)
+    table = (tmp_path / "tables.md").read_text()
+    assert "| (10.0, 0.0) | (0.0, 20.0) | 2.0 |" in table, table
+    assert "| start (x, y) | declared (x, y) |" in table and "planning frame" in table
+    old = planning.to_data()
+    del old["ne_frame"]  # a study.json written before it: the planning frame, as then
+    assert StudyGeometry.from_data(old) == planning
+
+
 def test_arrival_runs_get_no_error_histogram(tmp_path: Path) -> None:
     rows = [{**r, "criterion": "arrival", "t3": None} for r in line_rows()]
     names = {p.name for p in write_report(rows, tmp_path)}
