@@ -26,6 +26,11 @@ STUCK_FLOOR = 1e-12
 """Readings no farther from zero than this are never taken for a stuck sensor: a low-pass
 filter's output decays to the smallest float (5e-324) in clean water and stays there exactly."""
 
+MAX_CLOCK_JUMP_S = 3600.0
+"""A cycle stamped more than this after the previous one is taken as a corrupt or re-based
+stamp (corrected as a step back is), not as that much elapsed time: no mission runs this long
+without a cycle."""
+
 MAX_FIX_OUTSIDE_M = 1e6
 """A navigation fix more than this outside the OpArea (1000 km: beyond any AUV mission's reach
 of its area, and the planning frame's flat-earth geometry) is a broken message, not a position."""
@@ -89,7 +94,8 @@ class Perception:
       repeats, or steps back is taken as one nominal period after the previous cycle, and later
       time stamps are shifted by the same amount (a clock step is a correction, not elapsed
       time), so timers never run backwards and the planner is never silenced; a forward jump is
-      elapsed time and ages every timer.
+      elapsed time and ages every timer, up to :data:`MAX_CLOCK_JUMP_S`: a longer one is a
+      corrupt or re-based stamp, corrected as a step back is.
 
     Args:
         op_area: detections outside it are ignored (TRO V).
@@ -202,9 +208,17 @@ class Perception:
         return self._pose
 
     def _flow(self, t: float) -> FlowEstimate | None:
-        while self._flows and self._flows[0][0] <= t - self.flow_window_s:
+        lo, hi = t - self.flow_window_s, t + self.flow_window_s
+        while self._flows and self._flows[0][0] <= lo:
             self._flows.popleft()
-        # Samples time-stamped after this cycle (a clock that stepped back) still count.
+        # Samples time-stamped after this cycle (a clock that stepped back) still count, but
+        # not one a whole window ahead (a corrupt stamp): at the deque's front it had kept
+        # every later sample in the window for good (a review: one sample stamped 4e9 s made
+        # the 100-s mean an all-time mean, 2 991 samples, 26 degrees off after a turn).
+        if any(not lo < f[0] <= hi for f in self._flows):
+            kept = deque(f for f in self._flows if lo < f[0] <= hi)
+            self.rejected_flow_samples += sum(f[0] > hi for f in self._flows)
+            self._flows = kept
         if not self._flows:
             # Keep the last known estimate rather than forgetting the flow in a long dropout.
             return self.latest.flow if self.latest is not None else None
@@ -216,7 +230,11 @@ class Perception:
     def _cycle_time(self, t: float) -> float:
         """This cycle's time on the monotonic planner clock (see the class docstring)."""
         now = t + self._offset if math.isfinite(t) else -math.inf
-        if now <= self._t_prev:  # not finite, repeated or stepped back
+        # A leap beyond MAX_CLOCK_JUMP_S is not elapsed time but a corrupt or re-based stamp:
+        # one of 1e300 had frozen the clock (1e300 + 1 == 1e300) and held a detection "now"
+        # for good (a review). It is corrected as a step back is; later stamps shift by it.
+        leap = math.isfinite(self._t_prev) and now - self._t_prev > MAX_CLOCK_JUMP_S
+        if now <= self._t_prev or leap:  # not finite, repeated, stepped back or leapt ahead
             target = self._t_prev + self._period if math.isfinite(self._t_prev) else 0.0
             if math.isfinite(t):
                 self._offset += target - now

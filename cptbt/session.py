@@ -60,6 +60,8 @@ class AmpSession:
         t_amp_start: vehicle time of the take-over (None before it).
         command: the planner's command this update (None if none or no tick).
         ticked: whether the planner ticked this update.
+        amp_elapsed_s: the AMP's time in control, what its time limit counts: the vehicle
+            clock's forward steps since the take-over (a step back adds nothing).
         refusals: how many commands the vehicle refused.
     """
 
@@ -82,6 +84,8 @@ class AmpSession:
         self._next_tick = math.inf
         self._take_t = math.nan  # when the take was last sent
         self._control_t: float | None = None  # the vehicle's latest report in override
+        self.amp_elapsed_s = 0.0  # AMP time so far: the clock's forward steps only
+        self._elapsed_t = math.nan  # the vehicle time amp_elapsed_s was last brought up to
 
     @property
     def t(self) -> float:
@@ -105,7 +109,8 @@ class AmpSession:
         if self.phases.state == "mission_a.waypoints" and self._enable_due():
             self.link.send(OverrideRequest())
             self.phases.fire("amp_enable", t)
-            self.t_amp_start = self._take_t = t
+            self.t_amp_start = self._take_t = self._elapsed_t = t
+            self.amp_elapsed_s = 0.0
             self._control_t = None
             self._next_tick = t
         if self.in_override and not self._in_control(t):
@@ -233,9 +238,14 @@ class AmpSession:
             return True
         assert self.state is not None and self.t_amp_start is not None
         t = self.state.t_s
+        # The time limit counts the clock's forward steps only: measured as t - t_amp_start,
+        # a vehicle clock stepped back 900 s gave the AMP 2 700 s against a limit of 1 800 s
+        # (a review); a forward jump still counts in full (the safe side).
+        self.amp_elapsed_s += max(t - self._elapsed_t, 0.0)
+        self._elapsed_t = t
         due = give_back_trigger(
             self.planner.done,
-            t - self.t_amp_start,
+            self.amp_elapsed_s,
             self.mission.time_limit_s,
             self.planner.op_area.distance_outside(self.state.x_m, self.state.y_m),
         )

@@ -1,11 +1,13 @@
 """Perception of SPEC §2, cycle by cycle."""
 
+import itertools
 import math
 
 import pytest
 
 from cptbt.frames import OpArea
 from cptbt.perception import Perception, PerceptionSettings
+from cptbt.testing import square_area
 from cptbt.types import Pose
 
 AREA = OpArea(0, 100, -50, 50)
@@ -231,3 +233,43 @@ def test_the_scripted_perception_reads_a_script_as_written_unless_asked() -> Non
     faulty = ScriptedPerception(AREA, stuck_after_s=3.0)
     got = [faulty.step(t, 50.0, 0.0, conc=1.0).detected for t in range(10)]
     assert got[:3] == [True] * 3 and not any(got[4:])
+
+
+def test_a_flow_sample_stamped_far_ahead_does_not_hold_the_window_open() -> None:
+    # A review: one ADCP sample stamped 4e9 s sat at the window's front for good, so the
+    # 100-s mean became an all-time mean (2 991 samples) and read -63.6 deg after a turn to -90.
+    p = Perception(square_area(100), PerceptionSettings(flow_window_s=100))
+    p.set_pose(Pose(50, 0, 0))
+    for k in range(1500):
+        if k == 10:
+            p.add_flow(4e9, 0.1, 0.0)
+        p.add_flow(float(k), 0.1, 0.0) if k < 1000 else p.add_flow(float(k), 0.0, -0.1)
+        pc = p.cycle(float(k))
+    assert pc.flow is not None and pc.flow.toward_deg == pytest.approx(-90.0)
+    assert len(p._flows) <= 101 and p.faults()["rejected_flow_samples"] == 1
+
+
+@pytest.mark.parametrize("stamp", [1e300, 1e17, 5e4])
+def test_one_absurd_time_stamp_neither_freezes_nor_leaps_the_clock(stamp: float) -> None:
+    # A review: after a stamp of 1e300 the planner clock stood still (1e300 + 1 == 1e300) and
+    # one detection held in_plume for good; 1e17 made every cycle 16 s long.
+    p = Perception(square_area(100), PerceptionSettings(lambda_s=8.5))
+    p.set_pose(Pose(50, 0, 0))
+    times = []
+    for k in range(100):
+        t = stamp if k == 50 else float(k)
+        if k == 60:
+            p.add_sample(t, 1.0)  # one detection
+        times.append(p.cycle(t).t)
+    steps = [b - a for a, b in itertools.pairwise(times)]
+    assert all(0.5 <= d <= 1.5 for d in steps), steps  # one nominal period each, no leap
+    assert not p.latest.in_plume  # 39 s after the detection: contact lost after lambda_s
+    assert p.clock_corrections >= 1
+
+
+def test_a_forward_jump_within_an_hour_is_elapsed_time() -> None:
+    p = Perception(square_area(100))
+    p.set_pose(Pose(50, 0, 0))
+    p.cycle(0.0)
+    p.cycle(1.0)
+    assert p.cycle(601.0).t == 601.0 and p.clock_corrections == 0  # a 10-min link outage

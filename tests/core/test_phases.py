@@ -248,6 +248,21 @@ def test_a_clock_step_back_does_not_silence_the_amp() -> None:
     assert len(planner.ticks) == ticks + 3 and s.in_override
 
 
+def test_a_clock_step_back_does_not_extend_the_amp_time_limit() -> None:
+    # A review: a 900-s step back let the AMP drive 2 700 s against a 1 800-s limit, the
+    # limit measured as vehicle time minus the take-over's. Its forward steps count instead.
+    s, link, _ = session()  # time_limit_s 300, take-over at 100 s
+    into_override(s, link)
+    for t in range(101, 201):
+        step(s, link, state(float(t), "override"))
+    assert s.in_override and s.amp_elapsed_s == pytest.approx(100.0)
+    for t in range(50, 249):  # stepped back 150 s at 200 s: 199 more seconds of control
+        step(s, link, state(float(t), "override"))
+    assert s.in_override and s.amp_elapsed_s == pytest.approx(298.0)
+    assert step(s, link, state(250.0, "override")) == "amp.give_back"  # 300 s in all
+    assert s.phases.timeline[-1].trigger == "amp_time_limit"
+
+
 def test_a_forward_clock_jump_ticks_once_not_a_burst() -> None:
     s, link, planner = session()
     into_override(s, link)
