@@ -3,10 +3,13 @@
 Test your own variant tick by tick in three lines::
 
     script = ScriptedPerception(op_area=square_area(100), flow=(1.0, 0.0))
-    ticks = run_script(MyFindPlume(), [script.step(t, x=10, y=5) for t in range(5)])
+    node = MyFindPlume(namespace=fresh_namespace())
+    ticks = run_script(node, [script.step(t, x=10, y=5) for t in range(5)])
     assert [tk.command.heading_deg for tk in ticks] == [...]
 
-and check it against the rules every behaviour must keep with :func:`check_behaviour`.
+(``fresh_namespace()`` gives the node a blackboard of its own: with the default ``/`` every
+node shares py_trees' global one, and a key one test leaves reaches the next), and check it
+against the rules every behaviour must keep with :func:`check_behaviour`.
 """
 
 from __future__ import annotations

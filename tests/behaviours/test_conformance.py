@@ -53,3 +53,15 @@ def test_a_behaviour_class_can_be_checked_as_it_is() -> None:
     from cptbt.behaviours.maintain_plume import TrackOut
 
     check_behaviour(TrackOut)
+
+
+def test_the_readmes_tick_by_tick_example_runs_as_written() -> None:
+    """The README's example is what a behaviour author copies first: it must run, and with a
+    blackboard of its own (a review's copies shared the global one between tests)."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "README.md").read_text(encoding="utf-8")
+    block = text.split("**Test a behaviour node alone**", 1)[1].split("```python\n", 1)[1]
+    code = block.split("```", 1)[0]
+    assert "fresh_namespace()" in code
+    exec(compile(code, "README.md", "exec"), {})
