@@ -174,9 +174,13 @@ class AmpSession:
         if (math.isfinite(s.x_m) and math.isfinite(s.y_m)
                 and self.planner.op_area.distance_outside(s.x_m, s.y_m) > MAX_FIX_OUTSIDE_M):
             self.rejected_fixes += 1
-            log.warning("vehicle position (%.3g, %.3g) m is more than %g m outside the OpArea: "
-                        "ignored (%d so far)", s.x_m, s.y_m, MAX_FIX_OUTSIDE_M,
-                        self.rejected_fixes)
+            # the 1st, 10th, 100th...: a broken navigation feed at 9 Hz had printed a warning a
+            # message (38 899 lines in one run, a review); the count is in the summary anyway
+            n = self.rejected_fixes
+            loud = n == 10 ** int(math.log10(n) + 1e-9)
+            log.log(logging.WARNING if loud else logging.DEBUG,
+                    "vehicle position (%.3g, %.3g) m is more than %g m outside the OpArea: "
+                    "ignored (%d so far)", s.x_m, s.y_m, MAX_FIX_OUTSIDE_M, n)
             if prev is None:
                 return None
             fixes = {"x_m": prev.x_m, "y_m": prev.y_m}
