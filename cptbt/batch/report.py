@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 from collections import defaultdict
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -196,10 +197,50 @@ def protocol_table(groups: dict[str, Rows]) -> list[str]:
     return lines
 
 
+def paired(groups: dict[str, Rows]) -> tuple[dict[str, Rows], str | None]:
+    """The configurations cut to the runs (replicate and start: the same plume and start) that
+    every one of them has, and a note saying so; unchanged, with no note, when they all flew
+    the same runs (a finished study always has). An interrupted or running study's folder had
+    been plotted as 144 runs of one variant against 36 of another, not the same plumes."""
+    keys = {label: {(r.get("replicate"), r.get("start")) for r in rows}
+            for label, rows in groups.items()}
+    common = set.intersection(*keys.values()) if keys else set()
+    if len(groups) < 2 or all(k == common for k in keys.values()):
+        return groups, None
+    flown = ", ".join(f"{label} {len(k)}" for label, k in keys.items())
+    if not common:
+        return groups, (f"The configurations flew different runs ({flown}) and share none: "
+                        "they are not compared on the same plumes.")
+    cut = {label: [r for r in rows if (r.get("replicate"), r.get("start")) in common]
+           for label, rows in groups.items()}
+    return cut, (f"The configurations flew different runs ({flown}): every table and figure "
+                 f"compares the {len(common)} runs each of them has (the same plumes and "
+                 "starts); the rest are left out.")
+
+
+def compared(rows: Rows, planned_runs: int | None = None) -> tuple[dict[str, Rows], list[str]]:
+    """The rows by configuration, cut to the runs all of them share (:func:`paired`), and what
+    the tables must say first: fewer rows than ``planned_runs``, runs left out."""
+    groups: dict[str, Rows] = defaultdict(list)
+    for r in rows:
+        groups[_config_label(r)].append(r)
+    cut, note = paired(dict(groups))
+    notes = [note] if note else []
+    if planned_runs is not None and len(rows) < planned_runs:
+        notes.insert(0, f"Incomplete study: {len(rows)} of {planned_runs} planned runs (an "
+                     "interrupted or running batch; `cptbt batch` with the same arguments "
+                     "resumes it).")
+    return cut, notes
+
+
 def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
-                 figures: bool = True) -> list[Path]:
+                 figures: bool = True, planned_runs: int | None = None) -> list[Path]:
     """Write every figure and table that means something for the study; the paths written
     (without ``figures``, the tables alone: matplotlib is not needed).
+
+    Configurations that flew different runs (an interrupted study) are compared on the runs
+    they share (:func:`paired`); with ``planned_runs`` (the study's plan), fewer rows than
+    that are said at the top of ``tables.md``.
 
     Skipped where they would mislead: maps need starts spread in x and y, the start-x line
     needs starts along one line, the rate chart needs two configurations or more, and the
@@ -211,13 +252,12 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
         return []
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    groups: dict[str, Rows] = defaultdict(list)
-    for r in rows:
-        groups[_config_label(r)].append(r)
     from cptbt.batch.study_figures import _distributions, _line, _map, _rates
 
     frame = geometry.ne_frame if geometry is not None else None
-    written: list[Path | None] = [_tables(groups, out / "tables.md", frame)]
+    grouped, notes = compared(rows, planned_runs)
+    groups: dict[str, Rows] = defaultdict(list, grouped)
+    written: list[Path | None] = [_tables(groups, out / "tables.md", frame, notes)]
     if not figures:
         return [p for p in written if p is not None]
     plt = pyplot()
@@ -310,13 +350,15 @@ def _declared_cell(row: dict[str, Any], frame: PlanningFrame | None = None) -> s
     return _place(row.get("declared_source_x"), row.get("declared_source_y"), frame)
 
 
-def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = None) -> Path:
+def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = None,
+            notes: Sequence[str] = ()) -> Path:
     every = [r for rows in groups.values() for r in rows]
     criterion = _criterion(every)
     mean_col, max_col = _DISTANCE_COLUMNS.get(criterion, _DISTANCE_COLUMNS["declaration"])
     # A study whose runs cannot declare has no false declarations to count: "—", not 0.
     declares = criterion == "declaration" or any(r.get("t3") is not None for r in every)
     lines = ["# Study results", ""]
+    lines += [line for note in notes for line in (f"**{note}**", "")]
     failed = errors_note(every)
     if failed:
         lines += [f"**{failed}**", ""]

@@ -426,13 +426,19 @@ def _plots(results: Path, out: Path, quiet: bool, geometry: StudyGeometry | None
             print(f"  wrote {path}")
 
 
-def _saved_geometry(results: Path) -> StudyGeometry | None:
-    """The geometry a study saved in its ``study.json`` (None if there is none)."""
+def _saved_study(results: Path) -> dict[str, Any]:
+    """The study's ``study.json`` (empty if there is none or it cannot be read)."""
     meta = (results if results.is_dir() else results.parent) / "study.json"
     try:
-        return StudyGeometry.from_data(json.loads(meta.read_text(encoding="utf-8"))["geometry"])
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
+        data = json.loads(meta.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _saved_geometry(results: Path) -> StudyGeometry | None:
+    """The geometry a study saved in its ``study.json`` (None if there is none)."""
+    return StudyGeometry.from_data(_saved_study(results).get("geometry"))
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
@@ -440,8 +446,12 @@ def cmd_plot(args: argparse.Namespace) -> int:
     results = Path(args.results)
     rows = load_results(results)  # before making any folder: a bad input writes nothing
     out = Path(args.out) if args.out else (results if results.is_dir() else results.parent)
-    from cptbt.batch.report import write_report
+    from cptbt.batch.report import compared, write_report
 
-    for path in write_report(rows, out, _saved_geometry(results)):
+    planned = _saved_study(results).get("total_runs")
+    planned = planned if isinstance(planned, int) and not isinstance(planned, bool) else None
+    for note in compared(rows, planned)[1]:  # said before the tables that carry it
+        print(f"cptbt plot: warning: {note}", file=sys.stderr)
+    for path in write_report(rows, out, _saved_geometry(results), planned_runs=planned):
         print(f"  wrote {path}")
     return 0

@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from cptbt.batch.report import StudyGeometry, config_label, wilson, write_report
+from cptbt.batch.report import StudyGeometry, compared, config_label, wilson, write_report
 
 BASE: dict[str, Any] = {
     "config": 0, "replicate": 0, "mission": "m", "start_y": 0.0, "error_m": None, "T_F": None,
@@ -315,3 +315,27 @@ def test_per_start_counts_are_drawn_only_when_they_differ_and_clear_of_the_curre
     (arrow,) = [a for a in ax.texts if type(a).__name__ == "Annotation"]
     tail = arrow.xyann
     assert all(math.hypot(tail[0] - x, tail[1] - y) > 10.0 for x, y in labels)
+
+
+def test_an_interrupted_study_is_compared_on_the_runs_every_configuration_has(
+        tmp_path: Path) -> None:
+    # A review plotted an interrupted study: 144 runs of one variant against 36 of another,
+    # not the same plumes, and nothing said so.
+    def row(config: str, r: int, success: bool) -> dict[str, Any]:
+        return {**BASE, "configuration": config, "replicate": r, "start": 0, "start_x": 0.0,
+                "success": success, "false_declaration": False, "t3": 50.0, "error_m": 2.0}
+
+    rows = [row("variant=a", r, r >= 3) for r in range(8)]  # fails its first three
+    rows += [row("variant=b", r, True) for r in range(2)]
+    groups, notes = compared(rows, planned_runs=16)
+    assert [len(g) for g in groups.values()] == [2, 2]
+    assert notes[0].startswith("Incomplete study: 10 of 16 planned runs")
+    assert "variant=a 8, variant=b 2" in notes[1] and "compares the 2 runs" in notes[1]
+    write_report(rows, tmp_path, figures=False, planned_runs=16)
+    table = (tmp_path / "tables.md").read_text()
+    assert "**Incomplete study: 10 of 16 planned runs" in table
+    assert "| variant=a | 2 | 0.0% " in table, table  # its runs 0 and 1, not all 8
+    whole = [row(c, r, True) for c in ("variant=a", "variant=b") for r in range(4)]
+    assert compared(whole, planned_runs=8)[1] == []  # a finished study: nothing to say
+    write_report(whole, tmp_path, figures=False)
+    assert "Incomplete" not in (tmp_path / "tables.md").read_text()
