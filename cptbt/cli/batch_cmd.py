@@ -248,6 +248,12 @@ def cmd_batch(args: argparse.Namespace) -> int:
     _check_starts(mission, starts)
     runs_per_start = args.runs_per_start or (spec.runs_per_start if spec else 1)
     time_limit = args.time_limit or (spec.time_limit_s if spec else None)
+    if time_limit is not None and any("time_limit_s" in c.coords for c in configs):
+        # the study's limit replaced every swept one, rows still labelled with their own (a
+        # review's time_limit_s=30,60 sweep flew 45 s each under --time-limit 45)
+        given = "--time-limit" if args.time_limit else "the study's time_limit_s"
+        raise UsageError(f"batch: {given} ({time_limit:g} s) would replace the swept "
+                         "time_limit_s in every configuration: give one or the other")
     start_mode = args.start_mode or (spec.start_mode if spec else "place")
     env = environment_of(mission)
     seed = env.seed if args.seed is None else args.seed

@@ -156,6 +156,20 @@ def test_a_bad_swept_value_is_reported_at_the_files_key_or_without_a_line(
     assert not (tmp_path / "out").exists()
 
 
+def test_a_time_limit_sweep_and_a_study_time_limit_are_refused_together(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A review: --time-limit 45 replaced a time_limit_s=30,60 sweep in every configuration,
+    # the rows still labelled 30 and 60.
+    from cptbt.cli import main
+
+    status = main(["batch", str(OBLIQUE), "--grid", "1x1", "--sweep", "time_limit_s=30,60",
+                   "--time-limit", "45", "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert status == 2 and "would replace the swept time_limit_s" in err, err
+    assert not (tmp_path / "out").exists()
+
+
 TWO = Path(__file__).resolve().parents[2] / "missions/two_sources.yaml"
 
 
