@@ -146,6 +146,9 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         # what a behaviour with several jobs is doing this cycle (set in decide(); the planner
         # appends it to the active behaviour's name, and the figures colour it apart)
         self.activity: str | None = None
+        # requests to command() with a non-finite heading or speed (sent as no output; a
+        # behaviour that falls silent so is a bug: check_behaviour fails on any)
+        self.nonfinite_commands = 0
 
     def setup(self, **kwargs: Any) -> None:
         """Bind the collaborators: ``context`` (a :class:`MissionContext`) is required."""
@@ -164,6 +167,7 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         """Build a command, or None when the heading is not finite (never emit a bad command)."""
         speed = self.speed if speed_mps is None else speed_mps
         if not (math.isfinite(heading_deg) and math.isfinite(speed)):
+            self.nonfinite_commands += 1  # check_behaviour fails on it: a bug, not "no output"
             return None
         return Command(heading_deg, speed)
 

@@ -74,12 +74,14 @@ class ScriptedPerception:
     them, last detection, contact count and lost-contact list are consistent with the script.
     A script repeats readings exactly (``conc=1.0`` cycle after cycle), which only a frozen
     sensor does, so the stuck-sensor check is off unless ``stuck_after_s`` is given.
+    ``flow=None``: no flow sample at all (a vehicle without a working flow sensor: the percept's
+    flow is None).
     """
 
     def __init__(
         self,
         op_area: OpArea | None = None,
-        flow: tuple[float, float] = (1.0, 0.0),
+        flow: tuple[float, float] | None = (1.0, 0.0),
         threshold: float = 0.2,
         lambda_s: float = 8.5,
         flow_window_s: float = 100.0,
@@ -102,8 +104,9 @@ class ScriptedPerception:
         flow: tuple[float, float] | None = None,
     ) -> Percept:
         """One cycle at time ``t``: returns its percept."""
-        fx, fy = flow if flow is not None else self.flow
-        self.perception.add_flow(t, fx, fy)
+        sample = flow if flow is not None else self.flow
+        if sample is not None:
+            self.perception.add_flow(t, *sample)
         self.perception.add_sample(t, conc)
         self.perception.set_pose(Pose(x, y, heading_deg))
         return self.perception.cycle(t)
@@ -257,6 +260,11 @@ def check_behaviour(
     - every status is RUNNING, SUCCESS or FAILURE (never INVALID after a tick);
     - a RUNNING node wrote a command with a finite heading in (-180, 180] and a speed in
       (0, ``max_speed_mps``]; a FAILURE wrote none;
+    - no leaf asked :meth:`~cptbt.node.PlanBehaviour.command` for a non-finite heading or
+      speed (it sends none, so the behaviour fell silent and lower ones drove: a bug to fix,
+      not a way to say "no output", which is returning None);
+    - the same holds for a shorter run with no flow estimate at all (a vehicle whose flow
+      sensor never worked);
     - after pre-emption (``stop(INVALID)``) and re-activation (``initialise``), every leaf's
       per-activation state equals that of a freshly built leaf; attributes a class lists in
       ``persistent_state`` (kept on purpose across activations) are exempt.
@@ -277,34 +285,15 @@ def check_behaviour(
     ns = fresh_namespace()
     node = spec.build(params, ns)
     harness = TreeHarness(node, context, field_reached=False)
-    script = ScriptedPerception(area, flow=(1.0, 0.0), lambda_s=1.0)
-    vehicle = FakeVehicle(60.0, 0.0, 180.0)
-    dt = 0.5
-    for i in range(ticks):
-        t = i * dt
-        if i == ticks // 3:
-            harness.set("field_reached", True)
-        if i == ticks // 2:
-            script.flow = (-0.5, 0.3)
-        conc = float(rng.choice([0.0, 0.5, math.nan], p=[0.6, 0.3, 0.1]))
-        if abs(vehicle.y) > 15:  # hits only near the axis, like a plume
-            conc = 0.0
-        jump = rng.normal(0.0, 10.0, 2) if rng.random() < 0.02 else (0.0, 0.0)
-        p = script.step(t, vehicle.x + jump[0], vehicle.y + jump[1], vehicle.heading_deg, conc)
-        tk = harness.tick(p)
-        where = f"{spec.key} tick {i} (t={t})"
-        assert tk.status in (Status.RUNNING, Status.SUCCESS, Status.FAILURE), f"{where}: {tk}"
-        if tk.status == Status.RUNNING:
-            cmd = tk.command
-            assert cmd is not None, f"{where}: RUNNING without a command"
-            assert math.isfinite(cmd.heading_deg) and -180 < cmd.heading_deg <= 180, where
-            assert 0 < cmd.speed_mps <= max_speed_mps, f"{where}: speed {cmd.speed_mps}"
-        else:
-            assert tk.command is None, f"{where}: {tk.status} with a command"
-        vehicle.apply(tk.command, dt)
-        if not area.contains(vehicle.x, vehicle.y):  # keep the fake vehicle in play
-            vehicle.x = min(max(vehicle.x, area.xmin + 1), area.xmax - 1)
-            vehicle.y = min(max(vehicle.y, area.ymin + 1), area.ymax - 1)
+    _closed_loop(spec.key, harness, node, ScriptedPerception(area, flow=(1.0, 0.0),
+                                                             lambda_s=1.0),
+                 ticks, rng, max_speed_mps, area)
+    blind = spec.build(params, fresh_namespace())
+    _closed_loop(f"{spec.key} (no flow estimate)",
+                 TreeHarness(blind, make_context(area, home=(5.0, 0.0), start=(50.0, 10.0)),
+                             field_reached=True),
+                 blind, ScriptedPerception(area, flow=None, lambda_s=1.0), max(ticks // 5, 1),
+                 rng, max_speed_mps, area)
     node.stop(Status.INVALID)
     base = _base_attrs()
     fresh = spec.build(params, fresh_namespace())
@@ -316,6 +305,48 @@ def check_behaviour(
         assert got.keys() == want.keys() and all(_same(got[k], want[k]) for k in got), (
             f"{spec.key}: state not reset after pre-emption: {got} != {want}"
         )
+
+
+def _closed_loop(key: str, harness: TreeHarness, node: py_trees.behaviour.Behaviour,
+                 script: ScriptedPerception, ticks: int, rng: np.random.Generator,
+                 max_speed_mps: float, area: OpArea) -> None:
+    """:func:`check_behaviour`'s closed loop: ``ticks`` ticks at 2 Hz of a seeded random
+    script, each status and command checked, and every leaf's requests to ``command``."""
+    vehicle = FakeVehicle(60.0, 0.0, 180.0)
+    dt = 0.5
+    for i in range(ticks):
+        t = i * dt
+        if i == ticks // 3:
+            harness.set("field_reached", True)
+        if i == ticks // 2 and script.flow is not None:
+            script.flow = (-0.5, 0.3)
+        conc = float(rng.choice([0.0, 0.5, math.nan], p=[0.6, 0.3, 0.1]))
+        if abs(vehicle.y) > 15:  # hits only near the axis, like a plume
+            conc = 0.0
+        jump = rng.normal(0.0, 10.0, 2) if rng.random() < 0.02 else (0.0, 0.0)
+        p = script.step(t, vehicle.x + jump[0], vehicle.y + jump[1], vehicle.heading_deg, conc)
+        where = f"{key} tick {i} (t={t})"
+        try:
+            tk = harness.tick(p)
+        except Exception as exc:  # named with its tick (a raw error named none: a review)
+            raise AssertionError(f"{where}: raised {type(exc).__name__}: {exc}") from exc
+        assert tk.status in (Status.RUNNING, Status.SUCCESS, Status.FAILURE), f"{where}: {tk}"
+        if tk.status == Status.RUNNING:
+            cmd = tk.command
+            assert cmd is not None, f"{where}: RUNNING without a command"
+            assert math.isfinite(cmd.heading_deg) and -180 < cmd.heading_deg <= 180, where
+            assert 0 < cmd.speed_mps <= max_speed_mps, f"{where}: speed {cmd.speed_mps}"
+        else:
+            assert tk.command is None, f"{where}: {tk.status} with a command"
+        for leaf in plan_leaves(node):
+            bad = leaf.nonfinite_commands
+            assert bad == 0, (f"{where}: {leaf.name} asked command() for a non-finite heading "
+                              "or speed, which sends none: the behaviour fell silent (return "
+                              "None for no output)")
+        vehicle.apply(tk.command, dt)
+        if not area.contains(vehicle.x, vehicle.y):  # keep the fake vehicle in play
+            vehicle.x = min(max(vehicle.x, area.xmin + 1), area.xmax - 1)
+            vehicle.y = min(max(vehicle.y, area.ymin + 1), area.ymax - 1)
 
 
 def _same(a: object, b: object) -> bool:

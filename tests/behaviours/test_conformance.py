@@ -65,3 +65,43 @@ def test_the_readmes_tick_by_tick_example_runs_as_written() -> None:
     code = block.split("```", 1)[0]
     assert "fresh_namespace()" in code
     exec(compile(code, "README.md", "exec"), {})
+
+
+def test_the_check_fails_a_behaviour_that_falls_silent_on_a_nan_heading() -> None:
+    """A review's variant asked command() for NaN after 600 s: the helper sent nothing, lower
+    behaviours drove, and check_behaviour passed it."""
+    import math
+    from typing import ClassVar
+
+    from cptbt.node import PlanBehaviour
+    from cptbt.types import Command, Percept
+
+    class NanLater(PlanBehaviour):
+        family: ClassVar[str] = "find_plume"
+        variant: ClassVar[str] = "nan_later"
+
+        def decide(self, p: Percept) -> Command | None:
+            return self.command(math.nan if p.t >= 100.0 else 30.0)
+
+    with pytest.raises(AssertionError, match="asked command\\(\\) for a non-finite heading"):
+        check_behaviour(NanLater)
+
+
+def test_the_check_flies_a_behaviour_without_a_flow_estimate() -> None:
+    """The scripted perception always had a flow, so a variant that reads p.flow unguarded
+    passed the check and failed on a vehicle whose flow sensor never worked."""
+    from typing import ClassVar
+
+    from cptbt.node import PlanBehaviour
+    from cptbt.types import Command, Percept
+
+    class NeedsFlow(PlanBehaviour):
+        family: ClassVar[str] = "find_plume"
+        variant: ClassVar[str] = "needs_flow"
+
+        def decide(self, p: Percept) -> Command | None:
+            return self.command(p.flow.upflow_deg)  # type: ignore[union-attr]
+
+    with pytest.raises(AssertionError, match=r"needs_flow \(no flow estimate\) tick 0 .*: "
+                       "raised AttributeError"):
+        check_behaviour(NeedsFlow)
