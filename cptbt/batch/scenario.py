@@ -229,7 +229,8 @@ def advisories(mission: MissionBase) -> list[Problem]:
     except (ValueError, TypeError):  # an unusable setting is a problem, reported as one
         params = None
     if params is not None:
-        out += [a for advice in (noise_advice, dropout_advice, leaf_advice, pace_advice)
+        out += [a for advice in (noise_advice, dropout_advice, adcp_advice, leaf_advice,
+                                 pace_advice)
                 for a in advice(mission, params)]
     if mission.evaluation.criterion != "declaration":
         return out
@@ -384,6 +385,39 @@ def dropout_advice(mission: MissionBase, params: EnvironmentParams) -> list[Prob
                else "(their one sample dropped)"))
     return [(("environment", "fluorometer", "dropout_prob"),
              f"{_plain(sensor.dropout_prob)}: {what}")]
+
+
+ADCP_DIRECTION_ERROR_DEG = 20.0
+"""An ADCP noisy enough that the windowed mean's direction errs by more than this is warned of."""
+
+
+def adcp_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """An ADCP too noisy for the flow estimate, when behaviours steer by it: most samples
+    beyond ``perception.max_flow_speed_mps`` (dropped: a review's 100 m/s noise left the
+    tree without a command 44% of the time and the watchdog ended the run), or the windowed
+    mean's direction off by more than :data:`ADCP_DIRECTION_ERROR_DEG` (the noise of a mean
+    of ``window · rate`` samples against the mean current)."""
+    sigma = params.adcp.noise_std_mps
+    steer = any(e.contract.needs_flow for e in mission.entries())
+    if sigma <= 0.0 or not steer or mission.perception.flow_source == "none":
+        return []
+    where = ("environment", "adcp", "noise_std_mps")
+    gate = mission.perception.max_flow_speed_mps
+    dropped = math.exp(-gate * gate / (2.0 * sigma * sigma))  # |noise| beyond the gate
+    if dropped >= 0.5:
+        return [(where, f"{_plain(sigma)} m/s: {_two_figures(100 * dropped)}% of the flow "
+                 f"samples would be faster than perception.max_flow_speed_mps ({_plain(gate)} "
+                 "m/s) and dropped, so the flow estimate the behaviours steer by is missing or "
+                 "rests on a few samples")]
+    samples = max(mission.perception.flow_window_s * params.adcp.rate_hz, 1.0)
+    error = math.degrees(math.atan2(sigma / math.sqrt(samples),
+                                    max(params.flow.mean_speed_mps, 1e-9)))
+    if error > ADCP_DIRECTION_ERROR_DEG:
+        return [(where, f"{_plain(sigma)} m/s: the flow estimate, a mean of about "
+                 f"{samples:.0f} samples, would still point about {error:.0f}° off the mean "
+                 f"current ({_plain(params.flow.mean_speed_mps)} m/s); lengthen "
+                 "perception.flow_window_s or lower the noise")]
+    return []
 
 
 def noise_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:

@@ -203,3 +203,22 @@ def test_an_ab_strategy_below_its_rate_is_warned_of(variant: str) -> None:
     assert slow != text
     (why,) = _advice(slow, "cycle_hz")
     assert f"2 Hz is slower than the 10 Hz maintain_plume {variant} needs" in why, why
+
+
+@pytest.mark.parametrize(("noise", "fragment"), [
+    ("0.02", None),                                   # the shipped ADCP
+    ("0.1", None),
+    ("0.5", "would still point about 35° off the mean current"),
+    ("100", "100% of the flow samples would be faster than perception.max_flow_speed_mps"),
+])
+def test_an_adcp_too_noisy_for_the_flow_estimate_is_warned_of(noise: str,
+                                                              fragment: str | None) -> None:
+    """A review's ADCP with 100 m/s of noise had every sample dropped: the tree had no
+    command 44% of the time and the vehicle's watchdog ended the run; validate said ok."""
+    text = _mission(None).replace("  seed: 11", f"  seed: 11\n  adcp: {{noise_std_mps: {noise}}}")
+    why = _advice(text, "noise_std_mps")
+    if fragment is None:
+        assert why == [], why
+    else:
+        (one,) = why
+        assert fragment in one, one
