@@ -114,6 +114,10 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         variant: its name within the family (``billiard``, ``track_in_out``, ...).
         Params: its frozen parameter model.
         ends_move_to_field: once this behaviour has had an output, move-to-field stops for good.
+        persistent_state: (optional) attribute names kept on purpose across pre-emption (a
+            reacquire pattern's progress, a sign that belongs to a detection); every other
+            per-activation attribute must be reset in :meth:`initialise`, which
+            :func:`cptbt.testing.check_behaviour` checks.
         contract: what it needs from the rest of the mission (checked by ``validate``).
         fleet_rule: its array form for the fleet planner (a :class:`cptbt.fleet.FleetRule`
             whose ``covers`` lists this class), or None: a mission using it then keeps one
