@@ -20,8 +20,8 @@ from cptbt.behaviours.safety import OpAreaSafetyFleet
 from cptbt.behaviours.strategies import CrosswindCastFleet, StrategyIIIMaintainFleet
 from cptbt.cli.inspect_cmds import load
 from cptbt.fleet import fleet_support, planner_choice
+from cptbt.fleet_testing import check_fleet_mission, check_fleet_rule, fleet_capable_specs
 from cptbt.registry import default_registry
-from cptbt.testing import check_fleet_mission, check_fleet_rule, fleet_capable_specs
 
 ROOT = Path(__file__).resolve().parents[2]
 AB = [ROOT / "missions" / f"ab2001_strategy{k}.yaml" for k in (1, 2, 3)]

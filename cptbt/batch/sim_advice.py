@@ -1,0 +1,200 @@
+"""Warnings only a simulated world shows: settings of the simulator (or the mission against
+it) that are valid but likely not what the author means, as (key path, message) for
+:func:`cptbt.batch.scenario.advisories`: a noisy or dropping fluorometer, a noisy ADCP, a
+cloverleaf no wider than the vehicle's turn, a cycle the simulator cannot keep, a current too
+strong or too weak."""
+
+from __future__ import annotations
+
+import math
+from decimal import Decimal
+
+from cptbt.mission import MissionBase, Problem
+from cptbt.sim.world import EnvironmentParams
+
+NOISE_ALARMS_PER_S = 1e-3
+"""A simulated fluorometer whose noise alone would make more false detections than this in
+clean water (one every 1 000 s of mission) is warned of."""
+
+
+def clean_water_alarm(noise_std: float, threshold: float, samples: float) -> float:
+    """The chance that a planning cycle in clean water reads above ``threshold`` from the
+    fluorometer's Gaussian noise alone: the cycle's reading is the largest of its ``samples``
+    (the perception keeps the cycle's maximum; a mean count, when cycles get 4 or 5), so
+    ``1 - Φ(threshold / noise_std)^samples``."""
+    if noise_std <= 0.0:
+        return 0.0
+    below = 0.5 * (1.0 + math.erf(threshold / (noise_std * math.sqrt(2.0))))
+    return -math.expm1(max(samples, 1.0) * math.log(below)) if below > 0.0 else 1.0
+
+
+def quiet_threshold(noise_std: float, samples: float, cycle_hz: float) -> float:
+    """The lowest threshold at which that noise makes at most :data:`NOISE_ALARMS_PER_S`
+    false detections a second (bisection on :func:`clean_water_alarm`; inf if none does)."""
+    limit = NOISE_ALARMS_PER_S / cycle_hz
+    lo, hi = 0.0, 40.0 * noise_std
+    if not math.isfinite(hi) or clean_water_alarm(noise_std, hi, samples) > limit:
+        return math.inf
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if clean_water_alarm(noise_std, mid, samples) > limit else (lo, mid)
+    return hi
+
+
+def plain(v: float) -> str:
+    """A number as a user writes it, without an exponent between 1e-6 and 1e15 (1000000,
+    0.00002; a noise of 1e6 had printed as 1e+06), with an exponent beyond."""
+    if not math.isfinite(v) or not 1e-6 <= abs(v) < 1e15:
+        return f"{v:g}"
+    text = format(Decimal(repr(float(v))), "f")  # the shortest digits that read back as v
+    return text.rstrip("0").rstrip(".") if "." in text else text
+
+
+def _two_figures(v: float) -> str:
+    """Two significant figures, without an exponent (260, 0.39, 3.7, 1,200,000)."""
+    r = float(f"{v:.2g}")
+    return f"{r:,.0f}" if 100 <= r < 1e15 else plain(r)
+
+
+def _two_figures_up(v: float) -> str:
+    """``v`` rounded *up* to two significant figures (a threshold to set must be enough)."""
+    if v <= 0.0 or not math.isfinite(v):
+        return plain(v)
+    step = 10.0 ** (math.floor(math.log10(v)) - 1)
+    return _two_figures(math.ceil(v / step - 1e-9) * step)
+
+
+WEAK_CURRENT_MPS = 0.02
+"""A mean current below this, with behaviours that steer by the flow, is warned of."""
+
+
+def pace_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """A planning cycle faster than the simulator's step, which the simulated planner cannot
+    keep (it ticks at most once a step: a review's 10 Hz ran at 9 Hz); a current that
+    carries the vehicle at half its cruise speed or more: the behaviours steer through the
+    water, not over ground, so legs across the flow drift down-flow (a review's 1 m/s current
+    against 1.5 m/s: find-plume swept the down-flow wall, a declaration fell 181 m off); and a
+    current too weak to lay a plume down-flow while behaviours steer by it (a review's 0 m/s
+    validated silently and declared 19.7 m off)."""
+    out: list[Problem] = []
+    step_hz = 1.0 / params.dt_s
+    if mission.cycle_hz > step_hz * (1 + 1e-9):
+        out.append((("cycle_hz",), f"{plain(mission.cycle_hz)} Hz is faster than the "
+                    f"simulator's step ({_two_figures(params.dt_s)} s, the fluorometer's rate): "
+                    f"simulated, the planner ticks once a step, {_two_figures(step_hz)} Hz; "
+                    "raise environment.fluorometer.rate_hz (or lower dt_s) to fly it"))
+    current = params.flow.mean_speed_mps
+    steer = [f"{e.family} {e.variant}" for e in mission.entries() if e.contract.needs_flow]
+    if current < WEAK_CURRENT_MPS and steer:
+        out.append((("environment", "flow_speed_mps"), f"a mean current of {plain(current)} "
+                    f"m/s hardly carries the plume from its source: it pools about it, and "
+                    f"{', '.join(steer)} steer by a flow estimate that is then its meander "
+                    "alone (TRO MSN007 at 0 m/s, seeds 1-5: 2 false declarations 30-54 m off "
+                    "and 3 none; at 0.05 m/s all 5 within 15 m)"))
+    if params.vehicle.advected and current >= 0.5 * mission.speed_mps:
+        out.append((("environment", "flow_speed_mps"), f"the mean current ({plain(current)} "
+                    f"m/s) is half the cruise speed ({plain(mission.speed_mps)} m/s) or more: "
+                    "the behaviours steer through the water, not over ground, so legs across "
+                    "the flow drift down-flow and find-plume may never reach up-flow water"))
+    return out
+
+
+def leaf_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """A cloverleaf whose leaves (``d_leaf_m``) are no longer than the simulated vehicle's
+    tightest turn: its waypoints cannot be flown as drawn (a review's ``d_leaf_m: 1``
+    validated; the parameter's own description asks for more than the turning radius)."""
+    radius = params.vehicle.turning_radius_m
+    out: list[Problem] = []
+    for i, e in enumerate(mission.entries()):
+        leaf = getattr(e.params, "d_leaf_m", None)
+        if leaf is not None and leaf <= radius:
+            out.append((("behaviours", i, e.family, "d_leaf_m"),
+                        f"{plain(leaf)} m is not beyond the simulated vehicle's turning radius "
+                        f"({plain(radius)} m, environment.vehicle.turning_radius_m): the vehicle "
+                        "cannot fly its leaves as drawn (each turn is wider than a leaf)"))
+    return out
+
+
+def dropout_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """A fluorometer that drops so many samples that half the planning cycles or more have no
+    reading at all (a cycle reads the largest of its samples; one with none reads nothing,
+    neither plume nor clean water): at ``dropout_prob: 1`` a review's runs timed out as if
+    in clean water."""
+    sensor = params.fluorometer
+    samples = max(sensor.rate_hz / mission.cycle_hz, 1.0)
+    blind = sensor.dropout_prob ** samples
+    if blind < 0.5:
+        return []
+    what = ("every sample is dropped: the vehicle can never detect plume"
+            if sensor.dropout_prob >= 1.0 else
+            f"{_two_figures(100 * blind)}% of planning cycles would have no reading "
+            + (f"(every one of their {samples:.3g} samples dropped)" if samples > 1
+               else "(their one sample dropped)"))
+    return [(("environment", "fluorometer", "dropout_prob"),
+             f"{plain(sensor.dropout_prob)}: {what}")]
+
+
+ADCP_DIRECTION_ERROR_DEG = 20.0
+"""An ADCP noisy enough that the windowed mean's direction errs by more than this is warned of."""
+
+
+def adcp_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """An ADCP too noisy for the flow estimate, when behaviours steer by it: most samples
+    beyond ``perception.max_flow_speed_mps`` (dropped: a review's 100 m/s noise left the
+    tree without a command 44% of the time and the watchdog ended the run), or the windowed
+    mean's direction off by more than :data:`ADCP_DIRECTION_ERROR_DEG` (the noise of a mean
+    of ``window · rate`` samples against the mean current)."""
+    sigma = params.adcp.noise_std_mps
+    steer = any(e.contract.needs_flow for e in mission.entries())
+    if sigma <= 0.0 or not steer or mission.perception.flow_source == "none":
+        return []
+    where = ("environment", "adcp", "noise_std_mps")
+    gate = mission.perception.max_flow_speed_mps
+    dropped = math.exp(-gate * gate / (2.0 * sigma * sigma))  # |noise| beyond the gate
+    if dropped >= 0.5:
+        return [(where, f"{plain(sigma)} m/s: {_two_figures(100 * dropped)}% of the flow "
+                 f"samples would be faster than perception.max_flow_speed_mps ({plain(gate)} "
+                 "m/s) and dropped, so the flow estimate the behaviours steer by is missing or "
+                 "rests on a few samples")]
+    samples = max(mission.perception.flow_window_s * params.adcp.rate_hz, 1.0)
+    error = math.degrees(math.atan2(sigma / math.sqrt(samples),
+                                    max(params.flow.mean_speed_mps, 1e-9)))
+    if error > ADCP_DIRECTION_ERROR_DEG:
+        return [(where, f"{plain(sigma)} m/s: the flow estimate, a mean of about "
+                 f"{samples:.0f} samples, would still point about {error:.0f}° off the mean "
+                 f"current ({plain(params.flow.mean_speed_mps)} m/s); lengthen "
+                 "perception.flow_window_s or lower the noise")]
+    return []
+
+
+def noise_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """A fluorometer noise that makes detections in clean water common (measured on MSN007,
+    20 runs each: noise 0.1 against TRO's threshold 0.2, ~19% of cycles, and the TRO rule
+    declared 17 times, 71 m off on average; 0.06, ~0.4%, and the likelihood map declared once
+    30 m off). The rate is per second of mission, so a faster planning cycle (fewer samples
+    a cycle, more cycles) is judged alike; a sensor's own output threshold ``tau`` above the
+    perception's is the one a reading must pass."""
+    sensor = params.fluorometer
+    threshold = mission.perception.threshold
+    samples = max(sensor.rate_hz / mission.cycle_hz, 1.0)
+    # a sensor slower than the cycle leaves cycles without a sample (no reading, no alarm)
+    cycles_hz = min(mission.cycle_hz, sensor.rate_hz)
+    bar = max(threshold, sensor.tau)
+    alarm = clean_water_alarm(sensor.noise_std, bar, samples)
+    per_s = alarm * cycles_hz
+    if per_s <= NOISE_ALARMS_PER_S:
+        return []
+    share = "nearly all" if alarm >= 0.995 else f"{_two_figures(100 * alarm)}% of"
+    every = ("nearly every cycle" if alarm >= 0.995
+             else f"about one false detection every {_two_figures(1.0 / per_s)} s")
+    each = f"the largest of {samples:.3g} samples each" if samples > 1 else "one sample each"
+    good = quiet_threshold(sensor.noise_std, samples, cycles_hz)
+    fix = (f"a threshold of {_two_figures_up(good)} or more keeps it under one every 1 000 s"
+           if math.isfinite(good) else "no threshold keeps it rare")
+    return [(("environment", "fluorometer", "noise_std"),
+             f"{plain(sensor.noise_std)} against perception.threshold {plain(threshold)}"
+             + (f" (the sensor's own tau {plain(sensor.tau)} above it)"
+                if sensor.tau > threshold
+                else "") + ": in clean water "
+             f"the noise alone reads above the threshold in {share} planning cycles ({each}), "
+             f"{every}; the tracker chases them and a declaration can land anywhere ({fix})")]
