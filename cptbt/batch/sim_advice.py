@@ -156,9 +156,11 @@ def adcp_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem
                  f"samples would be faster than perception.max_flow_speed_mps ({plain(gate)} "
                  "m/s) and dropped, so the flow estimate the behaviours steer by is missing or "
                  "rests on a few samples")]
+    current = params.flow.mean_speed_mps
+    if current < WEAK_CURRENT_MPS:  # no direction to miss: pace_advice warns of the current
+        return []
     samples = max(mission.perception.flow_window_s * params.adcp.rate_hz, 1.0)
-    error = math.degrees(math.atan2(sigma / math.sqrt(samples),
-                                    max(params.flow.mean_speed_mps, 1e-9)))
+    error = math.degrees(math.atan2(sigma / math.sqrt(samples), current))
     if error > ADCP_DIRECTION_ERROR_DEG:
         return [(where, f"{plain(sigma)} m/s: the flow estimate, a mean of about "
                  f"{samples:.0f} samples, would still point about {error:.0f}° off the mean "

@@ -185,6 +185,8 @@ def test_a_current_too_weak_to_lay_a_plume_is_warned_of(speed: str, warned: bool
     assert bool(why) == warned, why
     if warned:
         assert "hardly carries the plume" in why[0] and "track_in_out" in why[0], why
+    # one warning of the weak current, not a second of the ADCP "90 degrees off" it
+    assert _advice(text, "noise_std_mps") == []
 
 
 @pytest.mark.parametrize("variant", ["strategy_1", "strategy_2", "strategy_3"])
