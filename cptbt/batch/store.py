@@ -238,11 +238,22 @@ class ResultStore:
         return resume
 
     def write_group(self, task: GroupTask, rows: Rows) -> None:
-        """Write one finished group's rows atomically, with its identity and checksum."""
-        self.format.write(self.path(task.key), rows, {
-            "format": FORMAT, "study": self.fingerprint, "group": task.key,
-            "config": task.config, "replicate": task.replicate,
-        })
+        """Write one finished group's rows atomically, with its identity and checksum.
+
+        Raises:
+            BatchError: the part could not be written (a full disk, say): the message names it,
+                and says that the groups already written are kept and the same command resumes.
+        """
+        path = self.path(task.key)
+        try:
+            self.format.write(path, rows, {
+                "format": FORMAT, "study": self.fingerprint, "group": task.key,
+                "config": task.config, "replicate": task.replicate,
+            })
+        except OSError as exc:
+            raise BatchError(f"cannot write {path}: {exc.strerror or _first_line(exc)}; the "
+                             f"finished groups are kept in {self.parts}: make room and run "
+                             "the same command again to go on") from None
 
     def rows(self, tasks: Sequence[GroupTask] | None = None) -> Rows:
         """Every run of ``tasks`` (default: of every part in the folder), in group order.
@@ -267,8 +278,13 @@ class ResultStore:
         rows = self.rows(tasks)
         cols = _columns(rows)
         path = self.folder / f"results{self.format.suffix}"
-        self.format.write(path, [{c: r.get(c) for c in cols} for r in rows],
-                          {"format": FORMAT, "study": self.fingerprint})
+        try:
+            self.format.write(path, [{c: r.get(c) for c in cols} for r in rows],
+                              {"format": FORMAT, "study": self.fingerprint})
+        except OSError as exc:
+            raise BatchError(f"cannot write {path}: {exc.strerror or _first_line(exc)}; every "
+                             f"run is kept in {self.parts}: make room and run the same command "
+                             "again to write it") from None
         return path
 
     def _verified(self, task: GroupTask) -> Rows:
@@ -394,11 +410,15 @@ def _first_line(exc: BaseException) -> str:
 def _atomic_write(path: Path, write: Callable[[BinaryIO], object]) -> None:
     """Write through ``write(binary_file)`` to a temporary file, sync it, rename it into place."""
     tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("wb") as f:
-        write(f)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
+    try:
+        with tmp.open("wb") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:  # a full disk, say, or Ctrl-C mid-write: leave no half-written file
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def _columns(rows: Rows) -> list[str]:

@@ -4,6 +4,7 @@ the tables and the command say so, the exit fails, and ``cptbt run --from`` flie
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -77,3 +78,35 @@ def test_run_from_flies_a_failed_row_alone(tmp_path: Path, capsys: pytest.Captur
                  "--no-figure"]) == 1
     said = capsys.readouterr().out
     assert "where the study's row stopped on an error (ZeroDivisionError" in said
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="needs /proc (Linux)")
+def test_a_full_disk_names_the_part_keeps_the_finished_groups_and_resumes(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The disk fills while the second group's part is written: the command says which file,
+    that the finished groups are kept and how to go on, in one line; it leaves no half-written
+    temporary file; and the same command then flies only the group that was lost."""
+    from cptbt.batch import store
+
+    real = store.os.fsync
+
+    def fsync(fd: int) -> None:  # the disk is full when replicate 1's part is written
+        if "c000-r00001" in os.readlink(f"/proc/self/fd/{fd}"):
+            raise OSError(28, "No space left on device")
+        real(fd)
+
+    monkeypatch.setattr(store.os, "fsync", fsync)
+    out = tmp_path / "study"
+    assert main(["batch", MISSION, *STUDY, "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    assert err.startswith(f"cptbt: cannot write {out / 'parts'}/"), err
+    assert "No space left on device" in err and "run the same command again" in err
+    assert not list(out.rglob("*.tmp")), "a half-written part was left behind"
+    assert len(list((out / "parts").glob("*.parquet"))) == 1
+
+    monkeypatch.setattr(store.os, "fsync", real)
+    assert main(["batch", MISSION, *STUDY, "--out", str(out)]) == 0
+    assert "(1 groups resumed from disk)" in capsys.readouterr().out
+    assert len(load_results(out)) == 4
