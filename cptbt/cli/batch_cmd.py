@@ -34,6 +34,11 @@ from cptbt.mission import MissionBase
 from cptbt.study_spec import StudySpec
 
 
+def _sweep_text(sweep: Sweep) -> str:
+    """A sweep as ``--sweep`` spells it: ``PATH=V1,V2``."""
+    return f"{'+'.join(sweep.paths)}={','.join(str(v) for v in sweep.values)}"
+
+
 def _sweep(text: str) -> Sweep:
     try:
         return Sweep.parse(text)
@@ -233,7 +238,13 @@ def cmd_batch(args: argparse.Namespace) -> int:
         mission = mission.model_copy(update={"mission_a": None})
     _check_planner(mission)
     spec = mission.study
-    sweeps: list[Sweep] = args.sweep or study_sweeps(mission)
+    own = study_sweeps(mission)
+    sweeps: list[Sweep] = args.sweep or own
+    dropped = [s for s in own if s not in args.sweep] if args.sweep else []
+    if dropped:  # --sweep replaces the study section's sweeps, all of them: never silently
+        print(f"cptbt: note: --sweep replaces the sweeps of {args.mission}'s study section; not "
+              f"flown: {'; '.join(_sweep_text(s) for s in dropped)} (give them as --sweep too "
+              "to keep them)", file=sys.stderr)
     try:
         lines = parse_yaml(mission_text(args.mission), args.mission)[1] \
             if sweeps else None

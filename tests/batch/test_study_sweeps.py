@@ -279,3 +279,28 @@ def test_a_configuration_is_a_mission_without_the_study_it_belongs_to() -> None:
     assert [m.speed_mps for m in flown] == [1.0, 1.2, 1.4]
     assert all(m.study is None and "sweeps" not in c.mission_yaml
                for m, c in zip(flown, configs, strict=True))
+
+
+def test_sweep_on_the_command_line_says_which_study_sweeps_it_replaces(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """--sweep replaces the study section's sweeps, all of them: the command says which it
+    does not fly, in the form that would keep them (it had replaced them silently)."""
+    from cptbt.cli import main
+
+    ab = Path(__file__).resolve().parents[2] / "missions/ab2001_fig9.yaml"
+    assert main(["batch", str(ab), "--sweep", "environment.preset=ab_large_meander",
+                 "--runs-per-start", "1", "--time-limit", "5", "--workers", "1", "--no-plots",
+                 "--quiet", "--out", str(tmp_path / "s")]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if "replaces" in line]
+    assert notes == [
+        f"cptbt: note: --sweep replaces the sweeps of {ab}'s study section; not flown: "
+        "environment.preset=ab_large_meander,ab_small_meander; maintain_plume.beta1_deg="
+        "0,2.5,5,7.5,10,12.5,15,17.5,20,22.5,25 (give them as --sweep too to keep them)"]
+    # The study's own sweeps, given again, are flown: no note.
+    assert main(["batch", str(ab), "--sweep", "environment.preset=ab_large_meander,"
+                 "ab_small_meander", "--sweep", "maintain_plume.beta1_deg=0", "--runs-per-start",
+                 "1", "--time-limit", "5", "--workers", "1", "--no-plots", "--quiet",
+                 "--out", str(tmp_path / "t")]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if "replaces" in line]
+    assert len(notes) == 1 and "not flown: maintain_plume.beta1_deg=" in notes[0]
+    assert "environment.preset" not in notes[0]
