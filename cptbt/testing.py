@@ -14,6 +14,7 @@ against the rules every behaviour must keep with :func:`check_behaviour`.
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -264,7 +265,12 @@ def check_behaviour(
       sensor never worked);
     - after pre-emption (``stop(INVALID)``) and re-activation (``initialise``), every leaf's
       per-activation state equals that of a freshly built leaf; attributes a class lists in
-      ``persistent_state`` (kept on purpose across activations) are exempt.
+      ``persistent_state`` (kept on purpose across activations) are exempt;
+    - no leaf changed its class's data (a list appended to, an attribute set on the class):
+      such state is shared by every instance, so one run leaks into the next run of a worker;
+    - every blackboard key the node wrote under its namespace was declared (registered by
+      some client for writing): a write through ``Blackboard.storage`` bypasses the
+      declared-keys contract that isolates nodes.
 
     ``spec`` is a registered variant's spec, or a single-leaf behaviour class (taken as
     ``BehaviourSpec.of(cls)``: a review passed the class, as a user testing a variant of
@@ -281,6 +287,7 @@ def check_behaviour(
     context = make_context(area, home=(5.0, 0.0), start=(50.0, 10.0))
     ns = fresh_namespace()
     node = spec.build(params, ns)
+    classes = _class_data(node)
     harness = TreeHarness(node, context, field_reached=False)
     _closed_loop(spec.key, harness, node, ScriptedPerception(area, flow=(1.0, 0.0),
                                                              lambda_s=1.0),
@@ -291,6 +298,23 @@ def check_behaviour(
                              field_reached=True),
                  blind, ScriptedPerception(area, flow=None, lambda_s=1.0), max(ticks // 5, 1),
                  rng, max_speed_mps, area)
+    after = _class_data(node)
+    for (cls, name), value in classes.items():
+        assert (cls, name) in after and _same_data(after[cls, name], value), (
+            f"{spec.key}: class data {cls}.{name} changed while the node ran ({value!r} -> "
+            f"{after.get((cls, name), '<deleted>')!r}): class-level state is shared by every "
+            "instance; keep per-run state on self")
+    added = sorted(f"{c}.{n}" for c, n in after.keys() - classes.keys())
+    assert not added, (f"{spec.key}: the node set class attributes while it ran "
+                       f"({', '.join(added)}): class-level state is shared by every instance; "
+                       "keep it on self")
+    board = py_trees.blackboard.Blackboard
+    storage, metadata = board.storage, board.metadata
+    undeclared = sorted(k for k in storage if k.startswith(f"{ns}/")
+                        and (k not in metadata or not metadata[k].write))
+    assert not undeclared, (f"{spec.key}: wrote blackboard keys no client declared for writing "
+                            f"({', '.join(undeclared)}): declare them (Contract.writes) rather "
+                            "than writing Blackboard.storage")
     node.stop(Status.INVALID)
     base = _base_attrs()
     fresh = spec.build(params, fresh_namespace())
@@ -344,6 +368,34 @@ def _closed_loop(key: str, harness: TreeHarness, node: py_trees.behaviour.Behavi
         if not area.contains(vehicle.x, vehicle.y):  # keep the fake vehicle in play
             vehicle.x = min(max(vehicle.x, area.xmin + 1), area.xmax - 1)
             vehicle.y = min(max(vehicle.y, area.ymin + 1), area.ymax - 1)
+
+
+def _class_data(node: py_trees.behaviour.Behaviour) -> dict[tuple[str, str], object]:
+    """A deep copy of the data attributes (not methods, properties or nested classes) of every
+    plan leaf's classes below :class:`~cptbt.node.PlanBehaviour`, keyed by (class, name)."""
+    out: dict[tuple[str, str], object] = {}
+    for leaf in plan_leaves(node):
+        for cls in type(leaf).__mro__:
+            if cls is PlanBehaviour or not issubclass(cls, PlanBehaviour):
+                continue
+            for name, value in vars(cls).items():
+                if name.startswith("__") or callable(value) or isinstance(
+                        value, (property, staticmethod, classmethod, type)) or hasattr(
+                        value, "__get__"):
+                    continue
+                try:
+                    out[cls.__qualname__, name] = copy.deepcopy(value)
+                except Exception:  # an attribute that cannot be copied: unchecked
+                    continue
+    return out
+
+
+def _same_data(a: object, b: object) -> bool:
+    """Equal, for class data of any kind (an array compares element by element)."""
+    try:
+        return bool(same_value(a, b))
+    except (TypeError, ValueError):  # an array's == is an array
+        return bool(np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True))
 
 
 def same_value(a: object, b: object) -> bool:

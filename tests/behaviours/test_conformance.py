@@ -105,3 +105,58 @@ def test_the_check_flies_a_behaviour_without_a_flow_estimate() -> None:
     with pytest.raises(AssertionError, match=r"needs_flow \(no flow estimate\) tick 0 .*: "
                        "raised AttributeError"):
         check_behaviour(NeedsFlow)
+
+
+def test_the_check_fails_a_behaviour_that_keeps_state_on_its_class() -> None:
+    """State kept on the class is shared by every instance: in a batch worker one run's
+    history leaks into the next run's decisions. A review's variant appended its detections to
+    a class-level list, and passed the check."""
+    from typing import ClassVar
+
+    from cptbt.node import PlanBehaviour
+    from cptbt.types import Command, Percept
+
+    class SharedHistory(PlanBehaviour):
+        family: ClassVar[str] = "find_plume"
+        variant: ClassVar[str] = "shared_history"
+        seen: ClassVar[list[float]] = []
+
+        def decide(self, p: Percept) -> Command | None:
+            if p.detected:
+                self.seen.append(p.t)
+            return self.command(0.0)
+
+    with pytest.raises(AssertionError, match=r"class data .*SharedHistory\.seen changed"):
+        check_behaviour(SharedHistory)
+
+    class SetsOnClass(PlanBehaviour):
+        family: ClassVar[str] = "find_plume"
+        variant: ClassVar[str] = "sets_on_class"
+
+        def decide(self, p: Percept) -> Command | None:
+            type(self).last_t = p.t  # type: ignore[attr-defined]
+            return self.command(0.0)
+
+    with pytest.raises(AssertionError, match=r"set class attributes .*SetsOnClass\.last_t"):
+        check_behaviour(SetsOnClass)
+
+
+def test_the_check_fails_a_behaviour_that_writes_undeclared_blackboard_keys() -> None:
+    """A key written through Blackboard.storage bypasses the declared-keys contract."""
+    from typing import ClassVar
+
+    import py_trees
+
+    from cptbt.node import PlanBehaviour
+    from cptbt.types import Command, Percept
+
+    class Sneaky(PlanBehaviour):
+        family: ClassVar[str] = "find_plume"
+        variant: ClassVar[str] = "sneaky"
+
+        def decide(self, p: Percept) -> Command | None:
+            py_trees.blackboard.Blackboard.storage[f"{self.namespace.rstrip('/')}/hint"] = p.t
+            return self.command(0.0)
+
+    with pytest.raises(AssertionError, match=r"no client declared for writing \(/test\d+/hint\)"):
+        check_behaviour(Sneaky)
