@@ -56,7 +56,8 @@ class LikelihoodMapDeclare(SeveralSources):
     short of the source: the meander carried the plume off the flow estimate's axis while the
     vehicle's misses ruled out the water up-flow (TRO MSN007, 1000 runs, seed 2024: the five
     declarations beyond 15 m lay 19-46 m down-flow of the source). Three tests stand between
-    the rule and the declaration, the last two along the current flow estimate:
+    the rule and the declaration, the last two along the current flow estimate, and the
+    vehicle flies what they need before the map is quite sure (*early*, the last item):
 
     - *plume seen near* (``upflow_seen_near``): a detection no declared source explains, made
       since the search for this source began, within ``radius_m`` of the candidate. Without one
@@ -81,7 +82,17 @@ class LikelihoodMapDeclare(SeveralSources):
       and the candidate is declared unchecked (counted, as is a candidate declared without a
       flow direction). A leg is timed and counted once per candidate: a cycle or two of the
       map dipping below ``confidence`` resumes it (same clock) if the candidate has moved less
-      than ``radius_m``;
+      than ``radius_m``. With ``upflow_fan_deg`` (20°) the sides to reach, and the veto's
+      band, widen up-flow by the flow estimate's direction error: ``upflow_band_m`` plus
+      ``tan(upflow_fan_deg)`` per metre up-flow (8.6 m at 10 m);
+    - *early* (``upflow_early_fraction``, 0.7): the visit and the leg are flown as soon as the
+      map holds that fraction of ``confidence`` within ``radius_m`` of a candidate, while the
+      map gathers the rest, so that they overlap the time the map takes to become sure
+      instead of following it; the declaration still waits for ``confidence`` and a check
+      passed by the candidate it is then sure of. An early test passes nothing unchecked (a
+      leg out of time ends and is not flown early again for that candidate; once the map is
+      sure, the leg has a clock of its own, as does a leg still under way then), and counts
+      no veto. Measured: ``benchmarks/results/likelihood_map_tuning.md``, "The early leg";
     - *veto*: a detection no declared source explains, made since the search for this source
       began (within ``upflow_memory_s`` if set), lying more than ``upflow_veto_near_m`` (5 m;
       ``None``: ``radius_m``, the earlier default) and at most three
@@ -250,31 +261,39 @@ class LikelihoodMapDeclare(SeveralSources):
             return
         peak = self.map.peak(post)
         mass, mean = self.map.mass_and_mean(peak, self.params.radius_m, post)
-        if mass < self.params.confidence or not (math.isfinite(mean.x) and math.isfinite(mean.y)):
+        sure = mass >= self.params.confidence
+        early = self.params.upflow_early_fraction
+        nearly = sure or (early is not None and self.params.upflow_check_m is not None
+                          and mass >= early * self.params.confidence)
+        if not nearly or not (math.isfinite(mean.x) and math.isfinite(mean.y)):
             self.upflow.drop()
             return
         limit = self.params.known_plume_max_prob
         if limit is not None and self.map.known and self.map.known_chance(mean) >= limit:
             self.upflow.drop()  # held: the search goes on (class docstring)
+            if not sure:  # nor is a leg flown early for it
+                return
             self.held_in_known_plume += 1
             self.held_at = mean
             self._blocked(mean)
             self._report()
             return
-        if not self._passed_upflow(p, mean):
-            if self.upflow.vetoing and self.sources:
+        if not self._passed_upflow(p, mean, early=not sure):
+            if self.upflow.vetoing and self.sources and sure:
                 self._blocked(mean)
+            return
+        if not sure:  # checked early (upflow_early_fraction): declared once the map is sure
             return
         if self.params.flyby and p.flow is not None:
             self._start_flyby(p, mean)
         else:
             self._accept(mean)
 
-    def _passed_upflow(self, p: Percept, candidate: Point) -> bool:
+    def _passed_upflow(self, p: Percept, candidate: Point, early: bool = False) -> bool:
         """The up-flow check (class docstring); counts it in the report."""
         if self.params.upflow_check_m is None or self.context is None:
             return True
-        passed = self.upflow.passed(p, candidate, self.context.op_area)
+        passed = self.upflow.passed(p, candidate, self.context.op_area, early)
         self._report()
         return passed
 

@@ -78,7 +78,9 @@ class UpflowCheck:
         self.fan = math.tan(math.radians(fan_deg))
         self.slack_m, self.memory_s, self.timeout_s = slack_m, memory_s, timeout_s
         self.target: Point | None = None  # the check leg's end, while one is under way
+        self.early_spent: Point | None = None  # a candidate whose early leg ran out of time
         self.leg_t0 = math.nan
+        self.leg_early = False  # the leg under way was started before the map was sure
         self.leg_for: Point | None = None  # the candidate the leg under way checks
         self.legs = 0  # check legs started
         self.unchecked = 0  # candidates passed unchecked (a leg timed out, no flow estimate)
@@ -123,7 +125,7 @@ class UpflowCheck:
         """A source was declared (or a candidate withdrawn) at ``t``: the search for the next
         one begins; only the track and plume seen from now on count for its candidates."""
         self.search_t0, self.target, self.leg_for, self.vetoing = t, None, None, False
-        self.visit_for = None
+        self.visit_for = self.early_spent = None
 
     def drop(self) -> None:
         """The map is not sure of a candidate this cycle: no leg is flown. A leg under way is
@@ -131,10 +133,20 @@ class UpflowCheck:
         ``veto_beyond_m`` of it: a one-cycle dip of confidence is not a new leg."""
         self.target, self.vetoing = None, False
 
-    def passed(self, p: Percept, candidate: Point, area: OpArea) -> bool:
+    def passed(self, p: Percept, candidate: Point, area: OpArea, early: bool = False) -> bool:
         """True when ``candidate`` may be declared; else False, with :attr:`target` the check
-        leg's end when a crossing is what is missing (None after a veto)."""
+        leg's end when a crossing is what is missing (None after a veto).
+
+        ``early``: the map is not yet sure of ``candidate``, only nearly (the leg is flown
+        ahead, while the map gathers the rest). Nothing is then passed unchecked (no flow
+        estimate, or a leg out of time: the leg ends, and is not flown early again for that
+        candidate; once the map is sure, a leg of its own, on a clock of its own), and a veto
+        is not counted, nor does it set aside the crossings made before it.
+        """
         if p.flow is None or math.hypot(p.flow.vx, p.flow.vy) < 1e-9:
+            if early:
+                self.target = None
+                return False
             self.unchecked += 1  # no direction to call up-flow: declared unchecked, counted
             self.target, self.leg_for = None, None
             return True
@@ -165,6 +177,8 @@ class UpflowCheck:
                     seen |= trace & (conc > self.trace_floor())
         if bool(np.any(seen)):
             self.target, self.leg_for = None, None
+            if early:
+                return False
             self.veto_t = max(self.veto_t, float(t[seen].max()))
             if not self.vetoing:
                 self.vetoes += 1
@@ -189,11 +203,20 @@ class UpflowCheck:
         if left and right:
             self.target, self.leg_for = None, None
             return True
+        spent = self.early_spent
+        if early and spent is not None and spent.distance_to(candidate) <= self.veto_beyond_m:
+            self.target = None  # its early leg ran out of time: the next waits for the map
+            return False
         if self.leg_for is None or self.leg_for.distance_to(candidate) > self.veto_beyond_m:
-            self.leg_t0 = p.t
+            self.leg_t0, self.leg_early = p.t, early
             self.legs += 1
+        elif self.leg_early and not early:  # the map is sure now: the leg's own clock starts
+            self.leg_t0, self.leg_early = p.t, False
         elif p.t - self.leg_t0 >= self.timeout_s:
             self.target, self.leg_for = None, None
+            if early:
+                self.early_spent = candidate
+                return False
             self.unchecked += 1
             return True
         self.leg_for = candidate

@@ -796,8 +796,10 @@ APPROACH = lawnmower([95, 80, 65, 50, 40, 35, 32])
 
 def confident_short_of_the_crossing(
         **kw: object) -> tuple[LikelihoodMapDeclare, TreeHarness, ScriptedPerception, int]:
-    # confidence 0.8 within 8 m: the rows alone make the map that sure, short of the source
-    node = LikelihoodMapDeclare(cone_params(**{"confidence": 0.8, "radius_m": 8.0, **kw}),
+    # confidence 0.8 within 8 m: the rows alone make the map that sure, short of the source;
+    # the check as the map becomes sure (the early leg: its own tests below)
+    node = LikelihoodMapDeclare(cone_params(**{"confidence": 0.8, "radius_m": 8.0,
+                                               "upflow_early_fraction": None, **kw}),
                                 namespace=fresh_namespace())
     plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
     harness = TreeHarness(node, make_context(AREA))
@@ -834,7 +836,9 @@ def test_a_confident_map_is_not_declared_before_the_track_crossed_up_flow_of_it(
     mass, cand = node.map.mass_and_mean(node.map.peak(), node.params.radius_m)
     assert mass >= node.params.confidence
     assert node.upflow.target.x == pytest.approx(cand.x - node.params.upflow_check_m, abs=0.5)
-    assert abs(node.upflow.target.y - cand.y) == pytest.approx(node.params.upflow_band_m, abs=0.5)
+    fan = node.params.upflow_check_m * math.tan(math.radians(node.params.upflow_fan_deg))
+    assert abs(node.upflow.target.y - cand.y) == pytest.approx(node.params.upflow_band_m + fan,
+                                                               abs=0.5)
     # the run records the leg as such (the figures draw it apart from the trip to the source)
     assert active_name(node) == "declare_source.likelihood_map (check leg)"
     # nothing up-flow: the vehicle crosses the line there on both sides, then declares
@@ -844,6 +848,19 @@ def test_a_confident_map_is_not_declared_before_the_track_crossed_up_flow_of_it(
     assert min(up) <= -2 and max(up) >= 2
     report = harness.get("declaration_report")
     assert report["upflow_checks"] == 1 and report["unchecked"] == 0
+
+
+def test_the_check_is_flown_once_the_map_is_nearly_sure_and_declared_once_it_is_sure() -> None:
+    """upflow_early_fraction: the leg (here a visit first) overlaps the time the map takes to
+    become sure, instead of following it; the declaration still waits for the map."""
+    node, harness, script, t = confident_short_of_the_crossing(upflow_early_fraction=0.7)
+    mass, _ = node.map.mass_and_mean(node.map.peak(), node.params.radius_m)
+    assert 0.7 * node.params.confidence <= mass < node.params.confidence
+    assert node.upflow.target is not None and node.declared is None
+    assert active_name(node) == f"declare_source.likelihood_map ({node.upflow.kind})"
+    assert harness.get("declaration_report")["unchecked"] == 0
+    late, *_ = confident_short_of_the_crossing()  # the same approach, checked once sure
+    assert late.upflow.target is not None and late.map.t > node.map.t
 
 
 def test_plume_seen_up_flow_of_the_candidate_vetoes_it_while_it_is_remembered() -> None:
@@ -862,7 +879,8 @@ def test_plume_seen_up_flow_of_the_candidate_vetoes_it_while_it_is_remembered() 
         mass, cand = node.map.mass_and_mean(node.map.peak(), node.params.radius_m)
         assert mass >= node.params.confidence  # the map alone would have declared it
         # a crossing with nothing seen: declared once the detection is no longer remembered
-        for y in (cand.y + 6, cand.y - 6, cand.y + 6, cand.y - 6):
+        w = node.params.upflow_band_m + 12 * math.tan(math.radians(node.params.upflow_fan_deg))
+        for y in (cand.y + w + 1, cand.y - w - 1, cand.y + w + 1, cand.y - w - 1):
             harness.tick(script.step(t, cand.x - 12, y))
             t += 1
         if memory is None:

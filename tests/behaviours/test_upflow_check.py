@@ -5,6 +5,7 @@ The flow goes toward +x, so up-flow is −x; the candidate sits at (50, 0) in a 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -262,3 +263,48 @@ def test_plume_a_declared_source_explains_vetoes_only_when_asked(known_veto: boo
     for t, y in ((0, 4.0), (1, -4.0)):
         c2.record(t, Point(38.0, y), hit=False)
     assert c2.passed(at(s, 4), CAND, AREA)
+
+
+# -- the early leg (the map nearly sure: upflow_early_fraction) ------------------------------
+def test_an_early_leg_is_flown_and_its_crossing_counts_once_the_map_is_sure() -> None:
+    c, s = check(), ScriptedPerception(AREA)
+    assert not c.passed(at(s, 0), CAND, AREA, early=True) and c.legs == 1
+    assert c.target is not None and c.target.x == 40.0 and c.kind == "check leg"
+    for t, y in ((1, 4.0), (2, -4.0)):
+        c.record(t, Point(38.0, y), hit=False)
+    assert c.passed(at(s, 3), CAND, AREA, early=True) and c.target is None
+    assert c.passed(at(s, 4), CAND, AREA) and c.legs == 1  # sure now: nothing more to fly
+
+
+def test_an_early_leg_out_of_time_passes_nothing_and_the_sure_leg_has_its_own_clock() -> None:
+    c, s = check(timeout_s=30.0), ScriptedPerception(AREA)
+    for t in range(0, 40, 2):  # the vehicle held where it is (a safety hold, say)
+        assert not c.passed(at(s, t), CAND, AREA, early=True)
+    assert c.unchecked == 0 and c.target is None, "an early leg passed its candidate unchecked"
+    assert c.legs == 1  # and it is not flown early again for that candidate
+    assert not c.passed(at(s, 40), CAND, AREA) and c.target is not None and c.legs == 2
+    assert not c.passed(at(s, 68), CAND, AREA)  # the sure leg's clock started at 40
+    assert c.passed(at(s, 70), CAND, AREA) and c.unchecked == 1
+
+
+def test_an_early_leg_still_under_way_when_the_map_becomes_sure_restarts_its_clock() -> None:
+    c, s = check(timeout_s=30.0), ScriptedPerception(AREA)
+    assert not c.passed(at(s, 0), CAND, AREA, early=True)
+    assert not c.passed(at(s, 29), CAND, AREA)  # sure at 29 s: the same leg, a fresh clock
+    assert c.legs == 1 and c.target is not None
+    assert not c.passed(at(s, 58), CAND, AREA)
+    assert c.passed(at(s, 59), CAND, AREA) and c.unchecked == 1 and c.legs == 1
+
+
+def test_an_early_test_counts_no_veto_and_keeps_the_crossings_and_needs_a_flow() -> None:
+    c, s = check(), ScriptedPerception(AREA)
+    c.record(0, Point(38.0, 4.0), hit=False)  # a crossing, both sides
+    c.record(1, Point(38.0, -4.0), hit=False)
+    c.record(2, Point(33.0, 0.0), hit=True)  # then plume 17 m up-flow
+    assert not c.passed(at(s, 3), CAND, AREA, early=True) and c.target is None
+    assert c.vetoes == 0 and c.veto_t == -math.inf
+    assert not c.passed(at(s, 4), CAND, AREA) and c.vetoes == 1  # sure: vetoed and counted
+    c2, blind = check(), dataclasses.replace(at(s, 5), flow=None)
+    assert not c2.passed(blind, CAND, AREA, early=True)
+    assert c2.unchecked == 0 and c2.target is None
+    assert c2.passed(blind, CAND, AREA) and c2.unchecked == 1  # sure: declared, unchecked
