@@ -69,13 +69,20 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
     else:
         aspect = (ys_all[-1] - ys_all[0]) / max(xs_all[-1] - xs_all[0], 1e-9)
     height = min(max(4.6 * aspect + (1.4 if aspect >= 0.75 else 2.0), 3.2), 7.0)
-    fig, axes = plt.subplots(1, n, figsize=(6.0 * n, height), squeeze=False,
-                             layout="constrained")
+    # At most three panels a row (four: two by two): six configurations in one row had made a figure 36 in wide,
+    # each map a sliver when opened.
+    cols = 2 if n == 4 else min(n, 3)
+    nrows = -(-n // cols)
+    fig, grid_axes = plt.subplots(nrows, cols, figsize=(6.0 * cols, height * nrows),
+                                  squeeze=False, layout="constrained")
+    axes = grid_axes.ravel()[:n]
+    for spare in grid_axes.ravel()[n:]:
+        spare.remove()
     # one colour scale for every panel (a review saw 0-950 s beside 0-1200 s)
     vmax = max(_mean([_search_time(r) for r in rows]) for rows in groups.values())
     limit = max(float(r.get("sim_time_s") or 0) for rows in groups.values() for r in rows)
     top = max(vmax, limit, 1.0)
-    for ax, (label, rows) in zip(axes[0], groups.items(), strict=True):
+    for ax, (label, rows) in zip(axes, groups.items(), strict=True):
         by = _per_start(rows)
         xs = sorted({k[0] for k in by})
         ys = sorted({k[1] for k in by})
@@ -142,7 +149,7 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
     # One bar for the panels' one scale: beside tall maps, under wide ones (never taller than
     # the map, its label never longer than the bar).
     beside = aspect >= 0.75
-    fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8 if n == 1 or beside else 0.5,
+    fig.colorbar(im, ax=axes.tolist(), shrink=0.8 if n == 1 or beside else 0.5,
                  location="right" if beside else "bottom",
                  label="mean time to source (s);" + ("\n" if beside else " ")
                  + "a failure counts as the time it ran")

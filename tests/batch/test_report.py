@@ -339,3 +339,25 @@ def test_an_interrupted_study_is_compared_on_the_runs_every_configuration_has(
     assert compared(whole, planned_runs=8)[1] == []  # a finished study: nothing to say
     write_report(whole, tmp_path, figures=False)
     assert "Incomplete" not in (tmp_path / "tables.md").read_text()
+
+
+def test_a_study_map_of_many_configurations_wraps_at_three_panels_a_row(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Six configurations had made one row of six maps, 36 inches wide: each a sliver."""
+    from matplotlib.figure import Figure
+
+    seen: list[Figure] = []
+    real = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: (seen.append(self),
+                                                                   real(self, *a, **k)))
+    geometry = StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0)
+    write_report(grid_rows(configs=5), tmp_path, geometry)
+    fig = seen[0]
+    panels = [ax for ax in fig.axes if ax.get_title()]
+    assert len(panels) == 5
+    rows = sorted({round(ax.get_position().y0, 3) for ax in panels}, reverse=True)
+    assert len(rows) == 2  # three above, two below
+    assert sum(round(ax.get_position().y0, 3) == rows[0] for ax in panels) == 3
+    assert fig.get_size_inches()[0] == pytest.approx(18.0)
+    assert [ax.get_title().split("\n")[0] for ax in panels] == [
+        f"variant=v{c}" for c in range(5)]
