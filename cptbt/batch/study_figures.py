@@ -69,8 +69,8 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
     else:
         aspect = (ys_all[-1] - ys_all[0]) / max(xs_all[-1] - xs_all[0], 1e-9)
     height = min(max(4.6 * aspect + (1.4 if aspect >= 0.75 else 2.0), 3.2), 7.0)
-    # At most three panels a row (four: two by two): six configurations in one row had made a figure 36 in wide,
-    # each map a sliver when opened.
+    # At most three panels a row (four: two by two): six configurations in one row had made
+    # a figure 36 in wide, each map a sliver when opened.
     cols = 2 if n == 4 else min(n, 3)
     nrows = -(-n // cols)
     fig, grid_axes = plt.subplots(nrows, cols, figsize=(6.0 * cols, height * nrows),
