@@ -853,7 +853,7 @@ def test_a_confident_map_is_not_declared_before_the_track_crossed_up_flow_of_it(
 def test_the_check_is_flown_once_the_map_is_nearly_sure_and_declared_once_it_is_sure() -> None:
     """upflow_early_fraction: the leg (here a visit first) overlaps the time the map takes to
     become sure, instead of following it; the declaration still waits for the map."""
-    node, harness, script, t = confident_short_of_the_crossing(upflow_early_fraction=0.7)
+    node, harness, *_ = confident_short_of_the_crossing(upflow_early_fraction=0.7)
     mass, _ = node.map.mass_and_mean(node.map.peak(), node.params.radius_m)
     assert 0.7 * node.params.confidence <= mass < node.params.confidence
     assert node.upflow.target is not None and node.declared is None
