@@ -64,9 +64,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     alone removes more of those declarations but costs more T_D share than issue 13's 25%
     allows; flying the check while the map gathers its last evidence, rather than after, pays
     for it. With both, every one of the twelve declarations beyond 15 m known (seeds 2024,
-    2026, 2027 and 77) is declared within 9.3 m, and on seed 2028, flown once after the rule was
-    fixed, 0 of 1000 lie beyond 15 m at a T_D share of 24.4%; the price is about 0.2 m of median
-    error (3.8 m against the up-flow cluster's 3.6 m there).
+    2026, 2027 and 77) is declared within 9.3 m; on seeds 2026-2028 (2028 flown once after the
+    rule was fixed) 5 of 3000 lie beyond 15 m, none farther than 16.9 m (before: 10 of 4000,
+    up to 33 m), at a T_D share of 24.3-24.6%; the price is about 0.2 m of median error (3.8 m
+    against the up-flow cluster's 3.6 m on seed 2028). Both serve a single source: with
+    ``max_sources`` above 1 neither is flown (the declaring class's docstring).
     """
 
     detection_prob: float = Field(
@@ -165,8 +167,8 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     upflow_early_fraction: float | None = Field(
         default=0.7, gt=0, lt=1, description="Fly the up-flow check's leg (or visit) as soon as "
         "the map holds this fraction of confidence within radius_m of a candidate, before it is "
-        "sure of it: the leg overlaps the time the map takes to become sure (measured: class "
-        "docstring; None: only once it is sure, the rule before)"
+        "sure of it: the leg overlaps the time the map takes to become sure. With max_sources "
+        "1 only (measured: class docstring; None: only once it is sure, the rule before)"
     )
     upflow_band_m: float = Field(
         default=5.0, gt=0, description="How far to each side of the candidate's flow line the "
@@ -175,8 +177,8 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     upflow_fan_deg: float = Field(
         default=20.0, ge=0, le=60, description="The band widens up-flow by tan(this) per metre "
         "(the flow estimate's direction error): at a up-flow of the candidate its half-width is "
-        "upflow_band_m + a·tan(upflow_fan_deg); 20 with the early leg (measured: class "
-        "docstring; 0: a band of constant width, the rule before), deg"
+        "upflow_band_m + a·tan(upflow_fan_deg); 20 with the early leg, with max_sources 1 only "
+        "(measured: class docstring; 0: a band of constant width, the rule before), deg"
     )
     upflow_veto_near_m: float | None = Field(
         default=5.0, gt=0, description="Plume seen more than this up-flow of the candidate "
@@ -302,6 +304,11 @@ def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
                     "it) as the place of another, so a source within "
                     f"{params.mask_radius_m:g} m of a declared one is never declared (the "
                     "search ends only if the masks leave no cell)"))
+    several = params.max_sources > 1
+    for name in ("upflow_early_fraction", "upflow_fan_deg"):
+        if several and name in params.model_fields_set and getattr(params, name):
+            out.append((name, "has no effect with max_sources above 1 (the early leg and the "
+                        "fan serve a single source: the declaring class's docstring)"))
     if params.search_give_up_s is not None and params.max_sources == 1:
         out.append(("search_give_up_s", "has no effect with max_sources 1 (it bounds the "
                     "search for a further source)"))

@@ -271,6 +271,28 @@ def test_declares_two_sources_one_after_the_other() -> None:
     assert harness.get("declared_sources") == node.sources
 
 
+def test_the_early_leg_and_the_fan_serve_a_single_source() -> None:
+    """With several sources to find, neither is flown (two sources: 11 runs of 600 with a
+    false declaration with them, 5 of the same 600 without), and setting them says so."""
+    from cptbt.behaviours.likelihood_params import advise
+
+    one = LikelihoodMapDeclare(cone_params(), namespace=fresh_namespace())
+    two = LikelihoodMapDeclare(cone_params(max_sources=2), namespace=fresh_namespace())
+    assert one.upflow.fan == pytest.approx(math.tan(math.radians(20.0))) and two.upflow.fan == 0
+    for node in (one, two):  # the same approach: the map nearly sure, not yet sure
+        harness = TreeHarness(node, make_context(AREA))
+        script = ScriptedPerception(AREA, flow=FLOW)
+        plume = cone_plume((30.0, 5.0), np.random.default_rng(1))
+        for t, (x, y) in enumerate(APPROACH[:150]):
+            harness.tick(script.step(t, x, y, conc=plume(x, y)))
+    assert one.upflow.target is not None and one.declared is None  # the early visit
+    assert two.upflow.target is None and two.declared is None
+    said = dict(advise(LikelihoodMapParams(max_sources=2, upflow_fan_deg=20.0), AREA))
+    assert "no effect with max_sources above 1" in said["upflow_fan_deg"]
+    assert "upflow_early_fraction" not in said  # left at its default: nothing to say
+    assert "upflow_fan_deg" not in dict(advise(LikelihoodMapParams(upflow_fan_deg=30.0), AREA))
+
+
 def declaring(threshold: float | None = None,
               **params: Any) -> tuple[LikelihoodMapDeclare, TreeHarness]:
     """A declaration node with a map of 30 quiet cycles in a corner, to accept points into."""

@@ -120,7 +120,7 @@ def test_a_time_limit_during_the_search_for_more_sources_is_said_so(
 
     text = (ROOT / "missions/two_sources.yaml").read_text(encoding="utf-8")
     path = tmp_path / "tl.yaml"
-    # 220 s: the first source is declared between 150 and 200 s, the second at 286 s (seed 11)
+    # 220 s: the first source is declared between 150 and 200 s, the second at 306 s (seed 11)
     path.write_text(text.replace("time_limit_s: 3600", "time_limit_s: 220"), encoding="utf-8")
     assert main(["run", str(path), "--out", str(tmp_path / "o"), "--no-figure"]) == 0
     out = capsys.readouterr().out.splitlines()
