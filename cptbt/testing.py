@@ -313,8 +313,9 @@ def check_behaviour(
     undeclared = sorted(k for k in storage if k.startswith(f"{ns}/")
                         and (k not in metadata or not metadata[k].write))
     assert not undeclared, (f"{spec.key}: wrote blackboard keys no client declared for writing "
-                            f"({', '.join(undeclared)}): declare them (Contract.writes) rather "
-                            "than writing Blackboard.storage")
+                            f"({', '.join(undeclared)}): register them in __init__ "
+                            "(self.bb.register_key(key, access=Access.WRITE)) and write them "
+                            "through self.bb, not Blackboard.storage")
     node.stop(Status.INVALID)
     base = _base_attrs()
     fresh = spec.build(params, fresh_namespace())
