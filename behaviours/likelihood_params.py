@@ -306,7 +306,10 @@ def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
                     "search ends only if the masks leave no cell)"))
     several = params.max_sources > 1
     for name in ("upflow_early_fraction", "upflow_fan_deg"):
-        if several and name in params.model_fields_set and getattr(params, name):
+        # a value other than the default (a swept configuration, built from the dumped
+        # mission, has every field set: the defaults said nothing)
+        value = getattr(params, name)
+        if several and value and value != LikelihoodMapParams.model_fields[name].default:
             out.append((name, "has no effect with max_sources above 1 (the early leg and the "
                         "fan serve a single source: the declaring class's docstring)"))
     if params.search_give_up_s is not None and params.max_sources == 1:

@@ -287,9 +287,12 @@ def test_the_early_leg_and_the_fan_serve_a_single_source() -> None:
             harness.tick(script.step(t, x, y, conc=plume(x, y)))
     assert one.upflow.target is not None and one.declared is None  # the early visit
     assert two.upflow.target is None and two.declared is None
-    said = dict(advise(LikelihoodMapParams(max_sources=2, upflow_fan_deg=20.0), AREA))
+    said = dict(advise(LikelihoodMapParams(max_sources=2, upflow_fan_deg=25.0), AREA))
     assert "no effect with max_sources above 1" in said["upflow_fan_deg"]
     assert "upflow_early_fraction" not in said  # left at its default: nothing to say
+    # the defaults written out (as a swept configuration is built): nothing to say either
+    assert advise(LikelihoodMapParams(max_sources=2, upflow_fan_deg=20.0,
+                                      upflow_early_fraction=0.7), AREA) == []
     assert "upflow_fan_deg" not in dict(advise(LikelihoodMapParams(upflow_fan_deg=30.0), AREA))
 
 
