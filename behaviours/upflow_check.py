@@ -200,7 +200,11 @@ class UpflowCheck:
         # A side whose end lies outside the OpArea has nothing to show: it counts as reached.
         left = bool(np.any(near >= reach)) or not area.contains(ends[0].x, ends[0].y)
         right = bool(np.any(near <= -reach)) or not area.contains(ends[1].x, ends[1].y)
-        if left and right:
+        # ... and the track must have passed over the line itself: the water straight up-flow
+        # of the candidate, where its source would be. Excursions to either side, made apart,
+        # leave it unseen (two-source study, root seed 2028: the three false declarations).
+        crossed = self._over_line(window, across)
+        if left and right and crossed:
             self.target, self.leg_for = None, None
             return True
         spent = self.early_spent
@@ -220,12 +224,25 @@ class UpflowCheck:
             self.unchecked += 1
             return True
         self.leg_for = candidate
+        if left and right:  # both sides seen, not the line between them: over the line
+            self.target = Point(candidate.x - need * fx, candidate.y - need * fy)
+            self.kind = "check leg"
+            return False
         side = 1 if left else 0
         if not (left or right):  # neither side yet: the nearer one first
             here = p.pose.point
             side = int(here.distance_to(ends[1]) < here.distance_to(ends[0]))
         self.target, self.kind = ends[side], "check leg"
         return False
+
+    def _over_line(self, window: np.ndarray, across: np.ndarray) -> bool:
+        """Whether the track passed over the candidate's flow line inside the crossing window:
+        a cycle in it within :attr:`slack_m` of the line, or two successive cycles in it on
+        either side of the line."""
+        if bool(np.any(window & (np.abs(across) <= self.slack_m))):
+            return True
+        both = window[1:] & window[:-1]
+        return bool(np.any(both & (across[1:] * across[:-1] < 0.0)))
 
     def _supported(self, p: Percept, candidate: Point, t: np.ndarray, dx: np.ndarray,
                    dy: np.ndarray, hit: np.ndarray) -> bool:

@@ -44,10 +44,34 @@ def test_a_crossing_on_both_sides_between_one_and_two_reaches_up_flow_passes() -
     assert c.target is not None and c.target.y == -5.0  # now the other side
     c.record(2, Point(25, -4), hit=False)  # 25 m up-flow: beyond twice the reach, no count
     assert not c.passed(at(s, 2), CAND, AREA)
-    c.record(3, Point(38, -4), hit=False)
-    assert c.passed(at(s, 3), CAND, AREA) and c.target is None
+    c.record(3, Point(38, -4), hit=False)  # the other side, but the line between not flown
+    assert not c.passed(at(s, 3), CAND, AREA)
+    assert c.target == Point(40.0, 0.0)  # over the line, 10 m up-flow
+    c.record(4, Point(39, 1), hit=False)
+    assert c.passed(at(s, 4), CAND, AREA) and c.target is None
     assert c.report() == {"upflow_checks": 1, "unchecked": 0, "upflow_vetoes": 0,
                           "trace_vetoes": 0, "visits": 0, "visits_ended": 0}
+
+
+def test_both_sides_seen_apart_are_no_crossing_until_the_line_is_flown() -> None:
+    """Two-source study, root seed 2028, replicate 113: a lane 15-30 m to one side of the
+    candidate's line and, 90 s later, a loop 5-18 m to the other had each reached a side; the
+    water straight up-flow, where the source lay, was never flown, and the candidate (17 m
+    down-flow of it) was declared."""
+    c, s = check(), ScriptedPerception(AREA)
+    for t, (x, y) in enumerate(((36, 20), (38, 16), (40, 12))):  # one side, 10-14 m up-flow
+        c.record(t, Point(x, y), hit=False)
+    for t, (x, y) in enumerate(((48, 12), (52, 4), (55, -4), (48, -8)), start=3):  # round,
+        c.record(t, Point(x, y), hit=False)  # over the line 2 m down-flow: short of the window
+    for t, (x, y) in enumerate(((39, -6), (38, -10), (37, -14)), start=7):  # the other side
+        c.record(t, Point(x, y), hit=False)
+    assert not c.passed(at(s, 10), CAND, AREA)
+    assert c.target == Point(40.0, 0.0) and c.kind == "check leg"
+    for t, (x, y) in enumerate(((45, -4), (43, -4)), start=11):  # along, beside the line
+        c.record(t, Point(x, y), hit=False)
+    assert not c.passed(at(s, 13), CAND, AREA)
+    c.record(14, Point(37, 4), hit=False)  # from (43, -4): over the line, 7-13 m up-flow
+    assert c.passed(at(s, 14), CAND, AREA) and c.target is None and c.legs == 1
 
 
 def test_a_one_cycle_dip_of_confidence_is_not_a_new_leg_and_keeps_the_clock() -> None:
