@@ -205,7 +205,8 @@ class StrategyIIIParams(StrategyParams):
     beta1_deg: float | None = Field(
         default=None, ge=0, le=30,
         description="beta_1 of AB eq. 11: if set, |beta| is beta_1, 2 beta_1, 3 beta_1 in the "
-        "three bands (AB Fig. 9's sweep), in place of the three beta_*_deg, deg",
+        "three bands (AB Fig. 9's sweep), in place of the three beta_*_deg (None: the three "
+        "beta_*_deg, AB eq. 12), deg",
     )
     early_until_s: float = Field(default=0.2, ge=0, description="tau_1 of AB eq. 11, s")
     mid_until_s: float = Field(default=0.5, ge=0, description="tau_2 of AB eq. 11, s")

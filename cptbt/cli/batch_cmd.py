@@ -12,6 +12,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from pydantic import BaseModel
+
 from cptbt import __version__
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import code_identity, digest
@@ -37,6 +39,48 @@ from cptbt.study_spec import StudySpec
 def _sweep_text(sweep: Sweep) -> str:
     """A sweep as ``--sweep`` spells it: ``PATH=V1,V2``."""
     return f"{'+'.join(sweep.paths)}={','.join(str(v) for v in sweep.values)}"
+
+
+def _not_flown(own: list[Sweep], given: list[Sweep]) -> list[Sweep]:
+    """The study section's sweeps cut to the values the command line's sweeps do not fly.
+
+    A value is flown when each of its paths takes it in some given sweep (the configurations
+    are their product); a study sweep with every value flown is left out.
+    """
+    out = []
+    for s in own:
+        left = tuple(v for v in s.values
+                     if not all(any(p in g.paths and v in g.values for g in given)
+                                for p in s.paths))
+        if left:
+            out.append(Sweep(s.paths, left))
+    return out
+
+
+def _fallback(mission: MissionBase, path: str) -> str:
+    """What a path no sweep sets is flown at: ``PATH falls back to the mission's value, V`` (or
+    ``the default, V`` where the mission file leaves it out); a None says what None means, from
+    the field's description."""
+    head, _, rest = path.partition(".")
+    entry = next((e for e in mission.entries() if e.family == head), None) \
+        if rest and head not in type(mission).model_fields else None
+    node: Any = entry.params if entry is not None else mission
+    *parents, leaf = (rest if entry is not None else path).split(".")
+    for key in parents:
+        node = node.get(key) if isinstance(node, dict) else getattr(node, key, None)
+    if isinstance(node, dict) and leaf in node:
+        return f"{path} falls back to the mission's value, {node[leaf]}"
+    field = type(node).model_fields.get(leaf) if isinstance(node, BaseModel) else None
+    if field is None:  # not a field of a loaded model: say no more than is known
+        return f"{path} falls back to the mission's own setting"
+    value = getattr(node, leaf)
+    whose = "the mission's value" if leaf in node.model_fields_set else "the default"
+    if value is None:
+        meaning = re.search(r"\b(?:None|default): ([^)]*)", field.description or "")
+        shown = f"none ({meaning.group(1).strip()})" if meaning else "none"
+    else:
+        shown = str(value)
+    return f"{path} falls back to {whose}, {shown}"
 
 
 def _sweep(text: str) -> Sweep:
@@ -240,11 +284,16 @@ def cmd_batch(args: argparse.Namespace) -> int:
     spec = mission.study
     own = study_sweeps(mission)
     sweeps: list[Sweep] = args.sweep or own
-    dropped = [s for s in own if s not in args.sweep] if args.sweep else []
+    dropped = _not_flown(own, args.sweep) if args.sweep else []
     if dropped:  # --sweep replaces the study section's sweeps, all of them: never silently
+        # Per value: a --sweep that flies some of a study sweep's values leaves only the rest
+        # unflown; a path no --sweep sets is flown at one value, which is said.
+        unset = [p for s in dropped for p in s.paths
+                 if not any(p in g.paths for g in args.sweep)]
+        falls = "".join(f"; {_fallback(mission, p)}" for p in dict.fromkeys(unset))
         print(f"cptbt: note: --sweep replaces the sweeps of {args.mission}'s study section; not "
               f"flown: {'; '.join(_sweep_text(s) for s in dropped)} (give them as --sweep too "
-              "to keep them)", file=sys.stderr)
+              f"to keep them){falls}", file=sys.stderr)
     try:
         lines = parse_yaml(mission_text(args.mission), args.mission)[1] \
             if sweeps else None

@@ -283,8 +283,10 @@ def test_a_configuration_is_a_mission_without_the_study_it_belongs_to() -> None:
 
 def test_sweep_on_the_command_line_says_which_study_sweeps_it_replaces(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """--sweep replaces the study section's sweeps, all of them: the command says which it
-    does not fly, in the form that would keep them (it had replaced them silently)."""
+    """--sweep replaces the study section's sweeps, all of them: the command says which of
+    their values it does not fly, in the form that would keep them (it had replaced them
+    silently), and what a path no --sweep sets is flown at. A study value the --sweep flies is
+    not listed (ab_large_meander had been, with the sweep that flew it)."""
     from cptbt.cli import main
 
     ab = Path(__file__).resolve().parents[2] / "missions/ab2001_fig9.yaml"
@@ -294,13 +296,45 @@ def test_sweep_on_the_command_line_says_which_study_sweeps_it_replaces(
     notes = [line for line in capsys.readouterr().err.splitlines() if "replaces" in line]
     assert notes == [
         f"cptbt: note: --sweep replaces the sweeps of {ab}'s study section; not flown: "
-        "environment.preset=ab_large_meander,ab_small_meander; maintain_plume.beta1_deg="
-        "0,2.5,5,7.5,10,12.5,15,17.5,20,22.5,25 (give them as --sweep too to keep them)"]
+        "environment.preset=ab_small_meander; maintain_plume.beta1_deg="
+        "0,2.5,5,7.5,10,12.5,15,17.5,20,22.5,25 (give them as --sweep too to keep them); "
+        "maintain_plume.beta1_deg falls back to the default, none (the three beta_*_deg, "
+        "AB eq. 12)"]
     # The study's own sweeps, given again, are flown: no note.
     assert main(["batch", str(ab), "--sweep", "environment.preset=ab_large_meander,"
                  "ab_small_meander", "--sweep", "maintain_plume.beta1_deg=0", "--runs-per-start",
                  "1", "--time-limit", "5", "--workers", "1", "--no-plots", "--quiet",
                  "--out", str(tmp_path / "t")]) == 0
     notes = [line for line in capsys.readouterr().err.splitlines() if "replaces" in line]
-    assert len(notes) == 1 and "not flown: maintain_plume.beta1_deg=" in notes[0]
-    assert "environment.preset" not in notes[0]
+    assert notes == [
+        f"cptbt: note: --sweep replaces the sweeps of {ab}'s study section; not flown: "
+        "maintain_plume.beta1_deg=2.5,5,7.5,10,12.5,15,17.5,20,22.5,25 (give them as --sweep "
+        "too to keep them)"]
+
+
+def test_a_study_value_is_flown_when_each_of_its_paths_takes_it() -> None:
+    """The note's per-value comparison: joined paths need every path to take the value; a
+    --sweep joining more paths still flies it."""
+    from cptbt.cli.batch_cmd import _not_flown
+
+    own = [Sweep(("a", "b"), (1, 2)), Sweep(("c",), (3, 4))]
+    assert _not_flown(own, [Sweep(("a",), (1, 2)), Sweep(("b",), (2,)),
+                            Sweep(("c", "d"), (3, 4))]) == [Sweep(("a", "b"), (1,))]
+    assert _not_flown(own, [Sweep(("a",), (1,))]) == own
+
+
+def test_the_note_says_what_a_dropped_path_falls_back_to() -> None:
+    """The mission's value where its file sets the path, else the default; a None is said with
+    what None means (the field's description)."""
+    from cptbt.cli.batch_cmd import _fallback
+    from cptbt.cli.inspect_cmds import load
+
+    ab = load(str(Path(__file__).resolve().parents[2] / "missions/ab2001_fig9.yaml"),
+              simulate=True, warn=False)
+    assert _fallback(ab, "environment.preset") == (
+        "environment.preset falls back to the mission's value, ab_large_meander")
+    assert _fallback(ab, "maintain_plume.beta_mid_deg") == (
+        "maintain_plume.beta_mid_deg falls back to the default, 65.0")
+    assert _fallback(ab, "maintain_plume.beta1_deg") == (
+        "maintain_plume.beta1_deg falls back to the default, none (the three beta_*_deg, "
+        "AB eq. 12)")
