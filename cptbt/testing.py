@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import copy
 import math
+import reprlib
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -40,6 +41,10 @@ from cptbt.tree import plan_leaves
 from cptbt.types import Command, Percept, Point, Pose
 
 _namespaces = iter(range(10**12))
+
+_SHORT = reprlib.Repr()  # a value in a message: a class's 20 000-character list had buried it
+_SHORT.maxstring = _SHORT.maxother = 80
+_SHORT.maxlist = _SHORT.maxtuple = _SHORT.maxdict = _SHORT.maxset = 6
 
 
 def square_area(side_m: float = 100.0) -> OpArea:
@@ -266,8 +271,9 @@ def check_behaviour(
     - after pre-emption (``stop(INVALID)``) and re-activation (``initialise``), every leaf's
       per-activation state equals that of a freshly built leaf; attributes a class lists in
       ``persistent_state`` (kept on purpose across activations) are exempt;
-    - no leaf changed its class's data (a list appended to, an attribute set on the class):
-      such state is shared by every instance, so one run leaks into the next run of a worker;
+    - no leaf changed its class's data (a list appended to, an attribute set on the class),
+      looked for after every tick: such state is shared by every instance, so one run leaks
+      into the next run of a worker;
     - every blackboard key the node wrote under its namespace was declared (registered by
       some client for writing): a write through ``Blackboard.storage`` bypasses the
       declared-keys contract that isolates nodes.
@@ -277,7 +283,8 @@ def check_behaviour(
     their own would).
 
     Raises:
-        AssertionError: naming the rule broken and the tick.
+        AssertionError: naming the rule broken and, for the rules checked in the closed loop,
+            the tick (state reset and blackboard keys are checked after it).
     """
     if isinstance(spec, type):
         spec = BehaviourSpec.of(spec)
@@ -291,23 +298,13 @@ def check_behaviour(
     harness = TreeHarness(node, context, field_reached=False)
     _closed_loop(spec.key, harness, node, ScriptedPerception(area, flow=(1.0, 0.0),
                                                              lambda_s=1.0),
-                 ticks, rng, max_speed_mps, area)
+                 ticks, rng, max_speed_mps, area, classes)
     blind = spec.build(params, fresh_namespace())
     _closed_loop(f"{spec.key} (no flow estimate)",
                  TreeHarness(blind, make_context(area, home=(5.0, 0.0), start=(50.0, 10.0)),
                              field_reached=True),
                  blind, ScriptedPerception(area, flow=None, lambda_s=1.0), max(ticks // 5, 1),
-                 rng, max_speed_mps, area)
-    after = _class_data(node)
-    for (cls, name), value in classes.items():
-        assert (cls, name) in after and _same_data(after[cls, name], value), (
-            f"{spec.key}: class data {cls}.{name} changed while the node ran ({value!r} -> "
-            f"{after.get((cls, name), '<deleted>')!r}): class-level state is shared by every "
-            "instance; keep per-run state on self")
-    added = sorted(f"{c}.{n}" for c, n in after.keys() - classes.keys())
-    assert not added, (f"{spec.key}: the node set class attributes while it ran "
-                       f"({', '.join(added)}): class-level state is shared by every instance; "
-                       "keep it on self")
+                 rng, max_speed_mps, area, classes)
     board = py_trees.blackboard.Blackboard
     storage, metadata = board.storage, board.metadata
     undeclared = sorted(k for k in storage if k.startswith(f"{ns}/")
@@ -331,9 +328,11 @@ def check_behaviour(
 
 def _closed_loop(key: str, harness: TreeHarness, node: py_trees.behaviour.Behaviour,
                  script: ScriptedPerception, ticks: int, rng: np.random.Generator,
-                 max_speed_mps: float, area: OpArea) -> None:
+                 max_speed_mps: float, area: OpArea,
+                 classes: dict[tuple[str, str], object]) -> None:
     """:func:`check_behaviour`'s closed loop: ``ticks`` ticks at 2 Hz of a seeded random
-    script, each status and command checked, and every leaf's requests to ``command``."""
+    script, each status and command checked, every leaf's requests to ``command``, and the
+    leaves' class data against ``classes`` (taken before the node ran)."""
     vehicle = FakeVehicle(60.0, 0.0, 180.0)
     dt = 0.5
     for i in range(ticks):
@@ -365,15 +364,28 @@ def _closed_loop(key: str, harness: TreeHarness, node: py_trees.behaviour.Behavi
             assert bad == 0, (f"{where}: {leaf.name} asked command() for a non-finite heading "
                               "or speed, which sends none: the behaviour fell silent (return "
                               "None for no output)")
+        changed = _class_change(node, classes)
+        assert changed is None, f"{where}: {changed}"
         vehicle.apply(tk.command, dt)
         if not area.contains(vehicle.x, vehicle.y):  # keep the fake vehicle in play
             vehicle.x = min(max(vehicle.x, area.xmin + 1), area.xmax - 1)
             vehicle.y = min(max(vehicle.y, area.ymin + 1), area.ymax - 1)
 
 
-def _class_data(node: py_trees.behaviour.Behaviour) -> dict[tuple[str, str], object]:
-    """A deep copy of the data attributes (not methods, properties or nested classes) of every
-    plan leaf's classes below :class:`~cptbt.node.PlanBehaviour`, keyed by (class, name)."""
+def _shown(value: object) -> str:
+    """A value for a message, shortened (with its length: two long lists can look alike)."""
+    text = _SHORT.repr(value)
+    if isinstance(value, (list, tuple, dict, set, frozenset, np.ndarray)) and "..." in text:
+        return f"{len(value)} items, {text}"
+    return text
+
+
+_UNCHECKED = object()  # class data that cannot be copied: its change is not looked for
+
+
+def _class_items(node: py_trees.behaviour.Behaviour) -> dict[tuple[str, str], object]:
+    """The data attributes (not methods, properties or nested classes) of every plan leaf's
+    classes below :class:`~cptbt.node.PlanBehaviour`, keyed by (class, name); not copied."""
     out: dict[tuple[str, str], object] = {}
     for leaf in plan_leaves(node):
         for cls in type(leaf).__mro__:
@@ -384,11 +396,39 @@ def _class_data(node: py_trees.behaviour.Behaviour) -> dict[tuple[str, str], obj
                         value, (property, staticmethod, classmethod, type)) or hasattr(
                         value, "__get__"):
                     continue
-                try:
-                    out[cls.__qualname__, name] = copy.deepcopy(value)
-                except Exception:  # an attribute that cannot be copied: unchecked
-                    continue
+                out[cls.__qualname__, name] = value
     return out
+
+
+def _class_data(node: py_trees.behaviour.Behaviour) -> dict[tuple[str, str], object]:
+    """A deep copy of :func:`_class_items` (``_UNCHECKED`` for what cannot be copied)."""
+    out: dict[tuple[str, str], object] = {}
+    for key, value in _class_items(node).items():
+        try:
+            out[key] = copy.deepcopy(value)
+        except Exception:  # an attribute that cannot be copied: unchecked
+            out[key] = _UNCHECKED
+    return out
+
+
+def _class_change(node: py_trees.behaviour.Behaviour,
+                  before: dict[tuple[str, str], object]) -> str | None:
+    """What of the leaves' class data differs from ``before`` (a :func:`_class_data`), advice
+    first and values shortened; None if nothing does. Cheap enough for every tick: the data
+    is compared, not copied."""
+    now = _class_items(node)
+    advice = ("a leaf changed its class's data: class-level state is shared by every instance "
+              "(one run leaks into the next run of a batch worker); keep per-run state on self")
+    for (cls, name), value in before.items():
+        if (cls, name) not in now:
+            return f"{advice}: class data {cls}.{name} deleted (was {_shown(value)})"
+        if value is not _UNCHECKED and not _same_data(now[cls, name], value):
+            return (f"{advice}: class data {cls}.{name} changed (was {_shown(value)}, now "
+                    f"{_shown(now[cls, name])})")
+    added = sorted(f"{c}.{n}" for c, n in now.keys() - before.keys())
+    if added:
+        return f"{advice}: the node set class attributes {', '.join(added)}"
+    return None
 
 
 def _same_data(a: object, b: object) -> bool:

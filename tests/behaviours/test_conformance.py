@@ -141,6 +141,36 @@ def test_the_check_fails_a_behaviour_that_keeps_state_on_its_class() -> None:
         check_behaviour(SetsOnClass)
 
 
+def test_the_class_data_message_names_the_tick_and_gives_its_advice_first() -> None:
+    """The check looks after every tick, so it names the first tick that changed the class;
+    the advice comes before the values, which are shortened (a review's message printed a
+    20 000-character list first, the advice after it, and no tick though the README says
+    every message names one)."""
+    from typing import ClassVar
+
+    from cptbt.node import PlanBehaviour
+    from cptbt.types import Command, Percept
+
+    class LongHistory(PlanBehaviour):
+        family: ClassVar[str] = "find_plume"
+        variant: ClassVar[str] = "long_history"
+        seen: ClassVar[list[float]] = [0.0] * 5000
+
+        def decide(self, p: Percept) -> Command | None:
+            if p.t >= 3.0:  # from tick 6 (2 Hz)
+                self.seen.append(p.t)
+            return self.command(0.0)
+
+    with pytest.raises(AssertionError) as err:
+        check_behaviour(LongHistory)
+    text = str(err.value).splitlines()[0]
+    assert text.startswith("find_plume.long_history tick 6 (t=3.0): a leaf changed its class's "
+                           "data: class-level state is shared by every instance"), text
+    assert ("LongHistory.seen changed (was 5000 items, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ...], "
+            "now 5001 items, [0.0, " in text), text
+    assert len(text) < 600, len(text)  # not the 5 000-item list
+
+
 def test_the_check_fails_a_behaviour_that_writes_undeclared_blackboard_keys() -> None:
     """A key written through Blackboard.storage bypasses the declared-keys contract."""
     from typing import ClassVar
