@@ -427,9 +427,14 @@ def cmd_batch(args: argparse.Namespace) -> int:
                        "runs with a contact" if t_m else "no run made contact")
         else:
             outcome = f"success {stats['successes'] / max(stats['runs'], 1):.1%}"
-        print(f"{stats['runs']} mission{'s' * (stats['runs'] != 1)} ({resumed} groups resumed "
-              "from disk): "
-              f"{outcome}; {wall:.1f} s wall, {rate:.1f} missions/s")
+        runs = stats["runs"]
+        # A study found finished on disk flew nothing: "0.0 s wall, 0.0 missions/s" had read
+        # as a study flown in no time.
+        pace = (f"{wall:.1f} s wall, {rate:.1f} missions/s" if flown_runs else
+                f"{f'all {runs} runs were' if runs != 1 else 'the run was'} already on disk; "
+                "none flown")
+        print(f"{runs} mission{'s' * (runs != 1)} ({resumed} groups resumed from disk): "
+              f"{outcome}; {pace}")
         print(f"  wrote {table}")
         if args.log_runs:
             logged = sorted((Path(args.out) / "logs").glob("*.mcap"))

@@ -76,7 +76,11 @@ def study(clean: Path, tmp_path: Path) -> Path:
 def test_intact_study_resumes_everything(study: Path, reference: list[dict[str, Any]]) -> None:
     res = batch(study)
     assert res.returncode == 0 and stderr_lines(res) == []
-    assert "(2 groups resumed from disk)" in res.stdout
+    # nothing was flown, and the summary says so (not "0.0 s wall, 0.0 missions/s")
+    assert res.stdout.startswith("4 missions (2 groups resumed from disk): success ")
+    assert res.stdout.splitlines()[0].endswith(
+        "; all 4 runs were already on disk; none flown"), res.stdout
+    assert "missions/s" not in res.stdout
     assert table(study) == reference
 
 
