@@ -37,6 +37,12 @@ def _mean_se(values: list[float]) -> tuple[float, float]:
     return statistics.fmean(values), se
 
 
+def _se_text(se: float) -> str:
+    """A standard error as the tables give it: "—" where there is none (one run's, whose
+    standard deviation is NaN: the table had read "± nan")."""
+    return "—" if math.isnan(se) else f"{se:.1f}"
+
+
 def maintain_table(groups: dict[str, Rows]) -> list[str]:
     """Markdown lines: T_M per configuration (runs without a contact are counted, not averaged)."""
     lines = ["## Maintain time (AB eq. 3: T_M = T_Last − T_First, until contact is lost for good)",
@@ -48,7 +54,7 @@ def maintain_table(groups: dict[str, Rows]) -> list[str]:
         med = statistics.median(t_m) if t_m else math.nan
         reached = sum(bool(r.get("success")) for r in rows)
         lines.append(f"| {label} | {len(rows)} | {len(t_m)} | "
-                     + ("—" if not t_m else f"{m:.1f} ± {se:.1f}") + " | "
+                     + ("—" if not t_m else f"{m:.1f} ± {_se_text(se)}") + " | "
                      + ("—" if not t_m else f"{med:.1f}") + f" | {reached} |")
     return [*lines, ""]
 

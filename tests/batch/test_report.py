@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -212,6 +213,18 @@ def test_a_maintain_study_reports_t_m_against_its_numeric_setting(tmp_path: Path
     # T_M first (what the study measures); closest approaches, not "errors", after it.
     assert text.index("## Maintain time") < text.index("## Per configuration")
     assert "mean closest approach (m)" in text and "mean error" not in text
+
+
+def test_a_single_run_has_no_standard_error_and_the_tables_say_none(tmp_path: Path) -> None:
+    """One run's standard deviation is NaN: the tables give "± —" where they had "± nan"."""
+    one = [r for r in maintain_rows() if r["replicate"] == 0]  # one run per configuration
+    write_report(one, tmp_path, figures=False)
+    text = (tmp_path / "tables.md").read_text(encoding="utf-8")
+    assert "| preset=ab_large_meander, beta1_deg=10 | 1 | 1 | 10.0 ± — | 10.0 | 0 |" in text
+    assert not re.search(r"\bnan\b", text, re.IGNORECASE), text
+    write_report(grid_rows()[:1], tmp_path / "g", figures=False)  # a search study's one run
+    text = (tmp_path / "g" / "tables.md").read_text(encoding="utf-8")
+    assert not re.search(r"\bnan\b", text, re.IGNORECASE), text
 
 
 @pytest.mark.parametrize("n", [11, 27])
