@@ -73,8 +73,13 @@ class LikelihoodMapDeclare(SeveralSources):
     - *crossing*: the track (since the search for this source began, and since the latest
       vetoing detection) must have crossed the candidate's flow line between
       ``upflow_check_m`` and twice that up-flow of it, reaching ``upflow_band_m`` to either
-      side (less ``arrive_radius_m``). Until it has, the node drives a *check leg* to
-      the point that far up-flow and that far to the side not yet reached (the nearer first). A
+      side (less ``arrive_radius_m``) and passing over the line itself (within
+      ``arrive_radius_m`` of it, or from one side to the other between two cycles). Until it
+      has, the node drives a *check leg* to the point that far up-flow and that far to the
+      side not yet reached (the nearer first), or, both sides reached apart, to the line's
+      point that far up-flow: excursions to either side made at different times leave the
+      water straight up-flow unseen (two-source mission, root seed 2028: all three false
+      declarations, 16-43 m short, had been passed so; none of 200 runs is with the line). A
       side whose point lies outside the OpArea needs no crossing; nearer the up-flow wall than
       that reach (plus ``arrive_radius_m``) the crossing is looked for nearer, at the candidate
       itself against the wall (the map's mass piles up at a wall no evidence reaches). A leg
