@@ -11,8 +11,9 @@ and ``H`` its entropy: near the source it values getting there over learning mor
 The belief
 ----------
 The belief is the likelihood map of :mod:`cptbt.behaviours.source_map` (its grid, its
-back-trajectory kernel along the estimated flow, its tempering), with one change of reading —
-the detection model is a Poisson one, as Vergassola's:
+tempering, and its back-trajectory kernel along the estimated flow,
+:mod:`cptbt.behaviours.plume_likelihood`), with one change of reading — the detection model is
+a Poisson one, as Vergassola's:
 
 - hits arrive as a Poisson process whose rate follows the plume's *mean* concentration
   downstream of a source at ``s``: ``R(s; x) = R0 · exp(-a / L) · exp(-c² / (2 σ(a)²))``, the
@@ -92,7 +93,8 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
 
-from cptbt.behaviours.source_map import MapModelParams, SourceMap, grid_advice
+from cptbt.behaviours.map_model import MapModelParams
+from cptbt.behaviours.source_map import SourceMap, grid_advice
 from cptbt.frames import OpArea
 from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 from cptbt.registry import BehaviourSpec
@@ -170,8 +172,9 @@ class PoissonSourceMap(SourceMap):
                      sy: Array) -> Array:
         """The map's kernel shape, read from a table of the back-trajectory's sideways drift.
 
-        The same function as :meth:`SourceMap.kernel_shape` to within the table's resolution
-        (``TABLE_STEP_M``; see :meth:`shape_at`).
+        The same function as
+        :meth:`~cptbt.behaviours.plume_likelihood.PlumeLikelihood.kernel_shape` to within the
+        table's resolution (``TABLE_STEP_M``; see :meth:`shape_at`).
         """
         traj = self.back_trajectory(k)
         ux, uy = traj[0], traj[1]

@@ -43,7 +43,8 @@ class LikelihoodMapDeclare(SeveralSources):
     """Declare from a Bayesian source-likelihood map (Pang & Farrell, IEEE SMC-B 36(5), 2006).
 
     Every cycle (in :meth:`watch`, so also while safety or the fly-by drive) the percept updates the
-    map (see :mod:`cptbt.behaviours.source_map` for the likelihood model and its assumptions) and
+    map (see :mod:`cptbt.behaviours.source_map` for the map and its assumptions,
+    :mod:`cptbt.behaviours.plume_likelihood` for the likelihood model and its own) and
     the posterior is published on ``source_map``. The rule: once ``min_detections`` detections have
     been folded in, take the map's most probable cell; when the posterior mass within ``radius_m``
     of it exceeds ``confidence``, the source is declared at the posterior mean of that

@@ -1,6 +1,9 @@
-"""The grid and likelihood-model parameters of the source map (:mod:`cptbt.behaviours.source_map`,
-whose docstring says what each parameter is in the model); shared by the likelihood-map
-declaration and the infotaxis searchers.
+"""The grid and likelihood-model parameters of the source map (:mod:`cptbt.behaviours.source_map`);
+shared by the likelihood-map declaration and the infotaxis searchers.
+
+"The module docstring" of the descriptions below is the likelihood model's,
+:mod:`cptbt.behaviours.plume_likelihood`, which says what each parameter is in the model; for
+the meander state ("Correlated meander") it is the map's, :mod:`cptbt.behaviours.source_map`.
 """
 
 from __future__ import annotations

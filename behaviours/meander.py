@@ -29,7 +29,7 @@ independent-cycle ``K(s; x)`` wherever ``p_in`` is not capped. Each cell is then
 forward: every observation propagates the cell's ``P(z)`` with the chain's transition over the
 time since the last one, multiplies it by the observation's likelihood in each state (the same
 detection and non-detection likelihoods as the independent-cycle model's in
-:mod:`cptbt.behaviours.source_map`, ``K(s; x | z)`` for ``K(s; x)``, each raised to
+:mod:`cptbt.behaviours.plume_likelihood`, ``K(s; x | z)`` for ``K(s; x)``, each raised to
 its tempering exponent) and renormalises; the cell's log-posterior gains the log of the
 normaliser (the predictive probability of the observation). A run of misses is then explained by
 one offset of the plume (its evidence is capped at about "the plume was elsewhere for a while",

@@ -66,8 +66,8 @@ class SeveralSources(SourceDeclaration):
     the rule can take another source for this one's: forgotten, that source is found again).
 
     Strong detections far down a known plume are not explained by it (strong ones are rare
-    there: :meth:`~cptbt.behaviours.source_map.SourceMap._miss_known`), so a source lying in
-    the edge of a declared one's plume is found by them; its weak detections still are the
+    there: :meth:`~cptbt.behaviours.plume_likelihood.PlumeLikelihood._miss_known`), so a source
+    lying in the edge of a declared one's plume is found by them; its weak detections still are the
     known plume's, and there the up-flow check cannot tell the known plume from the
     candidate's own. A candidate where a declared source's plume would give a detection in
     at least ``known_plume_max_prob`` (0.2) of cycles is therefore held, not declared, and the

@@ -37,7 +37,8 @@ WINDOW_S = 100.0
 
 
 def back_trajectory(cum: np.ndarray, k: int, max_range: float = 260.0):  # type: ignore[no-untyped-def]
-    """The map's back-trajectory (``SourceMap.back_trajectory``) from a cumulative history."""
+    """The map's back-trajectory (``PlumeLikelihood.back_trajectory``) from a cumulative
+    history."""
     disp = cum[k] - cum[: k + 1][::-1]
     along_total = np.hypot(disp[:, 0], disp[:, 1])
     stop = int(np.searchsorted(np.maximum.accumulate(along_total), max_range)) + 1

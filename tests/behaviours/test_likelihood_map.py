@@ -21,8 +21,9 @@ from py_trees.common import Status
 
 from cptbt.behaviours.likelihood import LikelihoodMapDeclare, LikelihoodMapParams
 from cptbt.behaviours.map_guided import MapGuidedParams, MapGuidedReacquire, best_target
+from cptbt.behaviours.map_model import MapModelParams
 from cptbt.behaviours.meander import MeanderChain
-from cptbt.behaviours.source_map import MapModelParams, SourceMap
+from cptbt.behaviours.source_map import SourceMap
 from cptbt.cli import main
 from cptbt.frames import OpArea
 from cptbt.node import active_name

@@ -18,7 +18,8 @@ import pytest
 from cptbt.angles import unit
 from cptbt.behaviours.likelihood import LikelihoodMapDeclare, LikelihoodMapParams
 from cptbt.behaviours.map_guided import best_target
-from cptbt.behaviours.source_map import MapModelParams, SourceMap
+from cptbt.behaviours.map_model import MapModelParams
+from cptbt.behaviours.source_map import SourceMap
 from cptbt.behaviours.sweep import CrossFlowSweep
 from cptbt.cli import main
 from cptbt.frames import OpArea
