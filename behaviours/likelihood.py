@@ -72,15 +72,19 @@ class LikelihoodMapDeclare(SeveralSources):
       source emits: next to it a pass detects in most cycles (the model's ``detection_prob``).
       Only with the check on (``upflow_check_m``);
     - *crossing*: the track (since the search for this source began, and since the latest
-      vetoing detection) must have crossed the candidate's flow line between
-      ``upflow_check_m`` and twice that up-flow of it, reaching ``upflow_band_m`` to either
+      vetoing detection) must have crossed the candidate's flow line ``upflow_check_m``
+      up-flow of it (give or take ``arrive_radius_m``), reaching ``upflow_band_m`` to either
       side (less ``arrive_radius_m``) and passing over the line itself (within
       ``arrive_radius_m`` of it, or from one side to the other between two cycles). Until it
       has, the node drives a *check leg* to the point that far up-flow and that far to the
       side not yet reached (the nearer first), or, both sides reached apart, to the line's
       point that far up-flow: excursions to either side made at different times leave the
       water straight up-flow unseen (two-source mission, root seed 2028: all three false
-      declarations, 16-43 m short, had been passed so; none of 200 runs is with the line). A
+      declarations, 16-43 m short, had been passed so; none of 200 runs is with the line).
+      An empty crossing at ``a`` up-flow rules out only sources beyond ``a``: until session 18
+      a crossing up to twice ``upflow_check_m`` (23 m) up-flow counted, and it let through
+      sources 15-21 m short (three of four false two-source declarations left on root seeds
+      2027 and 2029, each passed by a sweep lane 20-23 m up-flow of the candidate). A
       side whose point lies outside the OpArea needs no crossing; nearer the up-flow wall than
       that reach (plus ``arrive_radius_m``) the crossing is looked for nearer, at the candidate
       itself against the wall (the map's mass piles up at a wall no evidence reaches). A leg

@@ -159,10 +159,11 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     )
     upflow_check_m: float | None = Field(
         default=10.0, gt=0, description="The up-flow check's reach: declare only once the track "
-        "(since this source's search began) has crossed the candidate's flow line between this "
-        "and twice this up-flow of it, reaching upflow_band_m to both sides; until then the "
-        "vehicle flies there. Plume seen between radius_m and three times this up-flow of the "
-        "candidate, within upflow_band_m of its line, vetoes it. None: no check, m"
+        "(since this source's search began) has crossed the candidate's flow line this far "
+        "up-flow of it (give or take arrive_radius_m), reaching upflow_band_m to both sides; "
+        "until then the vehicle flies there. Plume seen between radius_m and three times this "
+        "up-flow of the candidate, within upflow_band_m of its line, vetoes it. None: no "
+        "check, m"
     )
     upflow_early_fraction: float | None = Field(
         default=0.7, gt=0, lt=1, description="Fly the up-flow check's leg (or visit) as soon as "

@@ -39,7 +39,8 @@ class UpflowCheck:
     """The track, the check leg under way, and the counts the declaration reports.
 
     Args:
-        reach_m: how far up-flow of the candidate the crossing must be (and at most twice that).
+        reach_m: how far up-flow of the candidate the crossing must be (give or take
+            ``slack_m``: an empty crossing rules out only sources farther up-flow).
         band_m: how far to either side of the candidate's flow line the crossing must reach, and
             the half-width of the band in which plume seen up-flow vetoes the candidate.
         veto_beyond_m: plume seen more than this up-flow of the candidate (and no more than three
@@ -191,7 +192,7 @@ class UpflowCheck:
         # Against the up-flow wall the crossing is looked for nearer, at the candidate itself
         # when there is no room: a map's mass piles up at a wall no evidence reaches.
         need = max(min(self.reach_m, room(area, candidate, -fx, -fy) - slack), 0.0)
-        window = ((upflow >= need - slack) & (upflow <= 2 * need + slack)
+        window = ((upflow >= need - slack) & (upflow <= need + slack)
                   & (t > max(self.veto_t, self.search_t0)))
         near, reach = across[window], half[window] - slack
         wn = w + need * self.fan

@@ -42,7 +42,7 @@ def test_a_crossing_on_both_sides_between_one_and_two_reaches_up_flow_passes() -
     c.record(1, Point(38, 4), hit=False)  # one side, 12 m up-flow
     assert not c.passed(at(s, 1), CAND, AREA)
     assert c.target is not None and c.target.y == -5.0  # now the other side
-    c.record(2, Point(25, -4), hit=False)  # 25 m up-flow: beyond twice the reach, no count
+    c.record(2, Point(25, -4), hit=False)  # 25 m up-flow: beyond the reach, no count
     assert not c.passed(at(s, 2), CAND, AREA)
     c.record(3, Point(38, -4), hit=False)  # the other side, but the line between not flown
     assert not c.passed(at(s, 3), CAND, AREA)
@@ -72,6 +72,21 @@ def test_both_sides_seen_apart_are_no_crossing_until_the_line_is_flown() -> None
     assert not c.passed(at(s, 13), CAND, AREA)
     c.record(14, Point(37, 4), hit=False)  # from (43, -4): over the line, 7-13 m up-flow
     assert c.passed(at(s, 14), CAND, AREA) and c.target is None and c.legs == 1
+
+
+def test_a_crossing_beyond_the_reach_rules_out_only_sources_beyond_it() -> None:
+    """Two-source study, root seed 2029, replicate 37: a sweep lane crossed 23 m up-flow of
+    the candidate, past its source (20 m up-flow), and saw nothing; counted as the check, it
+    let the candidate be declared 20 m short. A crossing counts within ``slack_m`` of the
+    reach (7-13 m here) only."""
+    c, s = check(), ScriptedPerception(AREA)
+    for t, y in enumerate(range(12, -13, -2)):  # a lane over the line, 18 m up-flow
+        c.record(t, Point(32, y), hit=False)
+    assert not c.passed(at(s, 13), CAND, AREA)
+    assert c.target is not None and c.target.x == 40.0  # the leg: 10 m up-flow
+    for t, y in enumerate(range(-12, 13, 2), start=14):  # the leg, 11 m up-flow
+        c.record(t, Point(39, y), hit=False)
+    assert c.passed(at(s, 27), CAND, AREA) and c.legs == 1
 
 
 def test_a_one_cycle_dip_of_confidence_is_not_a_new_leg_and_keeps_the_clock() -> None:
