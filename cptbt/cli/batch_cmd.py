@@ -9,6 +9,7 @@ import os
 import re
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -41,26 +42,35 @@ def _sweep_text(sweep: Sweep) -> str:
     return f"{'+'.join(sweep.paths)}={','.join(str(v) for v in sweep.values)}"
 
 
-def _not_flown(own: list[Sweep], given: list[Sweep]) -> list[Sweep]:
+def _not_flown(own: list[Sweep], given: list[Sweep],
+               fallback: Callable[[str], Any] = lambda path: _UNKNOWN) -> list[Sweep]:
     """The study section's sweeps cut to the values the command line's sweeps do not fly.
 
     A value is flown when each of its paths takes it in some given sweep (the configurations
-    are their product); a study sweep with every value flown is left out.
+    are their product) or, for a path no given sweep sets, is the value it falls back to
+    (``fallback(path)``); a study sweep with every value flown is left out.
     """
+    def flies(path: str, value: Any) -> bool:
+        setting = [g for g in given if path in g.paths]
+        if setting:
+            return any(value in g.values for g in setting)
+        return bool(fallback(path) == value)
+
     out = []
     for s in own:
-        left = tuple(v for v in s.values
-                     if not all(any(p in g.paths and v in g.values for g in given)
-                                for p in s.paths))
+        left = tuple(v for v in s.values if not all(flies(p, v) for p in s.paths))
         if left:
             out.append(Sweep(s.paths, left))
     return out
 
 
-def _fallback(mission: MissionBase, path: str) -> str:
-    """What a path no sweep sets is flown at: ``PATH falls back to the mission's value, V`` (or
-    ``the default, V`` where the mission file leaves it out); a None says what None means, from
-    the field's description."""
+_UNKNOWN = object()  # a path whose fallback value is not known: no study value is taken for it
+
+
+def _fallback_value(mission: MissionBase, path: str) -> tuple[Any, str, Any]:
+    """What a path no sweep sets is flown at: (value, whose: "the mission's value" or "the
+    default", its field or None), the value :data:`_UNKNOWN` where it is not a field of a
+    loaded model."""
     head, _, rest = path.partition(".")
     entry = next((e for e in mission.entries() if e.family == head), None) \
         if rest and head not in type(mission).model_fields else None
@@ -69,13 +79,22 @@ def _fallback(mission: MissionBase, path: str) -> str:
     for key in parents:
         node = node.get(key) if isinstance(node, dict) else getattr(node, key, None)
     if isinstance(node, dict) and leaf in node:
-        return f"{path} falls back to the mission's value, {node[leaf]}"
+        return node[leaf], "the mission's value", None
     field = type(node).model_fields.get(leaf) if isinstance(node, BaseModel) else None
-    if field is None:  # not a field of a loaded model: say no more than is known
-        return f"{path} falls back to the mission's own setting"
-    value = getattr(node, leaf)
+    if field is None:
+        return _UNKNOWN, "", None
     whose = "the mission's value" if leaf in node.model_fields_set else "the default"
-    if value is None:
+    return getattr(node, leaf), whose, field
+
+
+def _fallback(mission: MissionBase, path: str) -> str:
+    """What a path no sweep sets is flown at: ``PATH falls back to the mission's value, V`` (or
+    ``the default, V`` where the mission file leaves it out); a None says what None means, from
+    the field's description."""
+    value, whose, field = _fallback_value(mission, path)
+    if value is _UNKNOWN:  # not a field of a loaded model: say no more than is known
+        return f"{path} falls back to the mission's own setting"
+    if value is None and field is not None:
         meaning = re.search(r"\b(?:None|default): ([^)]*)", field.description or "")
         shown = f"none ({meaning.group(1).strip()})" if meaning else "none"
     else:
@@ -284,7 +303,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
     spec = mission.study
     own = study_sweeps(mission)
     sweeps: list[Sweep] = args.sweep or own
-    dropped = _not_flown(own, args.sweep) if args.sweep else []
+    dropped = _not_flown(own, args.sweep, lambda p: _fallback_value(mission, p)[0]) \
+        if args.sweep else []
     if dropped:  # --sweep replaces the study section's sweeps, all of them: never silently
         # Per value: a --sweep that flies some of a study sweep's values leaves only the rest
         # unflown; a path no --sweep sets is flown at one value, which is said.

@@ -338,3 +338,21 @@ def test_the_note_says_what_a_dropped_path_falls_back_to() -> None:
     assert _fallback(ab, "maintain_plume.beta1_deg") == (
         "maintain_plume.beta1_deg falls back to the default, none (the three beta_*_deg, "
         "AB eq. 12)")
+
+
+def test_a_value_flown_as_a_dropped_paths_fallback_is_not_listed_as_not_flown() -> None:
+    """A review's run: ``--sweep maintain_plume.beta1_deg=0,5`` on AB Fig. 9 flies the preset
+    at the mission's ab_large_meander, which the note had listed as not flown beside saying
+    the preset falls back to it."""
+    from cptbt.cli.batch_cmd import _fallback_value, _not_flown
+    from cptbt.cli.inspect_cmds import load, study_sweeps
+
+    ab = load(str(Path(__file__).resolve().parents[2] / "missions/ab2001_fig9.yaml"),
+              simulate=True, warn=False)
+    own = study_sweeps(ab)
+    given = [Sweep(("maintain_plume.beta1_deg",), (0.0, 5.0))]
+    left = {s.paths: s.values for s in
+            _not_flown(own, given, lambda p: _fallback_value(ab, p)[0])}
+    assert left[("environment.preset",)] == ("ab_small_meander",)
+    assert 0.0 not in left[("maintain_plume.beta1_deg",)]
+    assert 5.0 not in left[("maintain_plume.beta1_deg",)]
