@@ -310,8 +310,13 @@ def located_errors(
     for err in exc.errors(include_url=False):
         path = _data_path(tuple(err["loc"]), data)
         msg = err["msg"].removeprefix("Value error, ")
+        loc = tuple(err["loc"])
         if err["type"] == "extra_forbidden":
             msg = _unknown_key(path, model, data)
+        elif err["type"] == "missing" and loc and isinstance(loc[-1], int):
+            given = err.get("input")  # a short list (a point of one coordinate), not a key
+            count = len(given) if isinstance(given, (list, tuple)) else "fewer"
+            msg = f"too few values: {count} given, item {loc[-1] + 1} missing"
         elif msg.startswith("unknown variant") or msg.startswith("'oracle'"):
             item = _at(data, path)
             if isinstance(item, dict) and len(item) == 1:

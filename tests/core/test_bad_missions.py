@@ -58,6 +58,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      "(yaml)", "constructor"),
     ("duplicate key", sub("cycle_hz: 1", "cycle_hz: 1\ncycle_hz: 2"), 9, "cycle_hz",
      "duplicate key (first at line 8)"),
+    # a point of one coordinate is short, not missing (the message had said "Field required")
+    ("short point", sub("start: [-80, 20]", "start: [-80]"), 5, "start",
+     "too few values: 1 given, item 2 missing"),
     # -- names and paths ---------------------------------------------------------------------
     ("path in name", sub("name: corpus_base", "name: ../../../../tmp/pwned"), 1, "name",
      "should match pattern"),
