@@ -174,6 +174,9 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else 1
         msg = " ".join(str(x) for x in (exc.context, exc.problem) if x)
+        began = exc.context_mark
+        if began is not None and mark is not None and began.line != mark.line:
+            msg += f" (it began at line {began.line + 1})"
         raise MissionError([f"{source}:{line}: (yaml): {msg}"]) from None
     except yaml.reader.ReaderError as exc:
         line = text.count("\n", 0, max(exc.position, 0)) + 1

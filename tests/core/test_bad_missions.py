@@ -61,6 +61,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     # a point of one coordinate is short, not missing (the message had said "Field required")
     ("short point", sub("start: [-80, 20]", "start: [-80]"), 5, "start",
      "too few values: 1 given, item 2 missing"),
+    # an unclosed bracket is found lines later: the line it began on is said too
+    ("unclosed bracket", sub("start: [-80, 20]", "start: [-80, 20"), 6, "(yaml)",
+     "(it began at line 5)"),
     # -- names and paths ---------------------------------------------------------------------
     ("path in name", sub("name: corpus_base", "name: ../../../../tmp/pwned"), 1, "name",
      "should match pattern"),
