@@ -84,7 +84,9 @@ class LikelihoodMapDeclare(SeveralSources):
       An empty crossing at ``a`` up-flow rules out only sources beyond ``a``: until session 18
       a crossing up to twice ``upflow_check_m`` (23 m) up-flow counted, and it let through
       sources 15-21 m short (three of four false two-source declarations left on root seeds
-      2027 and 2029, each passed by a sweep lane 20-23 m up-flow of the candidate). A
+      2027 and 2029, each passed by a sweep lane 20-23 m up-flow of the candidate).
+      ``upflow_window_m`` sets how far up-flow a crossing still counts (23: the rule before,
+      faster and less precise: measured in README's declaration table). A
       side whose point lies outside the OpArea needs no crossing; nearer the up-flow wall than
       that reach (plus ``arrive_radius_m``) the crossing is looked for nearer, at the candidate
       itself against the wall (the map's mass piles up at a wall no evidence reaches). A leg
@@ -210,7 +212,7 @@ class LikelihoodMapDeclare(SeveralSources):
             self.params.upflow_timeout_s,
             self.params.upflow_fan_deg if self.params.max_sources == 1 else 0.0,
             near_m=self.params.radius_m if self.params.upflow_seen_near else None,
-            veto_near_m=self.params.upflow_veto_near_m)
+            veto_near_m=self.params.upflow_veto_near_m, window_m=self.params.upflow_window_m)
         self.upflow.known_veto = self.params.upflow_known_veto
         self.detections_used = 0
 

@@ -165,6 +165,12 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "up-flow of the candidate, within upflow_band_m of its line, vetoes it. None: no "
         "check, m"
     )
+    upflow_window_m: float | None = Field(
+        default=None, gt=0, description="A crossing counts for the up-flow check from "
+        "upflow_check_m less arrive_radius_m up to this far up-flow of the candidate: an empty "
+        "crossing rules out only sources farther up-flow than it (LikelihoodMapDeclare's "
+        "docstring; None: upflow_check_m plus arrive_radius_m), m"
+    )
     upflow_early_fraction: float | None = Field(
         default=0.7, gt=0, lt=1, description="Fly the up-flow check's leg (or visit) as soon as "
         "the map holds this fraction of confidence within radius_m of a candidate, before it is "
@@ -359,6 +365,11 @@ def settings_fit(params: BehaviourParams, perception: Any) -> str | None:
     if params.radius_m < 0.5 * params.cell_m:
         return (f"radius_m {params.radius_m:g} is smaller than half a cell (cell_m "
                 f"{params.cell_m:g}): the declaration mass would be one cell's")
+    window, reach = params.upflow_window_m, params.upflow_check_m
+    if window is not None and reach is not None and window < reach:
+        return (f"upflow_window_m {window:g} is shorter than upflow_check_m {reach:g}: the "
+                "check leg's own crossing would not count, and every candidate would wait for "
+                "the leg's timeout and be declared unchecked")
     spacing = params.search_sweep_spacing_m
     if params.max_sources > 1 and spacing is not None and spacing <= params.arrive_radius_m:
         return (f"search_sweep_spacing_m {spacing:g} is not longer than arrive_radius_m "

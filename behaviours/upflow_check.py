@@ -41,6 +41,7 @@ class UpflowCheck:
     Args:
         reach_m: how far up-flow of the candidate the crossing must be (give or take
             ``slack_m``: an empty crossing rules out only sources farther up-flow).
+        window_m: how far up-flow a crossing still counts (None: ``reach_m + slack_m``).
         band_m: how far to either side of the candidate's flow line the crossing must reach, and
             the half-width of the band in which plume seen up-flow vetoes the candidate.
         veto_beyond_m: plume seen more than this up-flow of the candidate (and no more than three
@@ -65,8 +66,9 @@ class UpflowCheck:
     def __init__(self, reach_m: float, band_m: float, veto_beyond_m: float, slack_m: float,
                  memory_s: float | None, timeout_s: float, fan_deg: float = 0.0,
                  trace_level: float | None = None, near_m: float | None = None,
-                 veto_near_m: float | None = None) -> None:
+                 veto_near_m: float | None = None, window_m: float | None = None) -> None:
         self.reach_m, self.band_m, self.veto_beyond_m = reach_m, band_m, veto_beyond_m
+        self.window_m = window_m
         self.veto_near_m = veto_beyond_m if veto_near_m is None else veto_near_m
         self.near_m = near_m
         self.visit_for: Point | None = None  # the candidate the visit under way goes to
@@ -192,7 +194,9 @@ class UpflowCheck:
         # Against the up-flow wall the crossing is looked for nearer, at the candidate itself
         # when there is no room: a map's mass piles up at a wall no evidence reaches.
         need = max(min(self.reach_m, room(area, candidate, -fx, -fy) - slack), 0.0)
-        window = ((upflow >= need - slack) & (upflow <= need + slack)
+        # at the wall (need short of the reach) the window ends as far past need as it would
+        far = need + (slack if self.window_m is None else self.window_m - self.reach_m)
+        window = ((upflow >= need - slack) & (upflow <= far)
                   & (t > max(self.veto_t, self.search_t0)))
         near, reach = across[window], half[window] - slack
         wn = w + need * self.fan

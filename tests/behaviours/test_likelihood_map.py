@@ -573,6 +573,8 @@ def test_map_guided_conforms_with_a_map_beside_it() -> None:
      "smaller than half a cell"),
     (("max_sources: 2", "max_sources: 2, search_sweep_spacing_m: 2"),
      "behaviours[1].declare_source", "the sweep could never step along the flow"),
+    (("max_sources: 2", "max_sources: 2, upflow_window_m: 8"),
+     "behaviours[1].declare_source", "and be declared unchecked"),
 ])
 def test_validate_names_a_broken_contract_at_its_key(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], edit: tuple[str, str], where: str,

@@ -87,6 +87,10 @@ def test_a_crossing_beyond_the_reach_rules_out_only_sources_beyond_it() -> None:
     for t, y in enumerate(range(-12, 13, 2), start=14):  # the leg, 11 m up-flow
         c.record(t, Point(39, y), hit=False)
     assert c.passed(at(s, 27), CAND, AREA) and c.legs == 1
+    wide = check(window_m=23.0)  # the rule before (twice the reach plus slack): it counts
+    for t, y in enumerate(range(12, -13, -2)):
+        wide.record(t, Point(32, y), hit=False)
+    assert wide.passed(at(s, 13), CAND, AREA) and wide.legs == 0
 
 
 def test_a_one_cycle_dip_of_confidence_is_not_a_new_leg_and_keeps_the_clock() -> None:
