@@ -27,6 +27,11 @@ either source: a timed-out visit now holds its candidate back, and both sources 
 The early leg and its fan (``upflow_early_fraction`` 0.7, ``upflow_fan_deg`` 20, session 17)
 mend MSN007 declarations 16-48 m short that every rule above let through (one from each seed
 they were found on); the cases above fly without them, as their rules were made.
+
+Two-source replicates 146 (root seed 2027) and 37 (2029) declared the second source 18-20 m
+short after a sweep lane crossed the candidate's line 20-23 m up-flow, past the source: a
+crossing counts only near the check's reach now (``upflow_window_m``, session 18); the cases
+above fly the window before (23 m), as their rules were made.
 """
 
 from __future__ import annotations
@@ -92,8 +97,10 @@ def test_a_run_once_declared_short_is_now_declared_at_the_source(replicate: int)
 
 
 # The rules below were each made, and their cases picked, before the early leg and its 20-degree
-# fan (session 17), which fly these runs elsewhere or mend them another way: they fly without.
-BEFORE_EARLY = {"declare_source.upflow_early_fraction": None, "declare_source.upflow_fan_deg": 0}
+# fan (session 17) and the crossing window cut to the reach (session 18), which fly these runs
+# elsewhere or mend them another way: they fly without.
+BEFORE_EARLY = {"declare_source.upflow_early_fraction": None, "declare_source.upflow_fan_deg": 0,
+                "declare_source.upflow_window_m": 23.0}
 
 
 @pytest.mark.parametrize("replicate", (45, 639, 932))
@@ -163,6 +170,18 @@ def test_a_source_taken_for_another_ones_plume_is_found_again() -> None:
     assert sorted(nearest(run, sources)) == [0, 1]
 
 
+# Two-source declarations 18-20 m short of the second source (root seeds 2027 and 2029): a sweep
+# lane had crossed the candidate's line 20-23 m up-flow, past the source, and seen nothing; a
+# crossing counts only near the reach now (``upflow_window_m``), so a check leg is flown there.
+@pytest.mark.parametrize(("seed", "replicate"), ((2027, 146), (2029, 37)))
+def test_a_crossing_past_the_source_no_longer_passes_a_short_candidate(
+        seed: int, replicate: int) -> None:
+    run, sources = fly(TWO, replicate, seed=seed)
+    assert sorted(nearest(run, sources)) == [0, 1]
+    run, sources = fly(TWO, replicate, seed=seed, **{"declare_source.upflow_window_m": 23.0})
+    assert -1 in nearest(run, sources)  # the window before: the second declaration short
+
+
 # Declarations beyond 15 m of the rule before the early leg and its fan (session 17), one from
 # each seed they were found on: 2024 and 2026-2027 the study's, 77 tuning (all twelve known
 # are mended: benchmarks/results/likelihood_map_tuning.md, "The early leg and the fan").
@@ -170,5 +189,6 @@ def test_a_source_taken_for_another_ones_plume_is_found_again() -> None:
 def test_a_declaration_short_of_the_source_is_mended_by_the_early_leg_and_its_fan(
         seed: int, replicate: int) -> None:
     assert declaration_error(replicate, seed=seed) < 15.0
-    # the same plume with the rule before: still short (they are what changed the outcome)
+    # the same plume with the rule before: still short (they are what changed the outcome; the
+    # window cut to the reach, session 18, mends some of them too)
     assert declaration_error(replicate, seed=seed, **BEFORE_EARLY) > 15.0
