@@ -42,6 +42,9 @@ def _sweep_text(sweep: Sweep) -> str:
     return f"{'+'.join(sweep.paths)}={','.join(str(v) for v in sweep.values)}"
 
 
+_UNKNOWN = object()  # a path whose fallback value is not known: no study value is taken for it
+
+
 def _not_flown(own: list[Sweep], given: list[Sweep],
                fallback: Callable[[str], Any] = lambda path: _UNKNOWN) -> list[Sweep]:
     """The study section's sweeps cut to the values the command line's sweeps do not fly.
@@ -62,9 +65,6 @@ def _not_flown(own: list[Sweep], given: list[Sweep],
         if left:
             out.append(Sweep(s.paths, left))
     return out
-
-
-_UNKNOWN = object()  # a path whose fallback value is not known: no study value is taken for it
 
 
 def _fallback_value(mission: MissionBase, path: str) -> tuple[Any, str, Any]:
