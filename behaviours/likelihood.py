@@ -86,7 +86,15 @@ class LikelihoodMapDeclare(SeveralSources):
       sources 15-21 m short (three of four false two-source declarations left on root seeds
       2027 and 2029, each passed by a sweep lane 20-23 m up-flow of the candidate).
       ``upflow_window_m`` sets how far up-flow a crossing still counts (23: the rule before,
-      faster and less precise: measured in README's declaration table). A
+      faster and less precise: measured in README's declaration table). With several
+      sources the line must be passed over twice, more than 15 s apart
+      (``upflow_crossings``; None: once with ``max_sources`` 1, twice with more; until the
+      second the leg goes back to the line's point): near a source the plume is intermittent
+      and one empty pass can miss it. The two-source mission's false declarations left after
+      session 18 (root seeds 2024-2030: five of six, 17-57 m short, one pass each) are each
+      mended by the second pass; measured in README's two-source table. A single source
+      keeps one pass: a second costs T_D, and MSN007's declarations beyond 15 m were not of
+      this kind. A
       side whose point lies outside the OpArea needs no crossing; nearer the up-flow wall than
       that reach (plus ``arrive_radius_m``) the crossing is looked for nearer, at the candidate
       itself against the wall (the map's mass piles up at a wall no evidence reaches). A leg
@@ -212,7 +220,8 @@ class LikelihoodMapDeclare(SeveralSources):
             self.params.upflow_timeout_s,
             self.params.upflow_fan_deg if self.params.max_sources == 1 else 0.0,
             near_m=self.params.radius_m if self.params.upflow_seen_near else None,
-            veto_near_m=self.params.upflow_veto_near_m, window_m=self.params.upflow_window_m)
+            veto_near_m=self.params.upflow_veto_near_m, window_m=self.params.upflow_window_m,
+            crossings=self.params.upflow_crossings or (1 if self.params.max_sources == 1 else 2))
         self.upflow.known_veto = self.params.upflow_known_veto
         self.detections_used = 0
 

@@ -171,6 +171,12 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "crossing rules out only sources farther up-flow than it (LikelihoodMapDeclare's "
         "docstring; None: upflow_check_m plus arrive_radius_m), m"
     )
+    upflow_crossings: int | None = Field(
+        default=None, ge=1, le=5, description="How many passes over the candidate's flow line, "
+        "inside the crossing window and more than 15 s apart, the up-flow check asks for: a "
+        "plume near its source is intermittent, and one empty pass can miss it (measured: "
+        "LikelihoodMapDeclare's docstring; None: 1 with max_sources 1, 2 with several)"
+    )
     upflow_early_fraction: float | None = Field(
         default=0.7, gt=0, lt=1, description="Fly the up-flow check's leg (or visit) as soon as "
         "the map holds this fraction of confidence within radius_m of a candidate, before it is "

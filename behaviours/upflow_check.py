@@ -55,10 +55,16 @@ class UpflowCheck:
         trace_level: a reading above this (the sensor's units) in the band vetoes like a
             detection, if it also stands clear of the sensor's noise floor (:meth:`trace_floor`);
             None: only detections veto.
+        crossings: how many passes over the line (more than :attr:`CROSSING_GAP_S` apart) the
+            crossing needs.
         near_m: a candidate needs plume seen within this of it before the crossing is looked
             for; until then the vehicle visits it (a visit that times out holds it back while
             the tree searches on). None: not needed.
     """
+
+    CROSSING_GAP_S = 15.0
+    """Passes over the line less than this apart are one crossing (a turn back over the line
+    at the vehicle's 7.5-m turn radius and 1.5 m/s takes about 16 s)."""
 
     FLOOR_FACTOR = 3.0
     """A trace must reach this many times the median reading of the track's other cycles."""
@@ -66,8 +72,10 @@ class UpflowCheck:
     def __init__(self, reach_m: float, band_m: float, veto_beyond_m: float, slack_m: float,
                  memory_s: float | None, timeout_s: float, fan_deg: float = 0.0,
                  trace_level: float | None = None, near_m: float | None = None,
-                 veto_near_m: float | None = None, window_m: float | None = None) -> None:
+                 veto_near_m: float | None = None, window_m: float | None = None,
+                 crossings: int = 1) -> None:
         self.reach_m, self.band_m, self.veto_beyond_m = reach_m, band_m, veto_beyond_m
+        self.crossings = crossings
         self.window_m = window_m
         self.veto_near_m = veto_beyond_m if veto_near_m is None else veto_near_m
         self.near_m = near_m
@@ -208,8 +216,8 @@ class UpflowCheck:
         # ... and the track must have passed over the line itself: the water straight up-flow
         # of the candidate, where its source would be. Excursions to either side, made apart,
         # leave it unseen (two-source study, root seed 2028: the three false declarations).
-        crossed = self._over_line(window, across)
-        if left and right and crossed:
+        crossed = self._over_line(window, across, t)
+        if left and right and crossed >= self.crossings:
             self.target, self.leg_for = None, None
             return True
         spent = self.early_spent
@@ -229,7 +237,7 @@ class UpflowCheck:
             self.unchecked += 1
             return True
         self.leg_for = candidate
-        if left and right:  # both sides seen, not the line between them: over the line
+        if left and right:  # both sides seen, not the line between them (or not often enough)
             self.target = Point(candidate.x - need * fx, candidate.y - need * fy)
             self.kind = "check leg"
             return False
@@ -240,14 +248,16 @@ class UpflowCheck:
         self.target, self.kind = ends[side], "check leg"
         return False
 
-    def _over_line(self, window: np.ndarray, across: np.ndarray) -> bool:
-        """Whether the track passed over the candidate's flow line inside the crossing window:
-        a cycle in it within :attr:`slack_m` of the line, or two successive cycles in it on
-        either side of the line."""
-        if bool(np.any(window & (np.abs(across) <= self.slack_m))):
-            return True
-        both = window[1:] & window[:-1]
-        return bool(np.any(both & (across[1:] * across[:-1] < 0.0)))
+    def _over_line(self, window: np.ndarray, across: np.ndarray, t: np.ndarray) -> int:
+        """How many times the track passed over the candidate's flow line inside the crossing
+        window: a cycle in it within :attr:`slack_m` of the line, or two successive cycles in it
+        on either side of the line; passes less than :attr:`CROSSING_GAP_S` apart count once."""
+        over = window & (np.abs(across) <= self.slack_m)
+        over[1:] |= window[1:] & window[:-1] & (across[1:] * across[:-1] < 0.0)
+        when = t[over]
+        if when.size == 0:
+            return 0
+        return 1 + int(np.count_nonzero(np.diff(when) > self.CROSSING_GAP_S))
 
     def _supported(self, p: Percept, candidate: Point, t: np.ndarray, dx: np.ndarray,
                    dy: np.ndarray, hit: np.ndarray) -> bool:

@@ -62,9 +62,11 @@ def test_the_measures_end_at_the_declaration_not_at_the_time_limit_or_the_give_u
     text = (ROOT / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8")
     start = text.index("declare_source:")
     # without the early leg and the fan, which serve a single source only (with max_sources 2
-    # neither is flown): the same rule for the first declaration
+    # neither is flown), and with the two crossings several sources ask for: the same rule for
+    # the first declaration
     text = text[:start] + ("declare_source: {variant: likelihood_map, upflow_early_fraction: "
-                           "null, upflow_fan_deg: 0}") + text[text.index("\n", start):]
+                           "null, upflow_fan_deg: 0, upflow_crossings: 2}"
+                           ) + text[text.index("\n", start):]
     mission = loads_mission(text, "m.yaml", default_registry(), Environment)
     mission = mission.model_copy(update={"mission_a": None, "time_limit_s": 900.0})
     params = to_sim_params(mission, 1)

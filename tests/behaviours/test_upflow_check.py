@@ -93,6 +93,26 @@ def test_a_crossing_beyond_the_reach_rules_out_only_sources_beyond_it() -> None:
     assert wide.passed(at(s, 13), CAND, AREA) and wide.legs == 0
 
 
+def test_two_crossings_must_be_passes_apart_and_the_leg_goes_back_over_the_line() -> None:
+    """With ``crossings=2`` (several sources) one lane over the line is not enough, however
+    long it dwells there: the leg turns back to the line's point, and a pass more than
+    :attr:`UpflowCheck.CROSSING_GAP_S` later is the second crossing."""
+    c, s = check(crossings=2), ScriptedPerception(AREA)
+    for t, y in enumerate(range(-8, 9, 2)):  # a lane over the line, 10 m up-flow
+        c.record(t, Point(40, y), hit=False)
+    for t in range(9, 9 + 12):  # lingering beside the line: the same pass
+        c.record(t, Point(41, 1.0 if t % 2 else -1.0), hit=False)
+    assert not c.passed(at(s, 21), CAND, AREA)
+    assert c.target == Point(40.0, 0.0) and c.kind == "check leg" and c.legs == 1
+    for t, y in enumerate(range(8, -9, -2), start=21 + int(UpflowCheck.CROSSING_GAP_S)):
+        c.record(t, Point(39, y), hit=False)  # back over the line, a pass of its own
+    assert c.passed(at(s, 50), CAND, AREA) and c.target is None and c.legs == 1
+    one = check()  # one crossing (a single source): the first lane passes
+    for t, y in enumerate(range(-8, 9, 2)):
+        one.record(t, Point(40, y), hit=False)
+    assert one.passed(at(s, 9), CAND, AREA)
+
+
 def test_a_one_cycle_dip_of_confidence_is_not_a_new_leg_and_keeps_the_clock() -> None:
     c, s = check(timeout_s=30.0), ScriptedPerception(AREA)
     for t in range(0, 32, 2):  # the candidate drifting a little, as a map's mean does

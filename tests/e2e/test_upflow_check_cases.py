@@ -32,6 +32,11 @@ Two-source replicates 146 (root seed 2027) and 37 (2029) declared the second sou
 short after a sweep lane crossed the candidate's line 20-23 m up-flow, past the source: a
 crossing counts only near the check's reach now (``upflow_window_m``, session 18); the cases
 above fly the window before (23 m), as their rules were made.
+
+Two-source replicates 42 (root seed 2024) and 81 (2029) declared a source 17-23 m short after
+a single empty pass over the candidate's line, near a source whose plume is intermittent: with
+several sources the check asks for two passes (``upflow_crossings``, session 19); the cases
+above fly one, as their rules were made.
 """
 
 from __future__ import annotations
@@ -100,7 +105,7 @@ def test_a_run_once_declared_short_is_now_declared_at_the_source(replicate: int)
 # fan (session 17) and the crossing window cut to the reach (session 18), which fly these runs
 # elsewhere or mend them another way: they fly without.
 BEFORE_EARLY = {"declare_source.upflow_early_fraction": None, "declare_source.upflow_fan_deg": 0,
-                "declare_source.upflow_window_m": 23.0}
+                "declare_source.upflow_window_m": 23.0, "declare_source.upflow_crossings": 1}
 
 
 @pytest.mark.parametrize("replicate", (45, 639, 932))
@@ -178,8 +183,22 @@ def test_a_crossing_past_the_source_no_longer_passes_a_short_candidate(
         seed: int, replicate: int) -> None:
     run, sources = fly(TWO, replicate, seed=seed)
     assert sorted(nearest(run, sources)) == [0, 1]
-    run, sources = fly(TWO, replicate, seed=seed, **{"declare_source.upflow_window_m": 23.0})
+    run, sources = fly(TWO, replicate, seed=seed, **{"declare_source.upflow_window_m": 23.0,
+                                                     "declare_source.upflow_crossings": 1})
     assert -1 in nearest(run, sources)  # the window before: the second declaration short
+
+
+# Two-source declarations 17-23 m short of a source (root seeds 2024 and 2029, session 19): the
+# one crossing the check asked for, 7-13 m up-flow, had passed over the line while the
+# intermittent plume near the source was away. With several sources two passes, more than
+# 15 s apart, are asked for (``upflow_crossings``); with one, as before, the second is short.
+@pytest.mark.parametrize(("seed", "replicate"), ((2024, 42), (2029, 81)))
+def test_a_second_pass_over_the_line_finds_the_plume_one_pass_missed(
+        seed: int, replicate: int) -> None:
+    run, sources = fly(TWO, replicate, seed=seed)
+    assert sorted(nearest(run, sources)) == [0, 1]
+    run, sources = fly(TWO, replicate, seed=seed, **{"declare_source.upflow_crossings": 1})
+    assert -1 in nearest(run, sources)  # one pass: a declaration short
 
 
 # Declarations beyond 15 m of the rule before the early leg and its fan (session 17), one from
