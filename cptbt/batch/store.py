@@ -46,6 +46,37 @@ class StudyMismatch(BatchError):
     """The results folder holds a different study (other mission or options)."""
 
 
+_COMPARED = (("mission", "mission"), ("runs_per_start", "runs per start"),
+             ("root_seed", "root seed"), ("time_limit_s", "time limit (s)"),
+             ("start_mode", "start mode"), ("starts", "starts"), ("heading_deg", "heading (deg)"),
+             ("sweeps", "sweeps"), ("config_missions", "the missions' settings"))
+
+
+def _differences(old: dict[str, Any], new: dict[str, Any]) -> str:
+    """What tells the study in a folder (``old``, its ``study.json``) from this one (``new``,
+    the metadata about to be written), in a few words: the first three differences named."""
+    said = []
+    for key, name in _COMPARED:
+        if key not in old or key not in new:
+            continue
+        a, b = old[key], json.loads(json.dumps(new[key], default=str))
+        if a == b:
+            continue
+        if key in ("starts", "config_missions"):
+            said.append(f"{name} differ")
+        else:
+            said.append(f"{name} {_short(a)} there, {_short(b)} here")
+    if not said:
+        return "other missions or options"
+    more = f"; and {len(said) - 3} more" if len(said) > 3 else ""
+    return "; ".join(said[:3]) + more
+
+
+def _short(value: Any, limit: int = 40) -> str:
+    text = json.dumps(value, default=str) if not isinstance(value, str) else value
+    return text if len(text) <= limit else text[:limit - 1] + "…"
+
+
 class PartError(Exception):
     """A part or table that cannot be trusted; the message says why, in a few words."""
 
@@ -167,8 +198,8 @@ class ResultStore:
                     raise CodeChanged(f"{meta} is unreadable ({_first_line(exc)})") from None
                 old = {}
             if old and old.get("study") not in (None, study):
-                raise StudyMismatch(
-                    f"{self.folder} holds a different study (other missions or options)")
+                raise StudyMismatch(f"{self.folder} holds a different study ("
+                                    f"{_differences(old, metadata)})")
             if old and old.get("code") != code and not restart:
                 if old.get("code"):
                     raise CodeChanged(

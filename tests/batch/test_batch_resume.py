@@ -185,8 +185,9 @@ def test_folder_of_a_different_study_is_refused_even_with_restart(study: Path) -
     for extra in ((), ("--restart",)):
         res = batch(study, *extra, seed=4)
         assert res.returncode == 1
-        assert stderr_lines(res) == [f"cptbt: {study} holds a different study (other missions "
-                                     "or options): choose another --out or remove it"]
+        # it names what differs (a review changed one option and could not tell which)
+        assert stderr_lines(res) == [f"cptbt: {study} holds a different study (root seed 3 "
+                                     "there, 4 here): choose another --out or remove it"]
     assert len(list((study / "parts").iterdir())) == 2
 
 

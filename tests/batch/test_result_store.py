@@ -160,6 +160,21 @@ def test_results_table_made_elsewhere_loads_without_a_checksum(tmp_path: Path) -
                                     "start_y": 0, "success": True}]
 
 
+def test_a_different_study_is_told_by_what_differs(tmp_path: Path) -> None:
+    meta = {"mission": "m.yaml", "runs_per_start": 10, "root_seed": 1, "time_limit_s": 600.0,
+            "starts": [[0, 0]], "sweeps": {}, "config_missions": ["a"]}
+    ResultStore(tmp_path).open(meta, study="s1", code="c1")
+    other = {**meta, "runs_per_start": 20, "root_seed": 2, "time_limit_s": 900.0,
+             "starts": [[0, 0], [1, 1]], "config_missions": ["b"]}
+    with pytest.raises(StudyMismatch) as caught:
+        ResultStore(tmp_path).open(other, study="s2", code="c1")
+    assert str(caught.value) == (f"{tmp_path} holds a different study (runs per start 10 there, "
+                                 "20 here; root seed 1 there, 2 here; time limit (s) 600.0 "
+                                 "there, 900.0 here; and 2 more)")
+    with pytest.raises(StudyMismatch, match=r"\(other missions or options\)$"):
+        ResultStore(tmp_path).open(meta, study="s3", code="c1")  # nothing recorded differs
+
+
 def test_open_refuses_other_code_and_other_studies(tmp_path: Path, fmt: str) -> None:
     store = opened(tmp_path, fmt)
     (task,) = tasks(1)
