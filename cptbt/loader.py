@@ -350,6 +350,11 @@ def validate_data(
         result = model.model_validate(data, context={"problems": problems})
     except ValidationError as exc:
         located = located_errors(exc, data, model=model)
+        # the converted values too, in the same pass (a review's file with five mistakes was
+        # told four, and the fifth only once they were mended), and all in the file's order
+        seen = {loc for loc, _ in located}
+        located += [(loc, msg) for loc, msg in coercions(data, model) if loc not in seen]
+        located.sort(key=lambda e: _line(e[0], lines))
         raise MissionError(_render(located, lines, source), located) from None
     located = coercions(data, model) or list(problems)
     if located:

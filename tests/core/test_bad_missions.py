@@ -353,6 +353,27 @@ def test_whole_floats_for_counts_and_integers_for_floats_stay_valid(
     assert main(["validate", str(path)]) == 0, capsys.readouterr().err
 
 
+def test_every_mistake_of_a_file_is_told_at_once_in_line_order(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A review's file with five mistakes was told four, not in line order; the quoted number
+    came only once the others were mended (its check ran only when the rest validated)."""
+    path = tmp_path / "five.yaml"
+    path.write_text(BASE.replace("speed_mps: 1.5", "speed_mps: '1.5'")
+                    .replace("cycle_hz: 1", "cycle_hz: -1")
+                    .replace("beta_deg: 10}", "beta_deg: 10, bta: 3}")
+                    .replace("flow_speed_mps: 0.1", "flow_speed_mps: fast")
+                    .replace("seed: 3", "seed: 3.5"), encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert [line.split(": ")[1] for line in lines] == [
+        "speed_mps", "cycle_hz", "behaviours[2].maintain_plume.bta",
+        "environment.flow_speed_mps", "environment.seed"], lines
+    assert "(a quoted string)" in lines[0]
+    numbers = [int(line.split(":")[1]) for line in lines]
+    assert numbers == sorted(numbers)
+
+
 def test_every_old_number_form_in_a_file_is_told_at_once(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
