@@ -280,8 +280,12 @@ def _sources(ax: Any, truth: Sequence[Point], declared: Sequence[Point],
     if declared:
         ax.plot([q.x for q in declared], [q.y for q in declared], "o", color="#9467bd",
                 mec="black", ms=9, ls="none",
-                label=(("declared source" if len(declared) == 1 else "declared sources")
-                       if label else None))
+                label=(("declared source" if len(declared) == 1
+                        else "declared sources, numbered in order") if label else None))
+    if len(declared) > 1:  # which came first (a review could not tell)
+        for i, q in enumerate(declared, start=1):
+            ax.annotate(str(i), (q.x, q.y), xytext=(6, 6), textcoords="offset points",
+                        fontsize=9, fontweight="bold", color="#4b2a7a")
 
 
 def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Point],
@@ -326,6 +330,8 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m), 90° clockwise from x")
+    ax.set_title("Where the source is likely: the declaration's source-likelihood map",
+                 fontsize=10)
 
 
 def _track(ax: Any, run: VehicleRun, waypoints: Sequence[Point] | None) -> None:

@@ -98,7 +98,10 @@ def maintain_figure(groups: dict[str, Rows], path: Path, plt: Any) -> Path | Non
         xs = sorted(points)
         ax.errorbar(xs, [points[x][0] for x in xs], yerr=[points[x][1] for x in xs],
                     marker="o", ms=3, capsize=2, label=name)
-    ax.set_xlabel(x_key)
+    # the setting's full path (a label names it by its last key): which behaviour it belongs to
+    row = next((r for rows in groups.values() for r in rows), {})
+    full = [k for k in row if "." in k and k.rsplit(".", 1)[1] == x_key]
+    ax.set_xlabel(full[0] if len(full) == 1 else x_key)
     ax.set_ylabel("mean maintain time T_M, s (± 1 SE)")
     ax.set_title("Maintain time against the swept setting (AB Fig. 9 form)", fontsize=10)
     ax.grid(alpha=0.3)

@@ -211,17 +211,21 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
                            layout="constrained")
     pos = np.arange(len(labels))
     for k, (key, name, colour) in enumerate(bars):
-        rate, lo, hi = [], [], []
+        rate, lo, hi, counts = [], [], [], []
         for lab in labels:
             rows = groups[lab]
             hits = sum(bool(r.get(key)) for r in rows)
+            counts.append(f"{hits}/{len(rows)}")
             a, b = wilson(hits, len(rows))
             rate.append(hits / len(rows))
             # Wilson's bounds can land a rounding error past the rate (0 of n, n of n).
             lo.append(max(0.0, hits / len(rows) - a))
             hi.append(max(0.0, b - hits / len(rows)))
-        ax.bar(pos + (k - (len(bars) - 1) / 2) * width, rate, width, yerr=[lo, hi], capsize=3,
-               color=colour, label=f"{name} (95% Wilson CI)")
+        drawn = ax.bar(pos + (k - (len(bars) - 1) / 2) * width, rate, width, yerr=[lo, hi],
+                       capsize=3, color=colour, label=f"{name} (95% Wilson CI)")
+        # the count on each bar: a rate of 0 is no bar, only its interval (a review read it as
+        # a floating error bar)
+        ax.bar_label(drawn, counts, padding=2, fontsize=7, label_type="edge")
     ax.set_xticks(pos, ticks, fontsize=8)
     if slant:
         ax.tick_params(axis="x", labelrotation=30)
@@ -265,6 +269,9 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
         a1.axvline(radius, color="#d62728", ls="--", lw=1, label=f"success radius {radius:g} m")
     a1.set_xlabel("declaration error (m)")
     a2.set_xlabel("T_D / mission time to declaration (TRO Table III)")
+    a1.set_title("How far off the declared source was", fontsize=10)
+    a2.set_title("Share of the mission spent declaring (T_D: from 13 m of the declared point)",
+                 fontsize=10)
     for ax in (a1, a2):
         ax.set_ylabel("runs")
         ax.yaxis.get_major_locator().set_params(integer=True)  # counts: no 0.25-run ticks

@@ -374,3 +374,35 @@ def test_a_study_map_of_many_configurations_wraps_at_three_panels_a_row(
     assert fig.get_size_inches()[0] == pytest.approx(18.0)
     assert [ax.get_title().split("\n")[0] for ax in panels] == [
         f"variant=v{c}" for c in range(5)]
+
+
+def test_the_study_figures_say_what_each_panel_and_bar_is(tmp_path: Path,
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review: with 0 false declarations the rate chart showed only a floating error bar;
+    the error and T_D panels had no titles; maintain_time.png's x axis named the setting
+    without its behaviour."""
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    from cptbt.batch.figures import pyplot
+    from cptbt.batch.maintain_report import maintain_figure
+    from cptbt.batch.study_figures import _distributions, _rates
+
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    rows = {f"variant=v{c}": [{**BASE, "success": r < 3, "false_declaration": False,
+                               "criterion": "declaration", "error_m": 2.0 + r, "t3": 100.0,
+                               "T_D": 30.0} for r in range(4)] for c in range(2)}
+    assert _rates(rows, tmp_path / "r.png", pyplot()) is not None
+    shown = [t.get_text() for t in seen[-1].axes[0].texts]
+    assert shown == ["3/4", "3/4", "0/4", "0/4"]  # success, then false declarations
+    assert _distributions(rows, tmp_path / "d.png", pyplot()) is not None
+    titles = [ax.get_title() for ax in seen[-1].axes if ax.get_title()]
+    assert len(titles) == 2 and "off" in titles[0] and "T_D" in titles[1]
+    groups: dict[str, list[dict[str, Any]]] = {}
+    for r in maintain_rows():
+        beta = r["configuration"].split("beta1_deg=")[1]
+        groups.setdefault(r["configuration"], []).append(
+            {**r, "maintain_plume.beta1_deg": float(beta), "environment.preset": "x"})
+    assert maintain_figure(groups, tmp_path / "m.png", pyplot()) is not None
+    assert seen[-1].axes[0].get_xlabel() == "maintain_plume.beta1_deg"

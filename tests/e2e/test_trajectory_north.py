@@ -250,3 +250,31 @@ def test_graticule_labels_do_not_overlap(tmp_path: Path,
     for i, a in enumerate(boxes):
         for j in range(i + 1, len(boxes)):
             assert not a.overlaps(boxes[j]), (shown[i].get_text(), shown[j].get_text())
+
+
+def test_the_map_panel_is_titled_and_several_declarations_are_numbered_in_order() -> None:
+    """A review could not tell which of two declared sources came first, nor what the second
+    panel was."""
+    import numpy as np
+
+    from cptbt.batch.figures import _map_panel, pyplot
+    from cptbt.frames import OpArea
+    from cptbt.types import SourceBelief
+
+    area = OpArea(xmin=0.0, xmax=100.0, ymin=-50.0, ymax=50.0)
+    xs, ys = np.linspace(5, 95, 10), np.linspace(-45, 45, 10)
+    post = np.full((10, 10), 0.01)
+    belief = SourceBelief(t=300.0, xs=xs, ys=ys, posterior=post)
+    first, second = Point(20.0, 10.0), Point(60.0, -20.0)
+    plt = pyplot()
+    fig, ax = plt.subplots()
+    _map_panel(ax, belief, area, [Point(21.0, 9.0), Point(58.0, -22.0)], [first, second], {},
+               plt)
+    assert "source-likelihood map" in ax.get_title()
+    numbers = {t.get_text(): t.xy for t in ax.texts if t.get_text()}
+    assert numbers == {"1": (first.x, first.y), "2": (second.x, second.y)}
+    fig2, one = plt.subplots()
+    _map_panel(one, belief, area, [Point(21.0, 9.0)], [first], {}, plt)
+    assert not [t for t in one.texts if t.get_text()]  # one declaration: nothing to order
+    plt.close(fig)
+    plt.close(fig2)
