@@ -399,6 +399,13 @@ def test_the_study_figures_say_what_each_panel_and_bar_is(tmp_path: Path,
     assert _distributions(rows, tmp_path / "d.png", pyplot()) is not None
     titles = [ax.get_title() for ax in seen[-1].axes if ax.get_title()]
     assert len(titles) == 2 and "off" in titles[0] and "T_D" in titles[1]
+    fig = seen[-1]
+    fig.canvas.draw()
+    page = fig.bbox
+    for ax in fig.axes:  # each title whole over its panel (a longer one was cut at the edge)
+        box = ax.title.get_window_extent()
+        assert page.x0 <= box.x0 and box.x1 <= page.x1, ax.get_title()
+        assert box.width <= ax.bbox.width, ax.get_title()
     groups: dict[str, list[dict[str, Any]]] = {}
     for r in maintain_rows():
         beta = r["configuration"].split("beta1_deg=")[1]
