@@ -46,7 +46,8 @@ class StudyMismatch(BatchError):
     """The results folder holds a different study (other mission or options)."""
 
 
-_COMPARED = (("mission", "mission"), ("runs_per_start", "runs per start"),
+# the mission's path is not compared: the same mission from another path is the same study
+_COMPARED = (("runs_per_start", "runs per start"),
              ("root_seed", "root seed"), ("time_limit_s", "time limit (s)"),
              ("start_mode", "start mode"), ("starts", "starts"), ("heading_deg", "heading (deg)"),
              ("sweeps", "sweeps"), ("config_missions", "the missions' settings"))
@@ -73,6 +74,8 @@ def _differences(old: dict[str, Any], new: dict[str, Any]) -> str:
 
 
 def _short(value: Any, limit: int = 40) -> str:
+    if value is None:  # an option not given: the mission's own value
+        return "the mission's"
     text = json.dumps(value, default=str) if not isinstance(value, str) else value
     return text if len(text) <= limit else text[:limit - 1] + "…"
 

@@ -7,6 +7,7 @@ Only presentation: these change no row, so they are outside the code identity
 
 from __future__ import annotations
 
+import textwrap
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
@@ -234,7 +235,10 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
     ax.set_ylim(0, 1.05)
     ax.set_ylabel("rate")
     judged = success_label(every).removesuffix(" (95% CI)")
-    ax.set_title(f"{judged}, per configuration", fontsize=10)
+    title = f"{judged}, per configuration" + (" (and false declarations)"
+                                               if len(bars) > 1 else "")
+    # wrapped to the plot's width (a two-source title lost its start at the page's edge)
+    ax.set_title(textwrap.fill(title, max(30, int(11 * (fig_w - 2.5)))), fontsize=10)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # off the bars
     ax.grid(axis="y", alpha=0.3)
     fig.savefig(path, dpi=130)

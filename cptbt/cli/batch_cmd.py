@@ -383,7 +383,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         raise BatchError(f"{exc}: rerun with --restart to discard its results, or choose a "
                          "new --out") from None
     except StudyMismatch as exc:
-        raise BatchError(f"{exc}: choose another --out or remove it") from None
+        also = " (--restart discards a study's runs, not another study)" if args.restart else ""
+        raise BatchError(f"{exc}: choose another --out or remove it{also}") from None
     from cptbt.batch.runner import run_study
 
     def rerun(key: str, reason: str) -> None:

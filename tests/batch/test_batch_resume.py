@@ -186,8 +186,9 @@ def test_folder_of_a_different_study_is_refused_even_with_restart(study: Path) -
         res = batch(study, *extra, seed=4)
         assert res.returncode == 1
         # it names what differs (a review changed one option and could not tell which)
+        also = " (--restart discards a study's runs, not another study)" if extra else ""
         assert stderr_lines(res) == [f"cptbt: {study} holds a different study (root seed 3 "
-                                     "there, 4 here): choose another --out or remove it"]
+                                     f"there, 4 here): choose another --out or remove it{also}"]
     assert len(list((study / "parts").iterdir())) == 2
 
 

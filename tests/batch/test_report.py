@@ -396,6 +396,13 @@ def test_the_study_figures_say_what_each_panel_and_bar_is(tmp_path: Path,
     assert _rates(rows, tmp_path / "r.png", pyplot()) is not None
     shown = [t.get_text() for t in seen[-1].axes[0].texts]
     assert shown == ["3/4", "3/4", "0/4", "0/4"]  # success, then false declarations
+    two = {k: [{**r, "sources_true": 2} for r in v] for k, v in rows.items()}
+    assert _rates(two, tmp_path / "r2.png", pyplot()) is not None
+    fig = seen[-1]
+    fig.canvas.draw()
+    box, page = fig.axes[0].title.get_window_extent(), fig.bbox
+    assert page.x0 <= box.x0 and box.x1 <= page.x1  # the long two-source title lost its start
+    assert "false declarations" in fig.axes[0].get_title()
     assert _distributions(rows, tmp_path / "d.png", pyplot()) is not None
     titles = [ax.get_title() for ax in seen[-1].axes if ax.get_title()]
     assert len(titles) == 2 and "off" in titles[0] and "T_D" in titles[1]

@@ -173,6 +173,12 @@ def test_a_different_study_is_told_by_what_differs(tmp_path: Path) -> None:
                                  "there, 900.0 here; and 2 more)")
     with pytest.raises(StudyMismatch, match=r"\(other missions or options\)$"):
         ResultStore(tmp_path).open(meta, study="s3", code="c1")  # nothing recorded differs
+    # the mission's path is no difference (a copy elsewhere is the same study); an option
+    # not given is the mission's own value, not "null"
+    moved = {**meta, "mission": "/tmp/copy.yaml", "time_limit_s": None}
+    told = r"\(time limit \(s\) 600.0 there, the mission's here\)$"
+    with pytest.raises(StudyMismatch, match=told):
+        ResultStore(tmp_path).open(moved, study="s4", code="c1")
 
 
 def test_open_refuses_other_code_and_other_studies(tmp_path: Path, fmt: str) -> None:
