@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, BinaryIO
 
+import yaml
+
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import fingerprint, rows_checksum
 from cptbt.batch.study import GroupTask
@@ -63,7 +65,9 @@ def _differences(old: dict[str, Any], new: dict[str, Any]) -> str:
         a, b = old[key], json.loads(json.dumps(new[key], default=str))
         if a == b:
             continue
-        if key in ("starts", "config_missions"):
+        if key == "config_missions":
+            said.extend(_mission_differences(a, b))
+        elif key == "starts":
             said.append(f"{name} differ")
         else:
             said.append(f"{name} {_short(a)} there, {_short(b)} here")
@@ -71,6 +75,42 @@ def _differences(old: dict[str, Any], new: dict[str, Any]) -> str:
         return "other missions or options"
     more = f"; and {len(said) - 3} more" if len(said) > 3 else ""
     return "; ".join(said[:3]) + more
+
+
+_ABSENT = object()
+
+
+def _mission_differences(old: Any, new: Any) -> list[str]:
+    """The mission settings that differ, by their dotted key (``mission
+    declare_source.radius_m 10 there, 8 here``), in the first configuration that differs."""
+    if not (isinstance(old, list) and isinstance(new, list)) or len(old) != len(new):
+        count = len(old) if isinstance(old, list) else "?"
+        return [f"configurations {count} there, {len(new)} here"]
+    for a, b in zip(old, new, strict=True):
+        try:
+            paths = _setting_paths(yaml.safe_load(a), yaml.safe_load(b), ())
+        except (yaml.YAMLError, TypeError):
+            break
+        if paths:
+            return [f"mission {'.'.join(key) + ' ' if key else ''}{_setting(x)} there, "
+                    f"{_setting(y)} here" for key, x, y in paths]
+    return ["the missions' settings differ"]
+
+
+def _setting_paths(a: Any, b: Any, at: tuple[str, ...]) -> list[tuple[tuple[str, ...], Any, Any]]:
+    """(dotted key, value there, value here) of every leaf that differs, in key order."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        out = []
+        for key in sorted({*a, *b}, key=str):
+            out += _setting_paths(a.get(key, _ABSENT), b.get(key, _ABSENT), (*at, str(key)))
+        return out
+    return [] if a == b else [(at, a, b)]
+
+
+def _setting(value: Any) -> str:
+    if value is _ABSENT:
+        return "not set"
+    return _short(value) if value is not None else "null"
 
 
 def _short(value: Any, limit: int = 40) -> str:

@@ -181,6 +181,23 @@ def test_a_different_study_is_told_by_what_differs(tmp_path: Path) -> None:
         ResultStore(tmp_path).open(moved, study="s4", code="c1")
 
 
+def test_a_different_mission_is_told_by_the_settings_that_differ(tmp_path: Path) -> None:
+    """A resume refused for "the missions' settings differ" left the user to diff two YAML
+    files by hand: the message names the settings, by their dotted keys."""
+    there = "speed_mps: 1.5\ndeclare_source:\n  variant: likelihood_map\n  radius_m: 10\n"
+    here = "speed_mps: 1.5\ndeclare_source:\n  variant: likelihood_map\n  radius_m: 8\n" \
+           "  flyby: true\n"
+    meta = {"runs_per_start": 10, "root_seed": 1, "config_missions": [there]}
+    ResultStore(tmp_path).open(meta, study="s1", code="c1")
+    with pytest.raises(StudyMismatch) as caught:
+        ResultStore(tmp_path).open({**meta, "config_missions": [here]}, study="s2", code="c1")
+    assert str(caught.value).endswith("(mission declare_source.flyby not set there, true here; "
+                                      "mission declare_source.radius_m 10 there, 8 here)")
+    with pytest.raises(StudyMismatch, match=r"\(configurations 1 there, 2 here\)$"):
+        ResultStore(tmp_path).open({**meta, "config_missions": [there, here]}, study="s3",
+                                   code="c1")
+
+
 def test_open_refuses_other_code_and_other_studies(tmp_path: Path, fmt: str) -> None:
     store = opened(tmp_path, fmt)
     (task,) = tasks(1)
