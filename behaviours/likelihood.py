@@ -221,7 +221,8 @@ class LikelihoodMapDeclare(SeveralSources):
             self.params.upflow_fan_deg if self.params.max_sources == 1 else 0.0,
             near_m=self.params.radius_m if self.params.upflow_seen_near else None,
             veto_near_m=self.params.upflow_veto_near_m, window_m=self.params.upflow_window_m,
-            crossings=self.params.upflow_crossings or (1 if self.params.max_sources == 1 else 2))
+            crossings=self.params.upflow_crossings or (1 if self.params.max_sources == 1 else 2),
+            crossing_gap_s=self.params.upflow_crossing_gap_s)
         self.upflow.known_veto = self.params.upflow_known_veto
         self.detections_used = 0
 

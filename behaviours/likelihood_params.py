@@ -177,6 +177,10 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "plume near its source is intermittent, and one empty pass can miss it (measured: "
         "LikelihoodMapDeclare's docstring; None: 1 with max_sources 1, 2 with several)"
     )
+    upflow_crossing_gap_s: float = Field(
+        default=15.0, gt=0, description="Passes over the candidate's flow line less than this "
+        "apart count as one (upflow_crossings), s"
+    )
     upflow_early_fraction: float | None = Field(
         default=0.7, gt=0, lt=1, description="Fly the up-flow check's leg (or visit) as soon as "
         "the map holds this fraction of confidence within radius_m of a candidate, before it is "

@@ -55,8 +55,9 @@ class UpflowCheck:
         trace_level: a reading above this (the sensor's units) in the band vetoes like a
             detection, if it also stands clear of the sensor's noise floor (:meth:`trace_floor`);
             None: only detections veto.
-        crossings: how many passes over the line (more than :attr:`CROSSING_GAP_S` apart) the
+        crossings: how many passes over the line (more than ``crossing_gap_s`` apart) the
             crossing needs.
+        crossing_gap_s: passes less than this apart count once (None: :attr:`CROSSING_GAP_S`).
         near_m: a candidate needs plume seen within this of it before the crossing is looked
             for; until then the vehicle visits it (a visit that times out holds it back while
             the tree searches on). None: not needed.
@@ -73,9 +74,10 @@ class UpflowCheck:
                  memory_s: float | None, timeout_s: float, fan_deg: float = 0.0,
                  trace_level: float | None = None, near_m: float | None = None,
                  veto_near_m: float | None = None, window_m: float | None = None,
-                 crossings: int = 1) -> None:
+                 crossings: int = 1, crossing_gap_s: float | None = None) -> None:
         self.reach_m, self.band_m, self.veto_beyond_m = reach_m, band_m, veto_beyond_m
         self.crossings = crossings
+        self.crossing_gap_s = self.CROSSING_GAP_S if crossing_gap_s is None else crossing_gap_s
         self.window_m = window_m
         self.veto_near_m = veto_beyond_m if veto_near_m is None else veto_near_m
         self.near_m = near_m
@@ -251,13 +253,13 @@ class UpflowCheck:
     def _over_line(self, window: np.ndarray, across: np.ndarray, t: np.ndarray) -> int:
         """How many times the track passed over the candidate's flow line inside the crossing
         window: a cycle in it within :attr:`slack_m` of the line, or two successive cycles in it
-        on either side of the line; passes less than :attr:`CROSSING_GAP_S` apart count once."""
+        on either side of the line; passes less than ``crossing_gap_s`` apart count once."""
         over = window & (np.abs(across) <= self.slack_m)
         over[1:] |= window[1:] & window[:-1] & (across[1:] * across[:-1] < 0.0)
         when = t[over]
         if when.size == 0:
             return 0
-        return 1 + int(np.count_nonzero(np.diff(when) > self.CROSSING_GAP_S))
+        return 1 + int(np.count_nonzero(np.diff(when) > self.crossing_gap_s))
 
     def _supported(self, p: Percept, candidate: Point, t: np.ndarray, dx: np.ndarray,
                    dy: np.ndarray, hit: np.ndarray) -> bool:
