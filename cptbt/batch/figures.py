@@ -151,7 +151,9 @@ def trajectory_figure(
         mesh = ax.pcolormesh(snap.xs, snap.ys, snap.conc, cmap="Greys", shading="auto",
                              vmin=0, vmax=vmax, alpha=0.75, rasterized=True)
         given_up = bool((run.declaration_report or {}).get("search_given_up"))
-        when = (("the search gave up" if given_up else "declaration")
+        several = len(run.declared_all) > 1  # t3 is the last declaration's (a review)
+        when = (("the search gave up" if given_up else
+                 "last declaration" if several else "declaration")
                 if run.t3 is not None and abs(snap.t_s - run.t3) < 1e-6 else "end")
         bar = fig.colorbar(mesh, ax=ax, location="bottom", shrink=0.5, aspect=40, pad=0.02)
         label = f"plume concentration at t = {snap.t_s:.0f} s ({when})"
@@ -284,8 +286,10 @@ def _sources(ax: Any, truth: Sequence[Point], declared: Sequence[Point],
                         else "declared sources, numbered in order") if label else None))
     if len(declared) > 1:  # which came first (a review could not tell)
         for i, q in enumerate(declared, start=1):
-            ax.annotate(str(i), (q.x, q.y), xytext=(6, 6), textcoords="offset points",
-                        fontsize=9, fontweight="bold", color="#4b2a7a")
+            ax.annotate(str(i), (q.x, q.y), xytext=(7, 7), textcoords="offset points",
+                        fontsize=11, fontweight="bold", color="#4b2a7a",
+                        bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "#4b2a7a",
+                              "lw": 0.8, "alpha": 0.85})
 
 
 def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Point],
@@ -330,8 +334,8 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m), 90° clockwise from x")
-    ax.set_title("Where the source is likely: the declaration's source-likelihood map",
-                 fontsize=10)
+    ax.set_title("Where the source is likely: the source-likelihood map at the "
+                 + ("last declaration" if len(declared) > 1 else "declaration"), fontsize=10)
 
 
 def _track(ax: Any, run: VehicleRun, waypoints: Sequence[Point] | None) -> None:

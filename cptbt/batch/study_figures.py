@@ -22,6 +22,7 @@ from cptbt.batch.report import (
     _mean,
     _search_time,
     _sem,
+    _several_sources,
     _td_share,
     success_label,
     wilson,
@@ -271,15 +272,22 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
                     label=[f"{k} (n = {len(values[k])})" for k in have])
     if radius is not None:
         a1.axvline(radius, color="#d62728", ls="--", lw=1, label=f"success radius {radius:g} m")
-    a1.set_xlabel("declaration error (m)")
-    a2.set_xlabel("T_D / mission time to declaration (TRO Table III)")
-    a1.set_title("How far off the declared source was", fontsize=10)
+    # Several true sources: a run's error_m is its worst declared source's, and T_D and t3
+    # end at the declaration that completed the set (a review read them as the first's).
+    several = any(_several_sources(rows) for rows in judged.values())
+    a1.set_xlabel("declaration error, the worst declared source's (m)" if several
+                  else "declaration error (m)")
+    a2.set_xlabel("T_D / mission time to the last declaration (TRO Table III)" if several
+                  else "T_D / mission time to declaration (TRO Table III)")
+    a1.set_title("How far off the declared sources were" if several
+                 else "How far off the declared source was", fontsize=10)
     a2.set_title("Share of the mission spent declaring (T_D)", fontsize=10)  # fits the panel
     for ax in (a1, a2):
         ax.set_ylabel("runs")
         ax.yaxis.get_major_locator().set_params(integer=True)  # counts: no 0.25-run ticks
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=7)
+        if ax.get_legend_handles_labels()[0]:  # under the panel: inside, it sat on the radius
+            ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2,
+                      frameon=False)
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path

@@ -413,6 +413,18 @@ def test_the_study_figures_say_what_each_panel_and_bar_is(tmp_path: Path,
         box = ax.title.get_window_extent()
         assert page.x0 <= box.x0 and box.x1 <= page.x1, ax.get_title()
         assert box.width <= ax.bbox.width, ax.get_title()
+    # several sources: the error is the worst declared source's and T_D ends at the last
+    # declaration (a review read them as the first's); legends under the panels, not on the
+    # success radius's line
+    with_radius = {k: [{**r, "success_radius_m": 15.0} for r in v] for k, v in two.items()}
+    assert _distributions(with_radius, tmp_path / "d2.png", pyplot()) is not None
+    fig = seen[-1]
+    labels = [ax.get_xlabel() for ax in fig.axes]
+    assert "worst" in labels[0] and "last declaration" in labels[1]
+    fig.canvas.draw()
+    for ax in fig.axes:
+        legend = ax.get_legend().get_window_extent()
+        assert legend.y1 <= ax.bbox.y0  # below the plot area
     groups: dict[str, list[dict[str, Any]]] = {}
     for r in maintain_rows():
         beta = r["configuration"].split("beta1_deg=")[1]

@@ -270,11 +270,12 @@ def test_the_map_panel_is_titled_and_several_declarations_are_numbered_in_order(
     fig, ax = plt.subplots()
     _map_panel(ax, belief, area, [Point(21.0, 9.0), Point(58.0, -22.0)], [first, second], {},
                plt)
-    assert "source-likelihood map" in ax.get_title()
+    assert ax.get_title().endswith("map at the last declaration")  # not "the declaration's"
     numbers = {t.get_text(): t.xy for t in ax.texts if t.get_text()}
     assert numbers == {"1": (first.x, first.y), "2": (second.x, second.y)}
     fig2, one = plt.subplots()
     _map_panel(one, belief, area, [Point(21.0, 9.0)], [first], {}, plt)
     assert not [t for t in one.texts if t.get_text()]  # one declaration: nothing to order
+    assert one.get_title().endswith("map at the declaration")
     plt.close(fig)
     plt.close(fig2)
