@@ -11,6 +11,7 @@ other code is never mixed into the results.
 
 from __future__ import annotations
 
+import atexit
 import csv
 import io
 import json
@@ -39,6 +40,22 @@ LOCK_NAME = ".lock"
 """The file a writing study holds locked (see :meth:`ResultStore.open`)."""
 _HELD: dict[Path, Any] = {}
 """The folders this process holds locked, with their open lock files (kept until it ends)."""
+
+
+def _unlock(key: Path) -> None:
+    """At a clean exit: empty ``.lock`` (it keeps no pid of a process that has ended) and
+    release it. A crash leaves the pid, and the kernel releases the lock all the same."""
+    f = _HELD.pop(key, None)
+    if f is None:
+        return
+    try:
+        f.seek(0)
+        f.truncate()
+        f.close()  # closing the file releases the flock
+    except OSError:  # pragma: no cover - a folder removed under us
+        pass
+
+
 FORMAT = 1
 # Columns every results table has (the figures and tables are built from them).
 REQUIRED_COLUMNS = ("config", "replicate", "start", "start_x", "start_y", "success")
@@ -290,6 +307,7 @@ class ResultStore:
         f.write(f"{os.getpid()}\n")
         f.flush()
         _HELD[key] = f
+        atexit.register(_unlock, key)  # a finished folder's .lock named a dead pid (a review)
 
     def path(self, key: str) -> Path:
         """The part file of group ``key``."""

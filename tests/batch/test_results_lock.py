@@ -50,3 +50,13 @@ def test_one_store_may_open_its_folder_again(tmp_path: Path) -> None:
     store = ResultStore(tmp_path / "study")
     store.open(META, study="s", code="c")
     store.open({**META, "runs_per_start": 4}, study="s", code="c")  # --until-sem does this
+
+
+def test_a_batch_that_ended_leaves_no_pid_in_the_lock(tmp_path: Path) -> None:
+    """A finished folder's .lock named the pid of a process long gone (a review)."""
+    out = tmp_path / "study"
+    code = "import sys\nfrom pathlib import Path\nfrom cptbt.batch.store import ResultStore\n" \
+           "ResultStore(Path(sys.argv[1])).open({'mission': 'm'}, study='s', code='c')\n"
+    subprocess.run([sys.executable, "-c", code, str(out)], check=True, timeout=60)
+    assert (out / LOCK_NAME).read_text() == ""
+    ResultStore(out).open(META, study="s", code="c")  # and the folder is free
