@@ -220,7 +220,7 @@ def trajectory_figure(
     ax.set_title("\n".join(textwrap.fill(line, chars) for line in title.split("\n")),
                  fontsize=10)
     fig.legend(loc="outside right upper", fontsize=8, frameon=False)
-    _place_labels(fig, ax, graticule)
+    _place_labels(fig, ax, graticule, area)
     fig.savefig(path, dpi=150)
     plt.close(fig)
 
@@ -421,13 +421,15 @@ def _graticule(ax: Any, mission: MissionBase, area: OpArea) -> list[tuple[Any, S
             if inside.sum() < 2:
                 continue
             ax.plot(xs[inside], ys[inside], color="#4a90d9", lw=0.6, alpha=0.7, zorder=0)
-            # Latitudes labelled where they enter the OpArea, longitudes where they leave it,
-            # so the two sets of labels do not pile up on one edge; where they still meet (a
-            # rotated area: both leave through one edge), _place_labels moves one along its line.
+            # Latitudes labelled near where they enter the OpArea, longitudes near where they
+            # leave it, so the two sets of labels do not pile up on one edge; _place_labels
+            # moves each inward along its line until it clears the border (centred on the
+            # border point it had sat on the OpArea's edge) and the labels placed before it.
             idx = np.flatnonzero(inside)
-            order = [idx[0], idx[-1]] if is_lat else [idx[-1], idx[0]]
-            order += [idx[int(f * (len(idx) - 1))] for f in (0.5, 0.25, 0.75)]
-            spots = [(float(xs[k]), float(ys[k])) for k in order]
+            ends = (idx[0], idx[-1]) if is_lat else (idx[-1], idx[0])
+            along = np.linspace(0.0, 1.0, 41)
+            spots = [(float(np.interp(f, (0, 1), (xs[ends[0]], xs[ends[1]]))),
+                      float(np.interp(f, (0, 1), (ys[ends[0]], ys[ends[1]])))) for f in along]
             text = ax.text(*spots[0], _dm(v if is_lat else _wrap180(v),
                                           "NS" if is_lat else "EW"),
                            fontsize=6, color="#2a6099", ha="center", va="center", zorder=1,
@@ -440,15 +442,22 @@ Spots = list[tuple[float, float]]
 """The places along its line a graticule label may stand, best first."""
 
 
-def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]]) -> None:
+def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]],
+                  area: OpArea | None = None) -> None:
     """Move each graticule label to the first place along its line where it overlaps no label
-    placed before it, nor another text of the axes (the north arrow's N, the current's label);
-    one with no such place is not drawn. Done once the layout is settled (before saving): a
-    label's size is in points, the spacing of the lines in metres."""
+    placed before it, nor another text of the axes (the north arrow's N, the current's label),
+    and stands wholly inside ``area`` (off its border); one with no such place is not drawn.
+    Done once the layout is settled (before saving): a label's size is in points, the spacing
+    of the lines in metres."""
     if not labels:
         return
     fig.canvas.draw()  # settle the constrained layout and the aspect before measuring
     renderer = fig.canvas.get_renderer()
+    inner = None
+    if area is not None:  # the OpArea in display units, 2 px in from its drawn edge
+        (x0, y0), (x1, y1) = ax.transData.transform([(area.xmin, area.ymin),
+                                                     (area.xmax, area.ymax)])
+        inner = (min(x0, x1) + 2, min(y0, y1) + 2, max(x0, x1) - 2, max(y0, y1) - 2)
     mine = {id(text) for text, _ in labels}
     taken = [t.get_window_extent(renderer).expanded(1.1, 1.2) for t in ax.texts
              if id(t) not in mine and t.get_visible() and t.get_text()]
@@ -456,6 +465,9 @@ def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]]) -> None:
         for spot in spots:
             text.set_position(spot)
             box = text.get_window_extent(renderer).expanded(1.1, 1.2)
+            if inner is not None and not (inner[0] <= box.x0 and box.x1 <= inner[2]
+                                          and inner[1] <= box.y0 and box.y1 <= inner[3]):
+                continue
             if not any(box.overlaps(other) for other in taken):
                 taken.append(box)
                 break

@@ -247,6 +247,12 @@ def test_graticule_labels_do_not_overlap(tmp_path: Path,
     grid = [t for t in shown if t.get_text()[-1] in "NSEW" and "°" in t.get_text()]
     assert len(grid) >= 8, [t.get_text() for t in grid]  # most of the lines keep a label
     boxes = [t.get_window_extent(renderer) for t in shown]
+    area = mission.op_area_geometry()  # and off the OpArea's border (they had sat on it)
+    (x0, y0), (x1, y1) = ax.transData.transform([(area.xmin, area.ymin), (area.xmax, area.ymax)])
+    for t in grid:
+        box = t.get_window_extent(renderer)
+        assert min(x0, x1) < box.x0 and box.x1 < max(x0, x1), t.get_text()
+        assert min(y0, y1) < box.y0 and box.y1 < max(y0, y1), t.get_text()
     for i, a in enumerate(boxes):
         for j in range(i + 1, len(boxes)):
             assert not a.overlaps(boxes[j]), (shown[i].get_text(), shown[j].get_text())
