@@ -397,11 +397,19 @@ def coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
             path = _data_path(tuple(err["loc"]), data)
             if path in seen:
                 continue
-            shown = "a YAML boolean" if isinstance(value, bool) else (
-                ("a quoted string" if _numeric(value) else "text") if isinstance(value, str)
-                else type(value).__name__)
-            out.append((path, f"expected {want}, got {value!r} ({shown})"))
+            out.append((path, f"expected {want}, got {_given(value)}"))
     return out
+
+
+def _given(value: Any) -> str:
+    """A converted value as the file spelled it, as near as YAML lets us tell: ``cycle_hz:
+    yes`` had read "got True", a word the file does not have."""
+    if isinstance(value, bool):
+        return ("a YAML boolean (yes, on and true all read as true)" if value
+                else "a YAML boolean (no, off and false all read as false)")
+    if isinstance(value, str):
+        return f"{value!r} ({'a quoted string' if _numeric(value) else 'text'})"
+    return f"{value!r} ({type(value).__name__})"
 
 
 _DECIMAL = re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$")
@@ -425,7 +433,7 @@ def _literal_booleans(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]
                 and get_origin(field.annotation) is Literal
                 and not any(isinstance(o, bool) for o in get_args(field.annotation))):
             options = ", ".join(repr(o) for o in get_args(field.annotation))
-            out.append(((key,), f"expected one of {options}, got {value!r} (a YAML boolean)"))
+            out.append(((key,), f"expected one of {options}, got {_given(value)}"))
     return out
 
 

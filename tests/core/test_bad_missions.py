@@ -133,7 +133,7 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
      "more than 100000 starts"),
     # -- numbers are YAML numbers: no booleans or quoted strings converted --------------------
     ("boolean cycle", sub("cycle_hz: 1", "cycle_hz: yes"), 8, "cycle_hz",
-     "expected a number, got True (a YAML boolean)"),
+     "expected a number, got a YAML boolean (yes, on and true all read as true)"),
     ("quoted speed", sub("speed_mps: 1.5", "speed_mps: '1.5'"), 7, "speed_mps",
      "expected a number, got '1.5' (a quoted string)"),
     ("quoted param", sub("beta_deg: 10}", "beta_deg: \"10\"}"), 17,
@@ -147,11 +147,11 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("fractional seed", sub("seed: 3", "seed: 3.5"), 31, "environment.seed", "integer"),
     # inside the simulator's override sections too (a review: noise_std: true flew as 1.0)
     ("boolean sensor noise", sub("  seed: 3", "  seed: 3\n  fluorometer: {noise_std: true}"),
-     32, "environment.fluorometer.noise_std", "expected a number, got True (a YAML boolean)"),
+     32, "environment.fluorometer.noise_std", "expected a number, got a YAML boolean"),
     ("quoted adcp noise", sub("  seed: 3", "  seed: 3\n  adcp: {noise_std_mps: '0.02'}"),
      32, "environment.adcp.noise_std_mps", "expected a number, got '0.02' (a quoted string)"),
     ("boolean noise order", sub("  seed: 3", "  seed: 3\n  flow: {noise_order: true}"),
-     32, "environment.flow.noise_order", "expected one of 1, 2, got True (a YAML boolean)"),
+     32, "environment.flow.noise_order", "expected one of 1, 2, got a YAML boolean (yes, on"),
     # -- the OpArea is a rectangle consistent with its bearing -------------------------------
     ("kite", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
                  "[[100, 0], [0, 50], [-100, 0], [0, -50]]"), 4, "op_area.corners",
