@@ -179,7 +179,9 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     )
     upflow_crossing_gap_s: float = Field(
         default=15.0, gt=0, description="Passes over the candidate's flow line less than this "
-        "apart count as one (upflow_crossings), s"
+        "apart count as one (upflow_crossings); 40 moved the two-source false declarations to "
+        "other runs and delayed the second declaration ~100 s (measured: "
+        "benchmarks/results/likelihood_map_two_passes.md), s"
     )
     upflow_early_fraction: float | None = Field(
         default=0.7, gt=0, lt=1, description="Fly the up-flow check's leg (or visit) as soon as "

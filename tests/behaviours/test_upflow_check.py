@@ -113,6 +113,28 @@ def test_two_crossings_must_be_passes_apart_and_the_leg_goes_back_over_the_line(
     assert one.passed(at(s, 9), CAND, AREA)
 
 
+def test_the_gap_between_passes_is_a_setting_the_mission_reaches() -> None:
+    """``upflow_crossing_gap_s`` (session 20's measurement): with 40 s, passes 25 s apart are
+    one crossing; the setting travels from the mission's parameters to the check."""
+    from cptbt.behaviours.likelihood import LikelihoodMapDeclare
+
+    c, s = check(crossings=2, crossing_gap_s=40.0), ScriptedPerception(AREA)
+    for t, y in enumerate(range(-8, 9, 2)):
+        c.record(t, Point(40, y), hit=False)
+    for t, y in enumerate(range(8, -9, -2), start=33):  # 25 s after the first pass ended
+        c.record(t, Point(39, y), hit=False)
+    assert not c.passed(at(s, 42), CAND, AREA)
+    for t, y in enumerate(range(-8, 9, 2), start=90):
+        c.record(t, Point(40, y), hit=False)
+    assert c.passed(at(s, 99), CAND, AREA)
+    from cptbt.behaviours.likelihood_params import LikelihoodMapParams
+    from cptbt.testing import fresh_namespace
+
+    params = LikelihoodMapParams(max_sources=2, upflow_crossing_gap_s=40.0)
+    node = LikelihoodMapDeclare(params, namespace=fresh_namespace())
+    assert node.upflow.crossing_gap_s == 40.0 and node.upflow.crossings == 2
+
+
 def test_a_one_cycle_dip_of_confidence_is_not_a_new_leg_and_keeps_the_clock() -> None:
     c, s = check(timeout_s=30.0), ScriptedPerception(AREA)
     for t in range(0, 32, 2):  # the candidate drifting a little, as a map's mean does
