@@ -74,7 +74,7 @@ def test_longitude_lines_across_the_antimeridian(centre_lon: float) -> None:
     globe and no longitude line was drawn. Lines and labels on both sides of it now."""
     import matplotlib.pyplot as plt
 
-    from cptbt.batch.figures import _graticule
+    from cptbt.batch.compass import _graticule
 
     base = load(str(ROOT / "missions" / "oblique_flow.yaml"), simulate=True)
     area_spec = base.op_area.model_copy(update={"geodetic_centre_deg": (-20.0, centre_lon)})
@@ -99,7 +99,7 @@ def test_longitude_lines_across_the_antimeridian(centre_lon: float) -> None:
     (-33.9, "NS", "33°54.000'S"),
 ])
 def test_degrees_and_minutes(value: float, hemispheres: str, text: str) -> None:
-    from cptbt.batch.figures import _dm
+    from cptbt.batch.compass import _dm
 
     assert _dm(value, hemispheres) == text
 
@@ -198,7 +198,7 @@ def test_the_mean_current_keeps_off_the_north_arrow(tmp_path: Path,
                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     """A strip whose x points west draws north downward, from the top-left corner into the
     bottom-left one: with the track all over the strip, the arrow had gone there, onto the N."""
-    from cptbt.batch.figures import _north_points
+    from cptbt.batch.compass import _north_points
 
     mission = load(str(ROOT / "tests/e2e/data/north_down_strip.yaml"), simulate=True)
     tail = arrow_tail(drawn(mission, monkeypatch, tmp_path)[0])

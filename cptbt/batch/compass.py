@@ -1,0 +1,148 @@
+"""The compass on a run's figure: the north arrow and the latitude/longitude graticule with
+its labels, placed so that none sits on another or on the OpArea's border."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cptbt.frames import OpArea
+from cptbt.mission import MissionBase
+from cptbt.types import Point
+
+
+def _north_geometry(area: OpArea) -> tuple[float, float, float, float]:
+    """The north arrow's tail (x0, y0), length and direction (radians, planning frame)."""
+    size = 0.07 * area.diagonal_m
+    return (area.xmin + 1.3 * size, area.ymin + 1.3 * size, size,
+            math.radians(area.frame.planning_deg(0.0)))
+
+
+def _north_points(area: OpArea) -> NDArray[np.float64]:
+    """Points along the north arrow and on its label (for what must keep clear of it)."""
+    x0, y0, size, north = _north_geometry(area)
+    r = np.linspace(0.0, 1.5 * size, 16)
+    return np.column_stack([x0 + r * math.cos(north), y0 + r * math.sin(north)])
+
+
+def _north_arrow(ax: Any, mission: MissionBase, area: OpArea) -> None:
+    """A north arrow in the OpArea's upper-left corner (planning frame, y drawn down)."""
+    x0, y0, size, north = _north_geometry(area)
+    tip = (x0 + size * math.cos(north), y0 + size * math.sin(north))
+    ax.annotate("", xy=tip, xytext=(x0, y0),
+                arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.5})
+    ax.text(x0 + 1.35 * size * math.cos(north), y0 + 1.35 * size * math.sin(north), "N",
+            ha="center", va="center", fontsize=10, fontweight="bold")
+
+
+def _graticule(ax: Any, mission: MissionBase, area: OpArea) -> list[tuple[Any, Spots]]:
+    """Lines of constant latitude and longitude, for missions with a geodetic anchor; their
+    labels, each with the places it may stand (for :func:`_place_labels`)."""
+    labels: list[tuple[Any, Spots]] = []
+    local = mission.local_frame()
+    if local is None:
+        return labels
+    corners = [mission.to_geodetic(Point(x, y)) for x in (area.xmin, area.xmax)
+               for y in (area.ymin, area.ymax)]
+    lats = [g.lat_deg for g in corners if g is not None]
+    lons = [g.lon_deg for g in corners if g is not None]
+    # Across the antimeridian the corners read 179.99 and -179.99: unwrap them about the first
+    # so the lines run between them (min/max over the raw values spanned the whole globe).
+    lons = [lons[0] + _wrap180(lon - lons[0]) for lon in lons]
+    for values, is_lat in ((lats, True), (lons, False)):
+        lo, hi = min(values), max(values)
+        step = _nice_step((hi - lo) / 4)
+        other = (min(lons), max(lons)) if is_lat else (min(lats), max(lats))
+        for v in np.arange(math.ceil(lo / step) * step, hi, step):
+            pts = []
+            for w in np.linspace(*other, 30):
+                lat, lon = (v, w) if is_lat else (w, v)
+                pts.append(area.frame.ne_to_xy(*local.to_ne(float(lat), float(lon))))
+            xs = np.array([p.x for p in pts])
+            ys = np.array([p.y for p in pts])
+            inside = ((xs >= area.xmin) & (xs <= area.xmax) & (ys >= area.ymin)
+                      & (ys <= area.ymax))
+            if inside.sum() < 2:
+                continue
+            ax.plot(xs[inside], ys[inside], color="#4a90d9", lw=0.6, alpha=0.7, zorder=0)
+            # Latitudes labelled near where they enter the OpArea, longitudes near where they
+            # leave it, so the two sets of labels do not pile up on one edge; _place_labels
+            # moves each inward along its line until it clears the border (centred on the
+            # border point it had sat on the OpArea's edge) and the labels placed before it.
+            idx = np.flatnonzero(inside)
+            ends = (idx[0], idx[-1]) if is_lat else (idx[-1], idx[0])
+            along = np.linspace(0.0, 1.0, 41)
+            spots = [(float(np.interp(f, (0, 1), (xs[ends[0]], xs[ends[1]]))),
+                      float(np.interp(f, (0, 1), (ys[ends[0]], ys[ends[1]])))) for f in along]
+            text = ax.text(*spots[0], _dm(v if is_lat else _wrap180(v),
+                                          "NS" if is_lat else "EW"),
+                           fontsize=6, color="#2a6099", ha="center", va="center", zorder=1,
+                           bbox={"fc": "white", "ec": "none", "alpha": 0.7, "pad": 0.5})
+            labels.append((text, spots))
+    return labels
+
+
+Spots = list[tuple[float, float]]
+"""The places along its line a graticule label may stand, best first."""
+
+
+def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]],
+                  area: OpArea | None = None) -> None:
+    """Move each graticule label to the first place along its line where it overlaps no label
+    placed before it, nor another text of the axes (the north arrow's N, the current's label),
+    and stands wholly inside ``area`` (off its border); one with no such place is not drawn.
+    Done once the layout is settled (before saving): a label's size is in points, the spacing
+    of the lines in metres."""
+    if not labels:
+        return
+    fig.canvas.draw()  # settle the constrained layout and the aspect before measuring
+    renderer = fig.canvas.get_renderer()
+    inner = None
+    if area is not None:  # the OpArea in display units, 2 px in from its drawn edge
+        (x0, y0), (x1, y1) = ax.transData.transform([(area.xmin, area.ymin),
+                                                     (area.xmax, area.ymax)])
+        inner = (min(x0, x1) + 2, min(y0, y1) + 2, max(x0, x1) - 2, max(y0, y1) - 2)
+    mine = {id(text) for text, _ in labels}
+    taken = [t.get_window_extent(renderer).expanded(1.1, 1.2) for t in ax.texts
+             if id(t) not in mine and t.get_visible() and t.get_text()]
+    for text, spots in labels:
+        for spot in spots:
+            text.set_position(spot)
+            box = text.get_window_extent(renderer).expanded(1.1, 1.2)
+            if inner is not None and not (inner[0] <= box.x0 and box.x1 <= inner[2]
+                                          and inner[1] <= box.y0 and box.y1 <= inner[3]):
+                continue
+            if not any(box.overlaps(other) for other in taken):
+                taken.append(box)
+                break
+        else:
+            text.set_visible(False)
+
+
+def _wrap180(deg: float) -> float:
+    """An angle in [-180, 180)."""
+    return (deg + 180.0) % 360.0 - 180.0
+
+
+def _nice_step(raw: float) -> float:
+    """A step of 1, 2 or 5 times a power of ten, close to ``raw`` (degrees)."""
+    if raw <= 0:
+        return 1.0
+    exp = math.floor(math.log10(raw))
+    base = raw / 10**exp
+    return float((1 if base < 1.5 else 2 if base < 3.5 else 5) * 10**exp)
+
+
+def _dm(value: float, hemispheres: str) -> str:
+    """Degrees and decimal minutes, as TRO writes positions: 32°58.850'N.
+
+    Rounded to the thousandth of a minute before it is split, so a line a hair below a whole
+    degree reads 33°00.000'N, not 32°60.000'N (the 180° meridian read 179°60.000'E); a value
+    that rounds to zero takes the first hemisphere, not a "0°00.000'S"."""
+    minutes = round(abs(value) * 60.0, 3)
+    hemi = hemispheres[0] if value >= 0 or minutes == 0 else hemispheres[1]
+    d, m = divmod(minutes, 60.0)
+    return f"{int(d)}°{m:06.3f}'{hemi}"
