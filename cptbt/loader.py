@@ -58,12 +58,21 @@ _OTHER_TYPES = frozenset(f"tag:yaml.org,2002:{t}" for t in ("set", "binary", "om
 either way round), and bytes, ordered maps and pairs are nothing a mission holds."""
 
 
+class Lines(dict[Loc, int]):
+    """Each key path's line in the file; ``cols`` holds its column, so that several problems
+    on one line (a flow mapping: ``{radius_m: "10", flyby: yes}``) are told left to right."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.cols: dict[Loc, int] = {}
+
+
 class _Walk:
     """Maps every key path to its line, refusing what could make the loader explode."""
 
     def __init__(self, source: str) -> None:
         self.source = source
-        self.lines: dict[Loc, int] = {}
+        self.lines = Lines()
         self.values = 0
         self.seen: set[int] = set()
         self.on_path: set[int] = set()
@@ -79,6 +88,7 @@ class _Walk:
         self.seen.add(id(node))
         line = node.start_mark.line + 1
         self.lines.setdefault(path, line)
+        self.lines.cols.setdefault(path, node.start_mark.column)
         self.values += 1
         if self.values > MAX_VALUES:
             at = alias_at if alias_at is not None else path
@@ -112,6 +122,7 @@ class _Walk:
                 keys[key] = key_line
                 if alias_at is None:
                     self.lines[(*path, key)] = key_line
+                    self.lines.cols[(*path, key)] = key_node.start_mark.column
                 self.walk(value_node, (*path, key), alias_at)
         else:
             for i, item in enumerate(node.value):
@@ -217,12 +228,19 @@ def _data_path(loc: Loc, data: Any) -> Loc:
 def _line(path: Loc, lines: dict[Loc, int]) -> int:
     """The line of ``path``'s deepest part the file has (a key YAML read as a number, such
     as ``1: foo``, is recorded as it was written)."""
+    return _place(path, lines)[0]
+
+
+def _place(path: Loc, lines: dict[Loc, int]) -> tuple[int, int]:
+    """(line, column) of ``path``'s deepest part the file has (column 0 where the lines
+    carry none): the order problems are told in."""
+    cols = lines.cols if isinstance(lines, Lines) else {}
     for i in range(len(path), -1, -1):
         head = path[:i]
         for key in (head, (*head[:-1], str(head[-1])) if head else head):
             if key in lines:
-                return lines[key]
-    return 1
+                return lines[key], cols.get(key, 0)
+    return 1, 0
 
 
 def _at(data: Any, path: Loc) -> Any:
@@ -333,7 +351,7 @@ def format_problems(problems: list[Problem], lines: dict[Loc, int], source: str,
                     by_line: bool = False) -> list[str]:
     """One ``FILE:LINE: path: message`` line per cross-field problem of a mission (with
     ``by_line``, in the file's line order)."""
-    ordered = sorted(problems, key=lambda p: _line(p[0], lines)) if by_line else list(problems)
+    ordered = sorted(problems, key=lambda p: _place(p[0], lines)) if by_line else list(problems)
     return _render(ordered, lines, source)
 
 
@@ -354,7 +372,7 @@ def validate_data(
         # told four, and the fifth only once they were mended), and all in the file's order
         seen = {loc for loc, _ in located}
         located += [(loc, msg) for loc, msg in coercions(data, model) if loc not in seen]
-        located.sort(key=lambda e: _line(e[0], lines))
+        located.sort(key=lambda e: _place(e[0], lines))
         raise MissionError(_render(located, lines, source), located) from None
     located = coercions(data, model) or list(problems)
     if located:

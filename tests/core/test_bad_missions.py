@@ -374,6 +374,22 @@ def test_every_mistake_of_a_file_is_told_at_once_in_line_order(
     assert numbers == sorted(numbers)
 
 
+@pytest.mark.parametrize("params", ["beta_deg: '10', bta: 3, beta1_deg: x",
+                                    "bta: 3, beta1_deg: x, beta_deg: '10'",
+                                    "beta1_deg: x, beta_deg: '10', bta: 3"])
+def test_mistakes_on_one_line_are_told_left_to_right(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], params: str
+) -> None:
+    """A flow mapping with three mistakes was told in the model's field order, not the line's
+    (a review)."""
+    path = tmp_path / "one_line.yaml"
+    path.write_text(BASE.replace("beta_deg: 10}", params + "}"), encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    told = [line.split(": ")[1].rsplit(".", 1)[1] for line in lines]
+    assert told == [part.split(":")[0].strip() for part in params.split(",")], lines
+
+
 def test_every_old_number_form_in_a_file_is_told_at_once(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
