@@ -60,7 +60,7 @@ either way round), and bytes, ordered maps and pairs are nothing a mission holds
 
 class Lines(dict[Loc, int]):
     """Each key path's line in the file; ``cols`` holds its column, so that several problems
-    on one line (a flow mapping: ``{radius_m: "10", flyby: yes}``) are told left to right."""
+    on one line (a flow mapping: ``{radius_m: "10", confidence: "0.9"}``) are told left to right."""
 
     def __init__(self) -> None:
         super().__init__()
