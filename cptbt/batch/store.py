@@ -27,6 +27,7 @@ import yaml
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import fingerprint, rows_checksum
 from cptbt.batch.study import GroupTask
+from cptbt.mission import Loc, dotted
 
 try:  # Parquet when pyarrow is installed (the ``results`` extra), CSV otherwise
     import pyarrow as pa
@@ -109,18 +110,23 @@ def _mission_differences(old: Any, new: Any) -> list[str]:
         except (yaml.YAMLError, TypeError):
             break
         if paths:
-            return [f"mission {'.'.join(key) + ' ' if key else ''}{_setting(x)} there, "
+            return [f"mission {dotted(key) + ' ' if key else ''}{_setting(x)} there, "
                     f"{_setting(y)} here" for key, x, y in paths]
     return ["the missions' settings differ"]
 
 
-def _setting_paths(a: Any, b: Any, at: tuple[str, ...]) -> list[tuple[tuple[str, ...], Any, Any]]:
-    """(dotted key, value there, value here) of every leaf that differs, in key order."""
+def _setting_paths(a: Any, b: Any, at: Loc) -> list[tuple[Loc, Any, Any]]:
+    """(key path, value there, value here) of every leaf that differs, in key order; into
+    lists of one length too (a mission's behaviours are a list: a review was told the whole
+    list, cut before the change)."""
     if isinstance(a, dict) and isinstance(b, dict):
         out = []
         for key in sorted({*a, *b}, key=str):
             out += _setting_paths(a.get(key, _ABSENT), b.get(key, _ABSENT), (*at, str(key)))
         return out
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        return [d for i, (x, y) in enumerate(zip(a, b, strict=True))
+                for d in _setting_paths(x, y, (*at, i))]
     return [] if a == b else [(at, a, b)]
 
 

@@ -193,6 +193,17 @@ def test_a_different_mission_is_told_by_the_settings_that_differ(tmp_path: Path)
         ResultStore(tmp_path).open({**meta, "config_missions": [here]}, study="s2", code="c1")
     assert str(caught.value).endswith("(mission declare_source.flyby not set there, true here; "
                                       "mission declare_source.radius_m 10 there, 8 here)")
+    # inside the list of behaviours too (a review was told the whole list, cut at 40
+    # characters before the change)
+    there = ("behaviours:\n- safety: {variant: oparea}\n"
+             "- declare_source: {variant: likelihood_map}\n")
+    here = there.replace("likelihood_map}", "likelihood_map, radius_m: 8}")
+    ResultStore(tmp_path / "b").open({**meta, "config_missions": [there]}, study="b1", code="c1")
+    with pytest.raises(StudyMismatch) as caught:
+        ResultStore(tmp_path / "b").open({**meta, "config_missions": [here]}, study="b2",
+                                         code="c1")
+    assert str(caught.value).endswith(
+        "(mission behaviours[1].declare_source.radius_m not set there, 8 here)")
     with pytest.raises(StudyMismatch, match=r"\(configurations 1 there, 2 here\)$"):
         ResultStore(tmp_path).open({**meta, "config_missions": [there, here]}, study="s3",
                                    code="c1")
