@@ -118,7 +118,14 @@ def _optional_command_modules(command: str | None = None) -> list[Any]:
              else ["run_cmd", "batch_cmd", "serve_cmd"])
     try:
         return [importlib.import_module(f"cptbt.cli.{name}") for name in names]
-    except ImportError:  # the planner alone: validate, tree, behaviours, schema still work
+    except ImportError as exc:  # the planner alone: validate, tree, behaviours, schema work
+        if command in _COMMAND_MODULES:  # asked for by name: say why it is missing (it had
+            # read "invalid choice: 'batch'", hiding a broken install: a review)
+            raise UsageError(
+                f"{command}: needs the simulator, which did not import ({type(exc).__name__}: "
+                f"{_one_line(str(exc))}): is another copy of cptbt, or what an uninstall left "
+                "of one, on the path? python -c 'import cptbt; print(cptbt.__path__)' shows "
+                "which is used") from None
         return []
 
 

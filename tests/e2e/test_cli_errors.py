@@ -7,6 +7,7 @@ traceback (or a silently accepted nonsense value) before.
 from __future__ import annotations
 
 import ctypes
+import importlib
 import importlib.metadata
 import os
 import subprocess
@@ -255,3 +256,24 @@ def test_a_launch_beyond_the_give_back_distance_is_refused(tmp_path: Path,
     lines = len(base.rstrip().splitlines()) + 1
     assert len(err) == 1 and f":{lines}: environment.launch: " in err[0], err
     assert "gives control back 30 m outside" in err[0]
+
+
+def test_a_simulator_command_that_cannot_import_says_why(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A review's mixed install (an old copy's leftovers hiding the editable one) made
+    `cptbt batch` read "invalid choice: 'batch'": the import error was swallowed."""
+    real = importlib.import_module
+
+    def broken(name: str, *args: object) -> object:
+        if name == "cptbt.cli.batch_cmd":
+            raise ImportError("cannot import name '__version__' from 'cptbt'")
+        return real(name, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(importlib, "import_module", broken)
+    assert cli.main(["batch", MISSION, "--out", "x"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("cptbt batch: error: needs the simulator, which did not import "
+                          "(ImportError: cannot import name '__version__' from 'cptbt')")
+    assert "invalid choice" not in err and len(err.strip().splitlines()) == 1
+    assert cli.main(["validate", MISSION]) == 0  # the planner's commands still work
