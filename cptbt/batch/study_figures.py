@@ -268,8 +268,10 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
     for ax, values, bins in ((a1, err, edges), (a2, share, np.linspace(0.0, 1.0, 21))):
         have = [k for k in judged if values[k]]
         if have:
+            # edged: runs in adjacent bins had drawn as one wide block (a review read 3 as 1)
             ax.hist([values[k] for k in have], bins=bins, color=[colours[k] for k in have],
-                    label=[f"{k} (n = {len(values[k])})" for k in have])
+                    label=[f"{k} (n = {len(values[k])})" for k in have], edgecolor="white",
+                    linewidth=0.8)
     if radius is not None:
         a1.axvline(radius, color="#d62728", ls="--", lw=1, label=f"success radius {radius:g} m")
     # Several true sources: a run's error_m is its worst declared source's, and T_D and t3
@@ -277,7 +279,7 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
     several = any(_several_sources(rows) for rows in judged.values())
     a1.set_xlabel("declaration error, the worst declared source's (m)" if several
                   else "declaration error (m)")
-    a2.set_xlabel("T_D / mission time to the last declaration (TRO Table III)" if several
+    a2.set_xlabel("T_D of the last declaration / mission time to it (TRO Table III)" if several
                   else "T_D / mission time to declaration (TRO Table III)")
     a1.set_title("How far off the declared sources were" if several
                  else "How far off the declared source was", fontsize=10)

@@ -421,6 +421,8 @@ def test_the_study_figures_say_what_each_panel_and_bar_is(tmp_path: Path,
     fig = seen[-1]
     labels = [ax.get_xlabel() for ax in fig.axes]
     assert "worst" in labels[0] and "last declaration" in labels[1]
+    bars = [p for p in fig.axes[0].patches if p.get_height() > 0]
+    assert bars and all(p.get_linewidth() > 0 for p in bars)  # adjacent bins told apart
     fig.canvas.draw()
     for ax in fig.axes:
         legend = ax.get_legend().get_window_extent()
