@@ -409,7 +409,11 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
         lines += ["", f"## {label}: times and paths (TRO Tables III and IV form)", ""]
         if multi:
             lines += ["Each declared point is listed with its own error (to its nearest true "
-                      "source); the error column is the worst of them.", ""]
+                      "source); the error column is the worst of them. The times and paths are "
+                      "the last declaration's (the one that completed the set): t2 is the first "
+                      "pass within 13 m of the last declared point, and D0 runs from the first "
+                      "detection to it, so D1/D0 can be far from 1; the path efficiency's "
+                      "straight line runs to the mission's `source`.", ""]
         lines += [("Places in North-East metres from the OpArea's centre (the mission's "
                    "compass)." if frame is not None else
                    "Places in the planning frame (x along the OpArea's long axis).")

@@ -137,6 +137,8 @@ def test_a_run_that_declared_several_points_lists_each_with_its_own_error(
     assert "| (99.0, 1.0) | 1.5 |" in table, table
     assert "| (98.0, 2.0) | 1.5 |" in table, table  # ended searching for more: no declared_source
     assert "the error column is the worst of them" in table
+    # which declaration the times and paths are (a review could not tell)
+    assert "t2 is the first pass within 13 m of the last declared point" in table
 
 
 def test_places_are_given_in_the_missions_compass_when_it_has_one(tmp_path: Path) -> None:
