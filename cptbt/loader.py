@@ -334,6 +334,15 @@ def located_errors(
         loc = tuple(err["loc"])
         if err["type"] == "extra_forbidden":
             msg = _unknown_key(path, model, data)
+        elif err["type"] == "literal_error" and isinstance(err.get("input"), str):
+            # pydantic's "Input should be 'a', 'b' or 'c'", in our words, with a suggestion
+            # (a review's preset: tro_ocaen was told the list, no did-you-mean)
+            options = re.findall(r"'([^']*)'", msg)
+            msg = (f"unknown value {err['input']!r}: one of "
+                   + ", ".join(repr(o) for o in options))
+            matches = difflib.get_close_matches(err["input"], options, n=3, cutoff=0.6)
+            if matches:
+                msg += "; did you mean " + " or ".join(repr(m) for m in matches) + "?"
         elif err["type"] == "missing" and loc and isinstance(loc[-1], int):
             given = err.get("input")  # a short list (a point of one coordinate), not a key
             count = len(given) if isinstance(given, (list, tuple)) else "fewer"

@@ -131,6 +131,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("a million starts", sub("time_limit_s: 1800", "time_limit_s: 1800\n"
                              "study: {grid: [1000, 1000]}"), 10, "study",
      "more than 100000 starts"),
+    ("misspelt preset", sub("preset: tro_ocean", "preset: tro_ocaen"), 27, "environment.preset",
+     "unknown value 'tro_ocaen': one of 'tro_ocean', 'ab_small_meander', 'ab_large_meander'; "
+     "did you mean 'tro_ocean'?"),
     # -- numbers are YAML numbers: no booleans or quoted strings converted --------------------
     ("boolean cycle", sub("cycle_hz: 1", "cycle_hz: yes"), 8, "cycle_hz",
      "expected a number, got a YAML boolean (yes, on and true all read as true)"),
