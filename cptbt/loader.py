@@ -10,6 +10,7 @@ from __future__ import annotations
 import difflib
 import json
 import re
+from collections.abc import Sequence
 from pathlib import Path
 from types import UnionType
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
@@ -76,7 +77,9 @@ class _Walk:
         self.values = 0
         self.seen: set[int] = set()
         self.on_path: set[int] = set()
-        self.numbers: list[str] = []  # old YAML 1.1 number forms found (old_number)
+        # problems that leave the document readable (an old YAML 1.1 number form, a duplicate
+        # key: the later value is kept), told with the rest once it is validated
+        self.soft: list[tuple[Loc, str]] = []
 
     def fail(self, line: int, path: Loc, msg: str) -> MissionError:
         return MissionError([f"{self.source}:{line}: {dotted(path)}: {msg}"])
@@ -101,7 +104,7 @@ class _Walk:
                             "a number, text, true/false, a list or a mapping")
         why = old_number(node)
         if why:  # every one in the file is told at once (after the walk)
-            self.numbers.append(f"{self.source}:{line}: {dotted(path)}: {why}")
+            self.soft.append((path, why))
         if not isinstance(node, yaml.MappingNode | yaml.SequenceNode):
             return
         if id(node) in self.on_path:
@@ -116,10 +119,10 @@ class _Walk:
                     kind = "list" if isinstance(key_node, yaml.SequenceNode) else "mapping"
                     raise self.fail(key_line, path, f"a key must be a plain word, not a {kind}")
                 key = key_node.value
-                if key in keys:
-                    raise self.fail(key_line, (*path, key),
-                                    f"duplicate key (first at line {keys[key]})")
-                keys[key] = key_line
+                if key in keys:  # told with the rest (a review's file was told this alone)
+                    self.soft.append(((*path, key), f"duplicate key (first at line {keys[key]})"))
+                else:
+                    keys[key] = key_line
                 if alias_at is None:
                     self.lines[(*path, key)] = key_line
                     self.lines.cols[(*path, key)] = key_node.start_mark.column
@@ -155,6 +158,20 @@ def _check_depth(text: str, source: str) -> None:
 
 
 def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
+    """:func:`read_yaml`, refusing a document with any problem (duplicate keys and old number
+    forms too, which :func:`read_yaml` returns to be told with the validation's).
+
+    Raises:
+        MissionError: as :func:`read_yaml`, and for those problems.
+    """
+    data, lines, soft = read_yaml(text, source)
+    if soft:
+        raise MissionError(_render(sorted(soft, key=lambda e: _place(e[0], lines)), lines,
+                                   source), soft)
+    return data, lines
+
+
+def read_yaml(text: str, source: str) -> tuple[Any, Lines, list[tuple[Loc, str]]]:
     """Safe-load one YAML document and map every key path to its line.
 
     Refused, each with one ``FILE:LINE: path: message`` line: files over :data:`MAX_BYTES`,
@@ -178,9 +195,13 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
             raise MissionError([f"{source}:1: (top): the file is empty"])
         walk = _Walk(source)
         walk.walk(node, ())
-        if walk.numbers:
-            raise MissionError(walk.numbers)
-        data = loader.construct_document(node)
+        try:
+            data = loader.construct_document(node)
+        except (ValueError, OverflowError):  # an old number form PyYAML cannot read (01800)
+            if not walk.soft:
+                raise
+            soft = sorted(walk.soft, key=lambda e: _place(e[0], walk.lines))
+            raise MissionError(_render(soft, walk.lines, source), soft) from None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else 1
@@ -202,7 +223,7 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
     finally:
         if loader is not None:
             loader.dispose()
-    return data, walk.lines
+    return data, walk.lines, walk.soft
 
 
 def _data_path(loc: Loc, data: Any) -> Loc:
@@ -365,12 +386,14 @@ def format_problems(problems: list[Problem], lines: dict[Loc, int], source: str,
 
 
 def validate_data(
-    data: Any, lines: dict[Loc, int], source: str, model: type[BaseModel]
+    data: Any, lines: dict[Loc, int], source: str, model: type[BaseModel],
+    soft: Sequence[tuple[Loc, str]] = (),
 ) -> BaseModel:
     """Validate parsed YAML against a model, turning errors into a :class:`MissionError`.
 
     Cross-field problems (:meth:`~cptbt.mission.MissionBase.problems`) are reported at the line
-    of the key each is about.
+    of the key each is about; ``soft`` are the reading's own (:func:`read_yaml`), told with the
+    rest (a key they are about is not told again).
     """
     problems: list[Problem] = []
     try:
@@ -381,12 +404,19 @@ def validate_data(
         # told four, and the fifth only once they were mended), and all in the file's order
         seen = {loc for loc, _ in located}
         located += [(loc, msg) for loc, msg in coercions(data, model) if loc not in seen]
-        located.sort(key=lambda e: _place(e[0], lines))
-        raise MissionError(_render(located, lines, source), located) from None
-    located = coercions(data, model) or list(problems)
-    if located:
-        raise MissionError(_render(located, lines, source), located)
+        _raise(located, soft, lines, source)
+    _raise(coercions(data, model) or list(problems), soft, lines, source)
     return result
+
+
+def _raise(located: list[tuple[Loc, str]], soft: Sequence[tuple[Loc, str]],
+           lines: dict[Loc, int], source: str) -> None:
+    """Raise :class:`MissionError` with every problem in the file's order, if there is one."""
+    told = {loc for loc, _ in soft}
+    every = [*soft, *((loc, msg) for loc, msg in located if loc not in told)]
+    if every:
+        every.sort(key=lambda e: _place(e[0], lines))
+        raise MissionError(_render(every, lines, source), every) from None
 
 
 _COERCIONS = {"float_type": "a number", "int_type": "a whole number", "bool_type": "true or false"}
@@ -525,13 +555,13 @@ def loads_mission(
     environment: type[BaseModel] | None = None,
 ) -> MissionBase:
     """Like :func:`load_mission`, from text."""
-    data, lines = parse_yaml(text, source)
+    data, lines, soft = read_yaml(text, source)
     if not isinstance(data, dict):
         what = ("an empty document (only '---' or comments)" if data is None
                 else type(data).__name__)
         raise MissionError([f"{source}:1: (top): a mission is a mapping of keys, not {what}"])
     model = mission_model(registry or default_registry(), environment)
-    return validate_data(data, lines, source, model)  # type: ignore[return-value]
+    return validate_data(data, lines, source, model, soft)  # type: ignore[return-value]
 
 
 def dump_mission(mission: MissionBase) -> str:

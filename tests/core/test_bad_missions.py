@@ -393,6 +393,26 @@ def test_mistakes_on_one_line_are_told_left_to_right(
     assert told == [part.split(":")[0].strip() for part in params.split(",")], lines
 
 
+def test_a_duplicate_key_is_told_with_the_files_other_mistakes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A review's file with five mistakes was told only its duplicate key; then only its old
+    number form; the rest came after both were mended."""
+    path = tmp_path / "dup.yaml"
+    path.write_text(BASE.replace("cycle_hz: 1", "cycle_hz: 1\ncycle_hz: 2")
+                    .replace("speed_mps: 1.5", "speed_mps: '1.5'")
+                    .replace("time_limit_s: 1800", "time_limit_s: 0x700")
+                    .replace("beta_deg: 10}", "beta_deg: 10, bta: 3}"), encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    told = [line.split(": ")[1] for line in lines]
+    assert told == ["speed_mps", "cycle_hz", "time_limit_s",
+                    "behaviours[2].maintain_plume.bta"], lines
+    assert "duplicate key (first at line 8)" in lines[1]
+    numbers = [int(line.split(":")[1]) for line in lines]
+    assert numbers == sorted(numbers) and numbers[1] == 9  # the duplicate's own line
+
+
 def test_every_old_number_form_in_a_file_is_told_at_once(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
