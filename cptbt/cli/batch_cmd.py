@@ -354,10 +354,12 @@ def cmd_batch(args: argparse.Namespace) -> int:
                          f"first round's --runs-per-start {runs_per_start}")
     max_runs = (args.max_runs_per_start or min(10_000, 50 * runs_per_start)) if adaptive \
         else runs_per_start
-    # An adaptive study's rows do not depend on how many replicates it ends with: its identity
-    # leaves the count out, so the same command resumes it whatever the target.
-    identity = digest({"study": study_of(1).identity(), "replicates": "until_sem"}) \
-        if adaptive else study.identity()
+    # A replicate's rows do not depend on how many replicates the study has (each is seeded by
+    # its number): the identity leaves the count out, so the same folder takes more runs per
+    # start (its finished ones kept; a review expected it) and an adaptive study resumes
+    # whatever its target. Fewer runs per start tabulate the first ones.
+    identity = digest({"study": study_of(1).identity(),
+                       "replicates": "until_sem" if adaptive else "any"})
     code = code_identity()
     store = ResultStore(Path(args.out))
     geometry = geometry_of(mission)

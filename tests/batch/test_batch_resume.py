@@ -192,6 +192,25 @@ def test_folder_of_a_different_study_is_refused_even_with_restart(study: Path) -
     assert len(list((study / "parts").iterdir())) == 2
 
 
+def test_more_runs_per_start_extend_a_study_keeping_its_runs(
+    study: Path, reference: list[dict[str, Any]]
+) -> None:
+    """Asking a finished folder for more runs per start was refused as a different study
+    (a review expected it to fly only the new ones): replicate r's rows do not depend on how
+    many there are."""
+    before = {p.name: p.stat().st_mtime_ns for p in (study / "parts").iterdir()}
+    res = batch(study, "--runs-per-start", "3")
+    assert res.returncode == 0, res.stderr
+    after = {p.name: p.stat().st_mtime_ns for p in (study / "parts").iterdir()}
+    assert len(after) == 3 and all(after[k] == v for k, v in before.items())  # kept, not re-flown
+    rows = table(study)
+    assert [r for r in rows if r["replicate"] < 2] == reference
+    assert {(r["replicate"], r["start"]) for r in rows if r["replicate"] == 2} == {(2, 0), (2, 1)}
+    assert json.loads((study / "study.json").read_text())["runs_per_start"] == 3
+    assert batch(study).returncode == 0  # and back to the first two
+    assert table(study) == reference
+
+
 # -- workers die with their parent ------------------------------------------------------------
 
 def _descendants(pid: int) -> list[int]:
