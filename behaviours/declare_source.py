@@ -101,6 +101,9 @@ class SourceDeclaration(PlanBehaviour):
         if not self.heading_home and here.distance_to(self.declared) <= self.params.source_radius_m:
             self.heading_home = True
             self.bb.homeward = True
+        # What it is doing, recorded with its name (as likelihood_map's): the trip home had
+        # been drawn and timed as the declaration's own behaviour (a review)
+        self.activity = "home" if self.heading_home else "to source"
         if not self.heading_home:
             return self.command(here.bearing_to(self.declared))
         home = self.context.home

@@ -170,11 +170,14 @@ def test_declaration_made_while_safety_drives_in_a_real_tree() -> None:
     assert driven == [("safety.oparea", 180.0)] * 6
     assert h.get("declared_source") == Point(21.0, 0.0)
     after = [((21.0, 20.0), -90.0), ((120.0, 0.0), 180.0), ((21.0, 20.0), -90.0)]
-    names = ["declare_source.upflow_cluster", "safety.oparea", "declare_source.upflow_cluster"]
+    names = ["declare_source.upflow_cluster (to source)", "safety.oparea",
+             "declare_source.upflow_cluster (to source)"]
     for i, (((x, y), heading), name) in enumerate(zip(after, names, strict=True)):
         tk = h.tick(script.step(20.0 + i, x, y))
         assert tk.active == name
         assert tk.command is not None and tk.command.heading_deg == heading
+    # at the source: the trip home is recorded as such, not as the declaration's own time
+    assert h.tick(script.step(24.0, 21.0, 0.5)).active == "declare_source.upflow_cluster (home)"
 
 
 def test_recent_box_declares_on_the_last_three_points_only() -> None:
