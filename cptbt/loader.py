@@ -8,16 +8,16 @@ overwritten.
 from __future__ import annotations
 
 import difflib
-import json
 import re
 from collections.abc import Sequence
 from pathlib import Path
 from types import UnionType
-from typing import Annotated, Any, Literal, Union, get_args, get_origin
+from typing import Annotated, Any, Union, get_args, get_origin
 
 import yaml
 from pydantic import BaseModel, ValidationError
 
+from cptbt.coercions import coercions, data_path
 from cptbt.mission import Loc, MissionBase, Problem, dotted, mission_model, mission_to_data
 from cptbt.registry import Registry, default_registry
 from cptbt.yaml_dialect import MissionLoader, old_number
@@ -226,26 +226,6 @@ def read_yaml(text: str, source: str) -> tuple[Any, Lines, list[tuple[Loc, str]]
     return data, walk.lines, walk.soft
 
 
-def _data_path(loc: Loc, data: Any) -> Loc:
-    """The part of a pydantic error location that exists in the data (drops union tags)."""
-    path: list[str | int] = []
-    cur = data
-    for part in loc:
-        if (isinstance(cur, dict) and part in cur) or (
-            isinstance(cur, list) and isinstance(part, int) and 0 <= part < len(cur)
-        ):
-            cur = cur[part]  # type: ignore[index]
-        elif isinstance(cur, dict) and part == cur.get("variant"):
-            continue  # the tag of a discriminated union, not a key of the file
-        elif isinstance(cur, dict) and isinstance(part, str):
-            path.append(part)  # a missing or unknown key: named, reported on its parent's line
-            break
-        else:
-            break
-        path.append(part)
-    return tuple(path)
-
-
 def _line(path: Loc, lines: dict[Loc, int]) -> int:
     """The line of ``path``'s deepest part the file has (a key YAML read as a number, such
     as ``1: foo``, is recorded as it was written)."""
@@ -350,7 +330,7 @@ def located_errors(
     """(key path, message) per pydantic error."""
     out = []
     for err in exc.errors(include_url=False):
-        path = _data_path(tuple(err["loc"]), data)
+        path = data_path(tuple(err["loc"]), data)
         msg = err["msg"].removeprefix("Value error, ")
         loc = tuple(err["loc"])
         if err["type"] == "extra_forbidden":
@@ -417,81 +397,6 @@ def _raise(located: list[tuple[Loc, str]], soft: Sequence[tuple[Loc, str]],
     if every:
         every.sort(key=lambda e: _place(e[0], lines))
         raise MissionError(_render(every, lines, source), every) from None
-
-
-_COERCIONS = {"float_type": "a number", "int_type": "a whole number", "bool_type": "true or false"}
-"""Strict-mode error types that mean pydantic's lax mode converted a YAML value of another
-type: ``cycle_hz: yes`` (a YAML boolean) read as 1, ``speed_mps: "1.5"`` (a string) as 1.5."""
-
-
-def coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
-    """Values that validated only by being converted from another YAML type, (path, message)
-    each.
-
-    YAML has its own numbers and booleans, so a boolean or a quoted string where a number is
-    meant is a slip (``yes`` for 1, ``"1.0"``), not a way of writing one. The mission is
-    validated again in strict JSON mode (JSON arrays still fill tuples, integers floats), and
-    only these type errors are kept: strict mode's other opinions are not the mission's. Strict
-    mode still takes ``true`` for ``Literal[1, 2]`` (True is 1 in Python): a boolean for a
-    top-level field that does not take one is refused too (``flow: {noise_order: true}``).
-    """
-    try:
-        text = json.dumps(data, allow_nan=False)
-    except (TypeError, ValueError):  # values JSON cannot carry: the lax pass judged them
-        return []
-    out = _literal_booleans(data, model)
-    try:
-        model.model_validate_json(text, strict=True, context={"problems": []})
-    except ValidationError as exc:
-        seen = {path for path, _ in out}
-        for err in exc.errors(include_url=False):
-            want = _COERCIONS.get(err["type"])
-            value = err.get("input")
-            if want is None or isinstance(value, (dict, list)):
-                continue
-            if isinstance(value, float) and value.is_integer() and err["type"] == "int_type":
-                continue  # 100.0 for a count: the value is whole, only its spelling is not
-            path = _data_path(tuple(err["loc"]), data)
-            if path in seen:
-                continue
-            out.append((path, f"expected {want}, got {_given(value)}"))
-    return out
-
-
-def _given(value: Any) -> str:
-    """A converted value as the file spelled it, as near as YAML lets us tell: ``cycle_hz:
-    yes`` had read "got True", a word the file does not have."""
-    if isinstance(value, bool):
-        return ("a YAML boolean (yes, on and true all read as true)" if value
-                else "a YAML boolean (no, off and false all read as false)")
-    if isinstance(value, str):
-        return f"{value!r} ({'a quoted string' if _numeric(value) else 'text'})"
-    return f"{value!r} ({type(value).__name__})"
-
-
-_DECIMAL = re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$")
-
-
-def _numeric(text: str) -> bool:
-    """Whether text is a decimal number (so in a YAML file it was quoted: every plain number
-    form is a number, or refused, at the door; Python's ``float`` also takes ``nan``, which a
-    plain YAML ``nan`` is text for)."""
-    return bool(_DECIMAL.match(text))
-
-
-def _literal_booleans(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
-    """Top-level booleans given for a ``Literal`` of other values, (path, message) each."""
-    if not isinstance(data, dict):
-        return []
-    out: list[tuple[Loc, str]] = []
-    for key, value in data.items():
-        field = model.model_fields.get(key)
-        if (isinstance(value, bool) and field is not None
-                and get_origin(field.annotation) is Literal
-                and not any(isinstance(o, bool) for o in get_args(field.annotation))):
-            options = ", ".join(repr(o) for o in get_args(field.annotation))
-            out.append(((key,), f"expected one of {options}, got {_given(value)}"))
-    return out
 
 
 def load_mission(

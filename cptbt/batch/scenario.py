@@ -20,7 +20,7 @@ from cptbt.batch.sim_advice import (
     pace_advice,
     plain,
 )
-from cptbt.loader import coercions
+from cptbt.coercions import coercions
 from cptbt.mission import Coord, Loc, MissionBase, Problem, latlon_problem
 from cptbt.policy import RELINQUISH_OUTSIDE_M, metres_text
 from cptbt.schema import partial_schema
@@ -211,7 +211,7 @@ SECTIONS: dict[str, type[BaseModel]] = {
 def override_coercions(env: Environment) -> list[Problem]:
     """Values in the override sections (``fluorometer: {noise_std: true}``) that the simulator's
     models would take only by converting them from another YAML type, as the mission's own
-    keys are refused (:func:`cptbt.loader.coercions`): a YAML boolean or a quoted string where
+    keys are refused (:func:`cptbt.coercions.coercions`): a YAML boolean or a quoted string where
     a number is meant."""
     out: list[Problem] = []
     for name, model in SECTIONS.items():
