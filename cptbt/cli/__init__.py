@@ -102,6 +102,9 @@ def configure_logging(verbose: int, quiet: bool) -> None:
         logger.addHandler(handler)
 
 
+MAX_PROBLEMS_TOLD = 50
+"""A malformed mission is told this many problems at most, then how many more there are."""
+
 _COMMAND_MODULES = {"run": "run_cmd", "batch": "batch_cmd", "plot": "batch_cmd",
                     "serve": "serve_cmd", "frontseat": "serve_cmd"}
 """The simulator-side sub-commands and the module that defines each."""
@@ -143,8 +146,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         configure_logging(args.verbose, args.quiet_log)
         return int(args.func(args) or 0)
     except MissionError as exc:
-        for line in exc.problems:
+        for line in exc.problems[:MAX_PROBLEMS_TOLD]:
             print(line, file=sys.stderr)
+        if len(exc.problems) > MAX_PROBLEMS_TOLD:  # a file of 2 000 stray keys: not 2 000 lines
+            print(f"cptbt: ... and {len(exc.problems) - MAX_PROBLEMS_TOLD} more problems "
+                  "(mend these and validate again)", file=sys.stderr)
         return EXIT_USAGE
     except UsageError as exc:  # worded as argparse's own: PROG: error: MESSAGE
         command, text = _command_of(argv), _one_line(str(exc))

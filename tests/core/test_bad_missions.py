@@ -413,6 +413,22 @@ def test_a_duplicate_key_is_told_with_the_files_other_mistakes(
     assert numbers == sorted(numbers) and numbers[1] == 9  # the duplicate's own line
 
 
+def test_a_file_of_thousands_of_mistakes_is_told_fifty_and_a_count(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """2 000 stray (or duplicate) keys had printed 2 000 lines: the first fifty are told, in
+    line order, then how many more there are."""
+    for name, extra in (("stray", "zz{i}: 1\n"), ("dup", "cycle_hz: {i}\n")):
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(BASE + "".join(extra.format(i=i) for i in range(2000)), encoding="utf-8")
+        assert main(["validate", str(path)]) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 51 and lines[-1] == ("cptbt: ... and 1950 more problems (mend "
+                                                  "these and validate again)"), lines[-1]
+        numbers = [int(line.split(":")[1]) for line in lines[:-1]]
+        assert numbers == sorted(numbers)
+
+
 def test_every_old_number_form_in_a_file_is_told_at_once(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
