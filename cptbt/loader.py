@@ -119,8 +119,10 @@ class _Walk:
                     kind = "list" if isinstance(key_node, yaml.SequenceNode) else "mapping"
                     raise self.fail(key_line, path, f"a key must be a plain word, not a {kind}")
                 key = key_node.value
-                if key in keys:  # told with the rest (a review's file was told this alone)
-                    self.soft.append(((*path, key), f"duplicate key (first at line {keys[key]})"))
+                if key in keys:  # told with the rest (a review's file was told this alone),
+                    if alias_at is None:  # once: not again where an alias repeats the mapping
+                        self.soft.append(((*path, key),
+                                          f"duplicate key (first at line {keys[key]})"))
                 else:
                     keys[key] = key_line
                 if alias_at is None:

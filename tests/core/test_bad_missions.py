@@ -411,6 +411,12 @@ def test_a_duplicate_key_is_told_with_the_files_other_mistakes(
     assert "duplicate key (first at line 8)" in lines[1]
     numbers = [int(line.split(":")[1]) for line in lines]
     assert numbers == sorted(numbers) and numbers[1] == 9  # the duplicate's own line
+    # a duplicate inside an anchored mapping is told once, not again where an alias repeats it
+    path.write_text("a: &x {b: 1, b: 2}\n" + BASE.replace("cycle_hz: 1", "cycle_hz: *x"),
+                    encoding="utf-8")
+    assert main(["validate", str(path)]) == 2
+    told = capsys.readouterr().err
+    assert told.count("duplicate key") == 1 and "a.b: duplicate key" in told, told
 
 
 def test_a_file_of_thousands_of_mistakes_is_told_fifty_and_a_count(
