@@ -379,6 +379,13 @@ def cmd_batch(args: argparse.Namespace) -> int:
     if adaptive:
         metadata |= {"until_sem": args.until_sem, "runs_per_round": runs_per_start,
                      "max_runs_per_start": max_runs}
+    before = _saved_study(Path(args.out)) if Path(args.out).is_dir() else {}
+    if args.log_runs and not args.restart and before.get("runs_per_start") not in (
+            None, runs_per_start):
+        raise UsageError(f"batch: --log-runs with --runs-per-start {runs_per_start} in a folder "
+                         f"of {before['runs_per_start']} runs per start: the runs to log are "
+                         "drawn from a study of known size, and its finished runs are not flown "
+                         "again to log them; choose another --out")
     try:
         store.open(metadata, study=identity, code=code, restart=args.restart)
     except CodeChanged as exc:

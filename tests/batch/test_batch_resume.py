@@ -199,6 +199,10 @@ def test_more_runs_per_start_extend_a_study_keeping_its_runs(
     (a review expected it to fly only the new ones): replicate r's rows do not depend on how
     many there are."""
     before = {p.name: p.stat().st_mtime_ns for p in (study / "parts").iterdir()}
+    # ... but not with --log-runs: its sample is drawn from a study of known size
+    res = batch(study, "--runs-per-start", "3", "--log-runs", "1")
+    assert res.returncode == 2 and "--log-runs with --runs-per-start 3" in res.stderr
+    assert len(list((study / "parts").iterdir())) == 2
     res = batch(study, "--runs-per-start", "3")
     assert res.returncode == 0, res.stderr
     after = {p.name: p.stat().st_mtime_ns for p in (study / "parts").iterdir()}
