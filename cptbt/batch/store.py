@@ -66,9 +66,9 @@ class StudyMismatch(BatchError):
     """The results folder holds a different study (other mission or options)."""
 
 
-# the mission's path is not compared: the same mission from another path is the same study
-_COMPARED = (("runs_per_start", "runs per start"),
-             ("root_seed", "root seed"), ("time_limit_s", "time limit (s)"),
+# the mission's path is not compared: the same mission from another path is the same study;
+# nor the runs per start: more of them extend a study (cptbt batch's identity leaves them out)
+_COMPARED = (("root_seed", "root seed"), ("time_limit_s", "time limit (s)"),
              ("start_mode", "start mode"), ("starts", "starts"), ("heading_deg", "heading (deg)"),
              ("sweeps", "sweeps"), ("config_missions", "the missions' settings"))
 

@@ -168,9 +168,9 @@ def test_a_different_study_is_told_by_what_differs(tmp_path: Path) -> None:
              "starts": [[0, 0], [1, 1]], "config_missions": ["b"]}
     with pytest.raises(StudyMismatch) as caught:
         ResultStore(tmp_path).open(other, study="s2", code="c1")
-    assert str(caught.value) == (f"{tmp_path} holds a different study (runs per start 10 there, "
-                                 "20 here; root seed 1 there, 2 here; time limit (s) 600.0 "
-                                 "there, 900.0 here; and 2 more)")
+    assert str(caught.value) == (f"{tmp_path} holds a different study (root seed 1 there, 2 "
+                                 "here; time limit (s) 600.0 there, 900.0 here; starts differ; "
+                                 "and 1 more)")  # runs per start: not a different study
     with pytest.raises(StudyMismatch, match=r"\(other missions or options\)$"):
         ResultStore(tmp_path).open(meta, study="s3", code="c1")  # nothing recorded differs
     # the mission's path is no difference (a copy elsewhere is the same study); an option
