@@ -45,6 +45,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
             out.append((("cycle_hz",), f"{mission.cycle_hz:g} Hz is slower than the "
                         f"{need:g} Hz {e.family} {e.variant} needs: its timings are fractions "
                         "of a second (SPEC §2), which a slower cycle only meets late"))
+    out += order_advice(mission)
     cycle, lam = 1.0 / mission.cycle_hz, mission.perception.lambda_s
     if cycle > lam:  # a review's AB strategy at 0.2 Hz never reacquired
         out.append((("cycle_hz",), f"{mission.cycle_hz:g} Hz is a cycle of {cycle:g} s, "
@@ -52,6 +53,31 @@ def advisories(mission: MissionBase) -> list[Problem]:
                     "two cycles, so maintain-plume hands over at once and timed behaviours "
                     "act late"))
     return out + mission_a_advice(mission)
+
+
+ALWAYS_DRIVES = ("find_plume",)
+"""Families whose variants have a command every cycle: nothing listed below them drives."""
+
+PLUME_FAMILIES = ("declare_source", "maintain_plume", "reacquire_plume")
+"""The families that must stand above find-plume to drive at all (SPEC §3, TRO Fig. 2)."""
+
+
+def order_advice(mission: MissionBase) -> list[Problem]:
+    """A plume behaviour listed below one that always drives never drives (a review's
+    find_plume above maintain_plume searched for 600 s, its plume never tracked)."""
+    out: list[Problem] = []
+    families = [e.family for e in mission.entries()]
+    for i, family in enumerate(families):
+        if family not in ALWAYS_DRIVES:
+            continue
+        for j in range(i + 1, len(families)):
+            if families[j] in PLUME_FAMILIES:
+                out.append((("behaviours", j, families[j]),
+                            f"listed below {family} (behaviours[{i}]), which has a command "
+                            "every cycle: it never drives (the list is highest priority "
+                            "first; SPEC §3 puts declare_source, maintain_plume and "
+                            "reacquire_plume above find_plume)"))
+    return out
 
 
 def mission_a_advice(mission: MissionBase) -> list[Problem]:

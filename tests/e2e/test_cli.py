@@ -38,6 +38,24 @@ def test_shipped_missions_validate(mission: Path) -> None:
     assert "warning" not in res.stderr, res.stderr  # no advisories for a shipped mission
 
 
+def test_plume_behaviours_listed_below_find_plume_are_warned_of(tmp_path: Path) -> None:
+    """A review listed find_plume above maintain_plume and reacquire_plume: it validated
+    silently and searched for 600 s, its plume never tracked (find-plume drives every cycle)."""
+    text = (ROOT / "missions/omae2003.yaml").read_text(encoding="utf-8")
+    find = "  - find_plume: {variant: billiard, dtheta_up_deg: 125, dtheta_down_deg: 60}\n"
+    assert find in text
+    text = text.replace(find, "").replace("  - maintain_plume:", find + "  - maintain_plume:")
+    bad = tmp_path / "order.yaml"
+    bad.write_text(text, encoding="utf-8")
+    res = cptbt("validate", str(bad))
+    assert res.returncode == 0, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert [ln.split(": ")[1] for ln in lines] == ["behaviours[3].maintain_plume",
+                                                  "behaviours[4].reacquire_plume"], lines
+    assert all("listed below find_plume (behaviours[2])" in ln and "never drives" in ln
+               for ln in lines)
+
+
 def test_settings_unlikely_meant_for_a_small_oparea_are_warned_of(tmp_path: Path) -> None:
     # A 30 x 30 m box with the 15 m success radius (default) and the likelihood map's 10 m
     # declaration disc: valid (exit 0), each warned of at its line.
