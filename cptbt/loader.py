@@ -167,9 +167,7 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[Loc, int]]:
         MissionError: as :func:`read_yaml`, and for those problems.
     """
     data, lines, soft = read_yaml(text, source)
-    if soft:
-        raise MissionError(_render(sorted(soft, key=lambda e: _place(e[0], lines)), lines,
-                                   source), soft)
+    _raise([], soft, lines, source)
     return data, lines
 
 
@@ -200,10 +198,8 @@ def read_yaml(text: str, source: str) -> tuple[Any, Lines, list[tuple[Loc, str]]
         try:
             data = loader.construct_document(node)
         except (ValueError, OverflowError):  # an old number form PyYAML cannot read (01800)
-            if not walk.soft:
-                raise
-            soft = sorted(walk.soft, key=lambda e: _place(e[0], walk.lines))
-            raise MissionError(_render(soft, walk.lines, source), soft) from None
+            _raise([], walk.soft, walk.lines, source)
+            raise
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else 1
@@ -302,12 +298,13 @@ def _unwrap(kind: Any, value: Any) -> Any:
             return kind
 
 
-def close_matches(word: str, choices: list[str]) -> str:
-    """``; did you mean 'x'?`` for the close matches of ``word``, or ``; known: ...``."""
+def close_matches(word: str, choices: list[str], known: bool = True) -> str:
+    """``; did you mean 'x'?`` for the close matches of ``word``, or ``; known keys: ...``
+    (nothing without ``known``)."""
     matches = difflib.get_close_matches(word, choices, n=3, cutoff=0.6)
     if matches:
         return "; did you mean " + " or ".join(repr(m) for m in matches) + "?"
-    return "; known keys: " + ", ".join(choices)
+    return "; known keys: " + ", ".join(choices) if known else ""
 
 
 def format_errors(
@@ -342,10 +339,8 @@ def located_errors(
             # (a review's preset: tro_ocaen was told the list, no did-you-mean)
             options = re.findall(r"'([^']*)'", msg)
             msg = (f"unknown value {err['input']!r}: one of "
-                   + ", ".join(repr(o) for o in options))
-            matches = difflib.get_close_matches(err["input"], options, n=3, cutoff=0.6)
-            if matches:
-                msg += "; did you mean " + " or ".join(repr(m) for m in matches) + "?"
+                   + ", ".join(repr(o) for o in options)
+                   + close_matches(err["input"], options, known=False))
         elif err["type"] == "missing" and loc and isinstance(loc[-1], int):
             given = err.get("input")  # a short list (a point of one coordinate), not a key
             count = len(given) if isinstance(given, (list, tuple)) else "fewer"
