@@ -173,7 +173,9 @@ def summarise(
     ended still searching for more, ``declared_sources`` then listing those found), and
     ``error_m`` the worst declared point's distance to its nearest true source;
     ``true_sources`` lists every true source (the mission's ``source`` first), and each entry
-    of ``declared_sources`` carries its own ``error_m`` (to its nearest true source). ``t3``,
+    of ``declared_sources`` carries its own ``error_m`` to its nearest true source and that
+    source's index in ``true_sources`` (``nearest_source``): the top-level three are not one
+    pair when the worst point is not the last (read the pairs there). ``t3``,
     and with it T_D, D0-D3, ``path_m`` and ``path_efficiency``, is the declaration that
     completed the declared set (the latest first published of the points in
     ``declared_sources``), even when the run then searched on for more to its time limit or
@@ -301,10 +303,14 @@ def summarise(
 
 def _with_error(out: dict[str, float] | None, p: Point,
                 truth: Sequence[Point]) -> dict[str, float] | None:
-    """A declared point's entry with ``error_m``, its distance to the nearest true source."""
+    """A declared point's entry with ``error_m``, its distance to the nearest true source, and
+    ``nearest_source``, that source's index in ``true_sources`` (0: the mission's ``source``),
+    so that each point reads with the source it is judged against."""
     if out is None:
         return None
-    return out | {"error_m": min(math.hypot(p.x - q.x, p.y - q.y) for q in truth)}
+    d = [math.hypot(p.x - q.x, p.y - q.y) for q in truth]
+    k = min(range(len(d)), key=d.__getitem__)
+    return out | {"error_m": d[k], "nearest_source": k}
 
 
 def _maintain_time(run: VehicleRun) -> float | None:

@@ -133,3 +133,19 @@ def test_a_d1_over_d0_below_one_is_explained() -> None:
         "D1/D0 0.4  (D1 ends within 13 m of the declared point: SPEC §11)")
     assert times_line({**base, "D1_over_D0": 1.8}).endswith("D1/D0 1.8")
     assert times_line({**base, "D1_over_D0": None}).endswith("D1/D0 —")
+
+
+def test_several_declared_points_are_printed_with_their_own_error_and_source() -> None:
+    from cptbt.cli.run_cmd import declaration_lines
+
+    # the worst point is not the last: the error printed beside each point is its own
+    s = {"declared_source": {"x": -68.5, "y": 23.8}, "search_given_up": None, "t3": 300.0,
+         "error_m": 2.6, "sources_true": 2,
+         "declared_sources": [{"x": -7.4, "y": -24.7, "error_m": 2.6, "nearest_source": 1},
+                              {"x": -68.5, "y": 23.8, "error_m": 1.9, "nearest_source": 0}]}
+    lines = declaration_lines(s)
+    assert lines[-1] == ("  declared points: x -7.4 m, y -24.7 m (2.6 m from source 2); "
+                         "x -68.5 m, y 23.8 m (1.9 m from source 1)")
+    # one true source: no source to name
+    one = {**s, "sources_true": 1}
+    assert "from source" not in declaration_lines(one)[-1]

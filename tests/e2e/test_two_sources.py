@@ -45,6 +45,12 @@ def test_the_shipped_run_declares_both_sources_and_draws_the_map(tmp_path: Path)
     for q, e in zip(summary["declared_sources"], errors, strict=True):
         assert e == pytest.approx(min(Point(q["x"], q["y"]).distance_to(t) for t in truth))
     assert summary["error_m"] == pytest.approx(max(errors))
+    # each point names the source it is judged against, so the pairs read without the
+    # top-level three (the last point, the mission's source, the worst error)
+    for q in summary["declared_sources"]:
+        t = truth[q["nearest_source"]]
+        assert q["error_m"] == pytest.approx(Point(q["x"], q["y"]).distance_to(t))
+    assert {q["nearest_source"] for q in summary["declared_sources"]} == {0, 1}
 
 
 def test_the_printed_run_names_every_declared_point(tmp_path: Path,
@@ -53,6 +59,8 @@ def test_the_printed_run_names_every_declared_point(tmp_path: Path,
     out = capsys.readouterr().out.splitlines()
     lines = [ln for ln in out if "declared points:" in ln]
     assert len(lines) == 1 and lines[0].count("x ") == 2, lines
+    # each point with its own error and the source it is judged against
+    assert "from source 1)" in lines[0] and "from source 2)" in lines[0], lines
     # the error is the worst point's: it is not printed as the last point's own
     (t3,) = [ln for ln in out if "declared at t3" in ln]
     assert "the last of 2 points" in t3 and "worst error" in t3, t3
