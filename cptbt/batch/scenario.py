@@ -15,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSche
 from cptbt.batch.sim_advice import (
     adcp_advice,
     dropout_advice,
+    launch_turn_advice,
     leaf_advice,
     noise_advice,
     pace_advice,
@@ -238,6 +239,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
         out += [a for advice in (noise_advice, dropout_advice, adcp_advice, leaf_advice,
                                  pace_advice)
                 for a in advice(mission, params)]
+        out += launch_turn_advice(mission, params, launch_pose(mission))
     if mission.evaluation.criterion != "declaration":
         return out
     try:

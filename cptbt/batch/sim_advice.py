@@ -10,6 +10,7 @@ import math
 from decimal import Decimal
 
 from cptbt.mission import MissionBase, Problem
+from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.sim.world import EnvironmentParams
 
 NOISE_ALARMS_PER_S = 1e-3
@@ -200,3 +201,47 @@ def noise_advice(mission: MissionBase, params: EnvironmentParams) -> list[Proble
                 else "") + ": in clean water "
              f"the noise alone reads above the threshold in {share} planning cycles ({each}), "
              f"{every}; the tracker chases them and a declaration can land anywhere ({fix})")]
+
+
+def launch_turn_advice(mission: MissionBase, params: EnvironmentParams,
+                       pose: tuple[float, float, float]) -> list[Problem]:
+    """A vehicle launched outside the OpArea heading away from it whose turn back carries it
+    past the give-back line (``RELINQUISH_OUTSIDE_M`` outside; TRO II): the AMP gives control
+    back within seconds and the run ends (a review's start 25 m outside a 50-m box, heading
+    north away from it, ended at 4 s). Only without a ``mission_a``: there the AMP takes over
+    where the vehicle's own mission brings it.
+
+    The farthest the turn reaches: at distance ``d`` outside, heading ``φ`` off the outward
+    normal (from the nearest point of the OpArea), a turn at radius ``R`` toward the OpArea
+    reaches ``d + R(1 - sin φ)`` outside for ``φ < 90°`` (``d + R`` heading straight away),
+    before the current and the navigation's error."""
+    if mission.mission_a is not None or params.vehicle.heading_mode != "turn_radius":
+        return []
+    area = mission.op_area_geometry()
+    x, y, heading = pose
+    d = area.distance_outside(x, y)
+    if d <= 0.0:
+        return []
+    nx = (x - min(max(x, area.xmin), area.xmax)) / d
+    ny = (y - min(max(y, area.ymin), area.ymax)) / d
+    h = math.radians(heading)
+    away = math.cos(h) * nx + math.sin(h) * ny  # cos φ
+    if away <= 0.0:
+        return []
+    r = params.vehicle.turning_radius_m
+    reach = d + r * (1.0 - math.sqrt(max(0.0, 1.0 - away * away)))
+    if reach <= RELINQUISH_OUTSIDE_M:
+        return []
+    env = mission.environment
+    toward = math.degrees(math.atan2(-ny, -nx))
+    if mission.frame != "planning":
+        toward = area.frame.compass_deg(toward)
+    key = (("environment", "launch") if env is not None and getattr(env, "launch", None)
+           else ("start",) if mission.start is not None else ("home",))
+    return [(key, f"the vehicle starts {d:.1f} m outside the OpArea heading away from it "
+                  f"(environment.launch_heading_deg {plain(getattr(env, 'launch_heading_deg', 0.0))}): "
+                  f"its turn back ({plain(r)}-m turning radius) reaches about {reach:.1f} m "
+                  f"outside, past the {RELINQUISH_OUTSIDE_M:g} m at which the AMP gives control "
+                  f"back (TRO II), and the run ends within seconds; set "
+                  f"environment.launch_heading_deg toward the OpArea (about "
+                  f"{toward % 360.0:.0f}°), or start nearer to it")]

@@ -1,0 +1,50 @@
+"""A launch outside the OpArea, heading away from it, whose turn back passes the give-back
+line is warned of, and the warning's bound is the simulator's (a review's start 25 m outside
+a 50-m box, heading north away from it, validated and ended at 4 s)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from cptbt.batch.engine import simulate
+from cptbt.batch.scenario import Environment, advisories, launch_pose, to_sim_params
+from cptbt.loader import loads_mission
+from cptbt.mission import MissionBase
+from cptbt.registry import default_registry
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _mission(heading: float | None, start: str = "[50, 0]") -> MissionBase:
+    text = (ROOT / "missions/small_oparea.yaml").read_text(encoding="utf-8")
+    text = text.replace("start: [-15, -15]", f"start: {start}\nallow_outside: [start]")
+    if heading is not None:
+        text = text.replace("  seed: 7", f"  seed: 7\n  launch_heading_deg: {heading}")
+    return loads_mission(text, "m.yaml", default_registry(), Environment)
+
+
+def _warned(mission: MissionBase) -> list[str]:
+    return [msg for loc, msg in advisories(mission) if "turn back" in msg]
+
+
+def test_the_default_heading_away_from_the_box_is_warned_of_with_the_way_in() -> None:
+    (msg,) = _warned(_mission(None))  # 25 m north of the box, heading 0 (north)
+    assert "starts 25.0 m outside the OpArea heading away from it" in msg, msg
+    assert "reaches about 32.5 m outside" in msg and "about 180°" in msg, msg
+    # heading across (90°) or in (180°): nothing to warn of
+    assert _warned(_mission(90)) == [] and _warned(_mission(180)) == []
+    # inside the box: nothing
+    assert _warned(_mission(0, start="[20, 0]")) == []
+
+
+@pytest.mark.parametrize(("heading", "warned"), [(20, False), (15, True), (0, True)])
+def test_the_warning_says_which_runs_end_at_once(heading: float, warned: bool) -> None:
+    """Flown: 20° off the outward normal turns back at ~29.9 m and flies on; 15° reaches
+    ~30.6 m and the AMP gives control back within seconds (seed 7)."""
+    mission = _mission(heading)
+    assert bool(_warned(mission)) == warned
+    (run,), _, _ = simulate(mission, to_sim_params(mission), [launch_pose(mission)],
+                            time_limit_s=60.0)
+    assert (str(run.outcome) == "relinquished") == warned, (run.outcome, run.t_end)
