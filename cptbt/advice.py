@@ -45,7 +45,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
             out.append((("cycle_hz",), f"{mission.cycle_hz:g} Hz is slower than the "
                         f"{need:g} Hz {e.family} {e.variant} needs: its timings are fractions "
                         "of a second (SPEC §2), which a slower cycle only meets late"))
-    out += order_advice(mission)
+    out += order_advice(mission) + family_advice(mission)
     cycle, lam = 1.0 / mission.cycle_hz, mission.perception.lambda_s
     if cycle > lam:  # a review's AB strategy at 0.2 Hz never reacquired
         out.append((("cycle_hz",), f"{mission.cycle_hz:g} Hz is a cycle of {cycle:g} s, "
@@ -77,6 +77,23 @@ def order_advice(mission: MissionBase) -> list[Problem]:
                             "every cycle: it never drives (the list is highest priority "
                             "first; SPEC §3 puts declare_source, maintain_plume and "
                             "reacquire_plume above find_plume)"))
+    return out
+
+
+def family_advice(mission: MissionBase) -> list[Problem]:
+    """A plug-in family one slip from a TRO slot (a review's plug-in registered
+    ``reaquire_plume``, and the mission that listed it validated silently)."""
+    from cptbt.registry import misspelt_slot
+
+    out: list[Problem] = []
+    for i, e in enumerate(mission.entries()):
+        slot = misspelt_slot(e.family)
+        if slot is not None:
+            out.append((("behaviours", i, e.family),
+                        f"{e.family!r} is not one of TRO's slots but a plug-in's own family, "
+                        f"one slip from {slot!r}: if the plug-in ({e.family} {e.variant}) "
+                        f"meant that slot, its family is misspelt, and the rules for "
+                        f"{slot} (its place in the order, its reports) do not apply to it"))
     return out
 
 

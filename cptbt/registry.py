@@ -154,14 +154,35 @@ class Registry:
             return variants[0]
         spec = self._specs.get((family, variant))
         if spec is None:
+            elsewhere = sorted(f for (f, v) in self._specs if v == variant)
+            if elsewhere:  # a plug-in registered it under another (perhaps misspelt) family
+                raise UnknownBehaviourError(
+                    f"unknown variant {variant!r} of {family}: {variant!r} is registered "
+                    f"under the family {' and '.join(repr(f) for f in elsewhere)}"
+                    + (", a plug-in's own family" if set(elsewhere) - set(FAMILIES) else "")
+                    + (" (misspelt?)" if difflib.get_close_matches(family, elsewhere, 1, 0.8)
+                       else "")
+                )
             raise UnknownBehaviourError(
                 f"unknown variant {variant!r} of {family}"
                 f"{_close(variant, [s.variant for s in variants])}"
             )
         return spec
 
+
+
     def __len__(self) -> int:
         return len(self._specs)
+
+
+def misspelt_slot(family: str) -> str | None:
+    """The TRO slot a plug-in family's name is one slip from (``reaquire_plume``:
+    ``reacquire_plume``), or None: a new family is allowed, but a misspelt slot is not what its
+    author meant, and the tree does not give it the slot's place."""
+    if family in FAMILIES:
+        return None
+    match = difflib.get_close_matches(family, FAMILIES, 1, 0.85)
+    return match[0] if match else None
 
 
 def _close(word: str, choices: list[str]) -> str:

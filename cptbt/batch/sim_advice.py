@@ -232,14 +232,14 @@ def launch_turn_advice(mission: MissionBase, params: EnvironmentParams,
     reach = d + r * (1.0 - math.sqrt(max(0.0, 1.0 - away * away)))
     if reach <= RELINQUISH_OUTSIDE_M:
         return []
-    env = mission.environment
+    given = plain(getattr(mission.environment, "launch_heading_deg", 0.0))
     toward = math.degrees(math.atan2(-ny, -nx))
     if mission.frame != "planning":
         toward = area.frame.compass_deg(toward)
-    key = (("environment", "launch") if env is not None and getattr(env, "launch", None)
+    key = (("environment", "launch") if getattr(mission.environment, "launch", None)
            else ("start",) if mission.start is not None else ("home",))
     return [(key, f"the vehicle starts {d:.1f} m outside the OpArea heading away from it "
-                  f"(environment.launch_heading_deg {plain(getattr(env, 'launch_heading_deg', 0.0))}): "
+                  f"(environment.launch_heading_deg {given}): "
                   f"its turn back ({plain(r)}-m turning radius) reaches about {reach:.1f} m "
                   f"outside, past the {RELINQUISH_OUTSIDE_M:g} m at which the AMP gives control "
                   f"back (TRO II), and the run ends within seconds; set "

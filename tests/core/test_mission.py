@@ -179,3 +179,39 @@ def test_a_batch_flies_a_null_parameter_as_null() -> None:
     assert declare.same_source_m is None
     assert [next(e.params.known_plume_max_prob for e in m.entries()
                  if e.family == "declare_source") for m in flown] == [0.2, None]
+
+
+def test_a_plug_in_family_one_slip_from_a_slot_is_told() -> None:
+    """A review's plug-in registered its variant under ``reaquire_plume``: a mission naming
+    the slot was told only "unknown variant", and one naming the misspelt family validated
+    silently."""
+    from conftest import Scripted
+
+    from cptbt.registry import BehaviourSpec, misspelt_slot
+
+    reg = scripted_registry("safety", "reaquire_plume", "find_plume", "move_to_field")
+    # the slot's own name, no variant of it installed: did you mean the plug-in's family
+    with pytest.raises(MissionError) as exc:
+        loads_mission(GOOD.replace("maintain_plume: {heading_deg: 180}",
+                                   "reacquire_plume: {variant: scripted}"), "m.yaml", reg)
+    (line,) = exc.value.problems
+    assert "unknown behaviour 'reacquire_plume'; did you mean 'reaquire_plume'" in line, line
+    # the slot installed too: its variant is found under the other family, and said so
+    both = scripted_registry("safety", "reacquire_plume", "find_plume", "move_to_field")
+    mine = type("Mine", (Scripted,), {"family": "reaquire_plume", "variant": "mine"})
+    both.register(BehaviourSpec.of(mine, default=True))
+    with pytest.raises(MissionError) as exc:
+        loads_mission(GOOD.replace("maintain_plume: {heading_deg: 180}",
+                                   "reacquire_plume: {variant: mine}"), "m.yaml", both)
+    (line,) = exc.value.problems
+    assert ("unknown variant 'mine' of reacquire_plume: 'mine' is registered under the "
+            "family 'reaquire_plume', a plug-in's own family (misspelt?)") in line, line
+    # the misspelt family: valid (a new family is allowed), with a warning at its entry
+    m = loads_mission(GOOD.replace("maintain_plume: {heading_deg: 180}",
+                                   "reaquire_plume: {variant: scripted}"), "m.yaml", reg)
+    ((loc, why),) = [(loc, why) for loc, why in m.advisories() if "slip" in why]
+    assert loc == ("behaviours", 1, "reaquire_plume")
+    assert "one slip from 'reacquire_plume'" in why, why
+    # a family of its own name is no slip
+    assert misspelt_slot("plume_mapper") is None and misspelt_slot("safety") is None
+    assert misspelt_slot("declare_sources") == "declare_source"
