@@ -69,6 +69,18 @@ def _transformer(lat0_deg: float, lon0_deg: float) -> Any:
     return Transformer.from_crs(CRS.from_epsg(4326), local, always_xy=True)
 
 
+class PoleError(ValueError):
+    """A North-East frame asked for at a pole, where there is no north.
+
+    Attributes:
+        pole: "North" or "South".
+    """
+
+    def __init__(self, pole: str) -> None:
+        super().__init__(f"the corners' centre is the {pole} Pole")
+        self.pole = pole
+
+
 @dataclass(frozen=True, slots=True)
 class LocalFrame:
     """The N-E metre frame tangent to WGS-84 at ``origin`` (the OpArea centre).
@@ -116,11 +128,20 @@ class LocalFrame:
                 sum(math.cos(math.radians(c[1])) for c in corners),
             )
         )
+        if abs(lat) >= 90.0:
+            raise PoleError(_pole(lat))
         first = cls(GeoPoint(lat, lon))
         ne = [first.to_ne(c[0], c[1]) for c in corners]
         cn = sum(p[0] for p in ne) / len(ne)
         ce = sum(p[1] for p in ne) / len(ne)
-        return cls(first.to_geodetic(cn, ce))
+        centre = first.to_geodetic(cn, ce)
+        if abs(centre.lat_deg) >= 90.0:  # corners about a pole
+            raise PoleError(_pole(centre.lat_deg))
+        return cls(centre)
+
+
+def _pole(lat_deg: float) -> str:
+    return "North" if lat_deg > 0 else "South"
 
 
 def geodesic_distance_m(a: GeoPoint, b: GeoPoint) -> float:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 
 from cptbt.frames import OpArea
+from cptbt.geodesy import PoleError
 from cptbt.mission import (
     RECTANGLE_TOL_FRACTION,
     Coord,
@@ -30,9 +31,11 @@ def problems(m: MissionBase) -> list[Problem]:
         return out  # the geometry below needs sound coordinates
     try:
         area = m.op_area_geometry()
+    except PoleError as exc:
+        return [(("op_area", "corners"), f"{exc}: {pole_text(exc.pole)}")]
     except ValueError as exc:
         return [(("op_area", "corners"), str(exc))]
-    out += _rectangle_problems(m, area)
+    out += _rectangle_problems(m, area) + _pole_problems(m, area)
     if out:
         return out  # places are judged against a sound OpArea
     for key in ("start", "home"):
@@ -57,6 +60,10 @@ def problems(m: MissionBase) -> list[Problem]:
 
 def _coordinate_problems(m: MissionBase) -> list[Problem]:
     if m.frame != "geodetic":
+        centre = m.op_area.geodetic_centre_deg
+        if m.frame == "ne" and centre is not None and (why := latlon_problem(centre)):
+            # a review's [91, 0] validated and the run ended in an internal error
+            return [(("op_area", "geodetic_centre_deg"), why)]
         if len({tuple(c) for c in m.op_area.corners}) != 4:
             return [(("op_area", "corners"), "the four corners must be distinct")]
         return []
@@ -99,6 +106,32 @@ def _rectangle_problems(m: MissionBase, area: OpArea) -> list[Problem]:
     return [(("op_area", "corners"),
              f"not a rectangle: a corner lies {misfit:.1f} m off the fitted rectangle "
              f"(tolerance {tol:.1f} m, 1% of the diagonal); sides at {sides}")]
+
+
+def pole_text(name: str) -> str:
+    """Why an OpArea may not hold the ``name`` ("North" or "South") Pole."""
+    away = "south" if name == "North" else "north"
+    return (f"at the {name} Pole every direction is {away}, so the compass bearings a mission "
+            "is written in (the flow, headings, x_axis_bearing_deg) turn through 360° across "
+            "the OpArea; write the mission in frame 'ne', metres about a grid north of your "
+            "choosing, without geodetic_centre_deg")
+
+
+def _pole_problems(m: MissionBase, area: OpArea) -> list[Problem]:
+    """An OpArea over a pole (a review's corners about the North Pole were refused as "origin
+    latitude must be in (-90, 90)", a mission without an origin; a little wider, they were
+    accepted, the frame's north an accident of rounding)."""
+    frame = m.local_frame()
+    if frame is None:
+        return []
+    for lat, name in ((90.0, "North"), (-90.0, "South")):
+        n, e = frame.to_ne(lat, 0.0)
+        p = area.frame.ne_to_xy(n, e)
+        if area.distance_outside(p.x, p.y) <= 0.0:
+            key = ("op_area", "geodetic_centre_deg" if m.op_area.geodetic_centre_deg
+                   and m.frame == "ne" else "corners")
+            return [(key, f"the OpArea contains the {name} Pole: {pole_text(name)}")]
+    return []
 
 
 def _limit_problems(m: MissionBase) -> list[Problem]:

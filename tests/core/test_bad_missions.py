@@ -196,6 +196,26 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("source not lat/lon", lambda s: geodetic(s).replace("source: [32.9805, -118.5365]",
                                                          "source: [-118.5365, 32.9805]"),
      28, "environment.source", "[-118.5365, 32.9805] is not [latitude, longitude]"),
+    # frame 'ne' with a geodetic origin: a review's [91, 0] validated and the run ended in
+    # an internal error
+    ("ne centre not lat/lon", sub("[-100, -50]]\n",
+                                  "[-100, -50]]\n  geodetic_centre_deg: [91, 0]\n"),
+     5, "op_area.geodetic_centre_deg", "[91, 0] is not [latitude, longitude]"),
+    # an OpArea over a pole: there is no north (a review's was refused as "origin latitude
+    # must be in (-90, 90)", a wider one accepted with an accidental north)
+    ("ne centre by the pole", sub("[-100, -50]]\n",
+                                  "[-100, -50]]\n  geodetic_centre_deg: [89.9999, 0]\n"),
+     5, "op_area.geodetic_centre_deg", "the OpArea contains the North Pole: at the North "
+     "Pole every direction is south"),
+    ("corners about the pole", lambda s: geodetic(s).replace(
+        "[[32.981, -118.537], [32.981, -118.536], [32.979, -118.536], [32.979, -118.537]]",
+        "[[89.9999, 45], [89.9999, 135], [89.9999, -135], [89.9999, -45]]"),
+     4, "op_area.corners", "the corners' centre is the North Pole"),
+    ("corners across the pole", lambda s: geodetic(s).replace(
+        "[[32.981, -118.537], [32.981, -118.536], [32.979, -118.536], [32.979, -118.537]]",
+        "[[-89.999, 0], [-89.999, 90], [-89.999, 180], [-89.999, -90]]"),
+     4, "op_area.corners", "the OpArea contains the South Pole: at the South Pole every "
+     "direction is north"),
     # -- behaviours --------------------------------------------------------------------------
     ("behaviour twice", sub("  - find_plume: {variant: billiard}",
                             "  - find_plume: {variant: billiard}\n  - safety: {}"), 20,
