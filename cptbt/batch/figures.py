@@ -59,6 +59,10 @@ DASHED_ACTIVITIES = frozenset({"visit", "home"})
 """Jobs drawn dashed, apart from a solid track of a like colour (and from the dotted trip back
 to the break-off point)."""
 
+LEGEND_CHARS = 42
+"""trajectory.png's legend entries wrap at this many characters (about the 3.5 in its page
+leaves the legend, at 8 pt)."""
+
 
 def _split(active: str) -> tuple[str, str]:
     """An active name's behaviour and job: ``"a.b (check leg)"`` → ``("a.b", "check leg")``."""
@@ -183,6 +187,11 @@ def trajectory_figure(
                 else "mission start (move-to-field goal)")
     home = mission.to_xy(mission.home)
     ax.plot(home.x, home.y, "^", mfc="#8c564b", mec="black", ms=9, label="home")
+    reach = _home_radius(mission) if run.t3 is not None else None
+    if reach is not None:  # a review read the line home stopping short as a fault
+        ax.add_patch(plt.Circle((home.x, home.y), reach, fill=False, ls=(0, (3, 2)), lw=1.0,
+                                ec="#8c564b",
+                                label=f"home radius {reach:g} m (by nav. estimate)"))
     declared = list(run.declared_all) or ([run.declared] if run.declared is not None else [])
     _sources(ax, truth, declared)
     marks = [home, *truth, *declared, *([st] if st is not None else [])]
@@ -220,10 +229,26 @@ def trajectory_figure(
     chars = max(40, int(13 * (width - 3.5)))
     ax.set_title("\n".join(textwrap.fill(line, chars) for line in title.split("\n")),
                  fontsize=10)
-    fig.legend(loc="outside right upper", fontsize=8, frameon=False)
+    # the page's width allows ~3.5 in for the legend: a longer entry (a plug-in's long name)
+    # shrank the panel, or pushed its y label off the page, so long entries wrap instead
+    handles, labels = [], []
+    for a in fig.axes:  # both panels' entries, as fig.legend() collects them
+        h, t = a.get_legend_handles_labels()
+        handles += h
+        labels += t
+    fig.legend(handles, [textwrap.fill(t, LEGEND_CHARS) for t in labels],
+               loc="outside right upper", fontsize=8, frameon=False)
     _place_labels(fig, ax, graticule, area)
     fig.savefig(path, dpi=150)
     plt.close(fig)
+
+
+def _home_radius(mission: MissionBase) -> float | None:
+    """How near home the declaration's return ends the run (its ``home_radius_m``)."""
+    for e in mission.entries():
+        if e.family == "declare_source" and hasattr(e.params, "home_radius_m"):
+            return float(e.params.home_radius_m)  # type: ignore[attr-defined]
+    return None
 
 
 def flow_arrow(ax: Any, area: OpArea, flow_deg: float,

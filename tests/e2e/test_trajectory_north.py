@@ -285,3 +285,49 @@ def test_the_map_panel_is_titled_and_several_declarations_are_numbered_in_order(
     assert one.get_title().endswith("map at the declaration")
     plt.close(fig)
     plt.close(fig2)
+
+
+def test_home_is_drawn_with_the_radius_that_ends_the_run(tmp_path: Path,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review read the line home stopping 8-12 m short of the marker as a fault: the run
+    ends within ``home_radius_m`` of home (by the vehicle's estimate), now drawn."""
+    from matplotlib.patches import Circle
+
+    mission = load(str(ROOT / "missions" / "small_oparea.yaml"), simulate=True)
+    fig, run = drawn(mission, monkeypatch, tmp_path)
+    assert run.t3 is not None
+    home = mission.to_xy(mission.home)
+    (circle,) = [p for p in fig.axes[0].patches if isinstance(p, Circle)]
+    assert circle.get_radius() == 10.0 and tuple(circle.center) == (home.x, home.y)
+    assert circle.get_label() == "home radius 10 m (by nav. estimate)"
+
+
+def test_a_long_legend_entry_wraps(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A longer legend entry squeezed the panel, or pushed the y label off the page's left
+    edge (seen on the small OpArea): long entries wrap, and the panel keeps its size."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from cptbt.batch.figures import LEGEND_CHARS
+
+    mission = load(str(ROOT / "missions" / "small_oparea.yaml"), simulate=True)
+    mission = mission.model_copy(update={"time_limit_s": 30.0})
+    usual, run = drawn(mission, monkeypatch, tmp_path)
+    long_name = "find_plume.a_plug_in_variant_with_a_long_descriptive_name (searching)"
+    trace = run.trace
+    assert trace is not None
+    renamed = {**trace, "active": [long_name] * len(trace["active"])}
+    monkeypatch.setattr(type(run), "trace", property(lambda self: renamed))
+    seen: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
+    trajectory_figure(tmp_path / "t.png", run, mission, mission.to_xy(mission.home),
+                      "t")
+    boxes = []
+    for fig in (usual, seen[0]):
+        renderer = FigureCanvasAgg(fig).get_renderer()
+        fig.draw(renderer)
+        boxes.append(fig.axes[0].get_window_extent(renderer))
+        assert fig.axes[0].yaxis.label.get_window_extent(renderer).x0 >= 0.0, fig is usual
+    assert boxes[1].width == pytest.approx(boxes[0].width, rel=0.02), boxes
+    (entry,) = [t.get_text() for t in seen[0].legends[0].get_texts() if "plug_in" in t.get_text()]
+    lines = entry.split("\n")
+    assert len(lines) > 1 and all(len(x) <= LEGEND_CHARS for x in lines), lines
