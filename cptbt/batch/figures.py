@@ -247,7 +247,7 @@ def _home_radius(mission: MissionBase) -> float | None:
     """How near home the declaration's return ends the run (its ``home_radius_m``)."""
     for e in mission.entries():
         if e.family == "declare_source" and hasattr(e.params, "home_radius_m"):
-            return float(e.params.home_radius_m)  # type: ignore[attr-defined]
+            return float(e.params.home_radius_m)
     return None
 
 
