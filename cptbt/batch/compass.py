@@ -141,8 +141,11 @@ def _dm(value: float, hemispheres: str) -> str:
 
     Rounded to the thousandth of a minute before it is split, so a line a hair below a whole
     degree reads 33°00.000'N, not 32°60.000'N (the 180° meridian read 179°60.000'E); a value
-    that rounds to zero takes the first hemisphere, not a "0°00.000'S"."""
+    that rounds to zero takes the first hemisphere, not a "0°00.000'S"; the 180° meridian is
+    neither east nor west and takes none (a review read 180°00.000'W)."""
     minutes = round(abs(value) * 60.0, 3)
     hemi = hemispheres[0] if value >= 0 or minutes == 0 else hemispheres[1]
+    if hemispheres == "EW" and minutes == 180.0 * 60.0:
+        hemi = ""
     d, m = divmod(minutes, 60.0)
     return f"{int(d)}°{m:06.3f}'{hemi}"

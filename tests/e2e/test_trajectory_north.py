@@ -83,17 +83,20 @@ def test_longitude_lines_across_the_antimeridian(centre_lon: float) -> None:
     _graticule(ax, mission, mission.op_area_geometry())
     labels = [t.get_text() for t in ax.texts]
     plt.close(fig)
-    lon_labels = [s for s in labels if s.endswith(("E", "W"))]
+    lon_labels = [s for s in labels if s.endswith(("E", "W", "180°00.000'"))]
     assert len(ax.lines) >= 4 and len(lon_labels) >= 2, labels
-    if centre_lon == 179.9995:  # the 120 m E-W box reaches 0.0011 deg past 180: both named
-        assert {s[-1] for s in lon_labels} == {"E", "W"}, labels
-    assert not any("60.000'" in s for s in labels), labels  # 180°00.000'E, not 179°60.000'E
+    if centre_lon == 179.9995:  # the 120 m E-W box reaches 0.0011 deg past 180
+        # the line past 180 is labelled by the 180° meridian itself, neither E nor W
+        assert {s[-1] for s in lon_labels} == {"E", "'"} and "180°00.000'" in labels, labels
+    assert not any("60.000'" in s for s in labels), labels  # 180°00.000', not 179°60.000'E
 
 
 @pytest.mark.parametrize(("value", "hemispheres", "text"), [
     (32.98083333, "NS", "32°58.850'N"),
     (32.9999999, "NS", "33°00.000'N"),     # rounded before it is split: not 32°60.000'N
-    (179.99999999, "EW", "180°00.000'E"),
+    (179.99999999, "EW", "180°00.000'"),   # the antimeridian: neither E nor W
+    (-180.0, "EW", "180°00.000'"),
+    (-179.9999, "EW", "179°59.994'W"),
     (-118.0875, "EW", "118°05.250'W"),     # minutes keep two digits
     (-0.0000001, "NS", "0°00.000'N"),      # nothing south of the equator to name
     (-33.9, "NS", "33°54.000'S"),
