@@ -174,7 +174,9 @@ def describe() -> str:
     for t in TRANSITIONS:
         sources = t["source"] if isinstance(t["source"], list) else [t["source"]]
         dest = initial.get(t["dest"], t["dest"]) if t["dest"] else "(internal)"
-        src = sources[0] if len(sources) == 1 else "any live phase"
+        # named by what it leaves out: "any live phase" had read as excluding pre_launch
+        rest = [x for x in leaf_states() if x not in sources]
+        src = sources[0] if len(sources) == 1 else f"any phase but {', '.join(rest)}"
         lines.append(f"  {src} --{t['trigger']}--> {dest}")
         lines.append(f"      {t['doc']}")
     return "\n".join(lines)

@@ -122,6 +122,9 @@ def test_the_machine_uses_dotted_names_and_snake_case_states() -> None:
     m.fire("launch", 0.0)
     assert m.state == "mission_a.waypoints"
     assert "pre_launch --launch--> mission_a.waypoints" in describe()
+    # a transition from several phases names what it leaves out ("any live phase" had read
+    # as leaving out pre_launch, from which it also fires)
+    assert "any phase but post_mission --mission_a_complete--> post_mission" in describe()
     assert '"amp.give_back" -> "return_to_break_off" [label="vehicle_returning"]' in to_dot()
 
 
