@@ -20,6 +20,7 @@ from cptbt.batch.sim_advice import (
     noise_advice,
     pace_advice,
     plain,
+    turn_guard_advice,
 )
 from cptbt.coercions import coercions
 from cptbt.mission import Coord, Loc, MissionBase, Problem, latlon_problem
@@ -237,7 +238,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
         params = None
     if params is not None:
         out += [a for advice in (noise_advice, dropout_advice, adcp_advice, leaf_advice,
-                                 pace_advice)
+                                 pace_advice, turn_guard_advice)
                 for a in advice(mission, params)]
         out += launch_turn_advice(mission, params, launch_pose(mission))
     if mission.evaluation.criterion != "declaration":
