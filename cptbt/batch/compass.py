@@ -14,23 +14,55 @@ from cptbt.mission import MissionBase
 from cptbt.types import Point
 
 
-def _north_geometry(area: OpArea) -> tuple[float, float, float, float]:
-    """The north arrow's tail (x0, y0), length and direction (radians, planning frame)."""
+def _north_geometry(area: OpArea, corner: int = 0) -> tuple[float, float, float, float]:
+    """The north arrow's tail (x0, y0), length and direction (radians, planning frame), in one
+    of the OpArea's corners: 0 upper left (as drawn, y down), 1 upper right, 2 lower left,
+    3 lower right."""
     size = 0.07 * area.diagonal_m
-    return (area.xmin + 1.3 * size, area.ymin + 1.3 * size, size,
-            math.radians(area.frame.planning_deg(0.0)))
+    inset = 1.3 * size
+    x0 = area.xmin + inset if corner in (0, 2) else area.xmax - inset
+    y0 = area.ymin + inset if corner in (0, 1) else area.ymax - inset
+    return x0, y0, size, math.radians(area.frame.planning_deg(0.0))
 
 
-def _north_points(area: OpArea) -> NDArray[np.float64]:
+def _north_points(area: OpArea, corner: int = 0) -> NDArray[np.float64]:
     """Points along the north arrow and on its label (for what must keep clear of it)."""
-    x0, y0, size, north = _north_geometry(area)
+    x0, y0, size, north = _north_geometry(area, corner)
     r = np.linspace(0.0, 1.5 * size, 16)
     return np.column_stack([x0 + r * math.cos(north), y0 + r * math.sin(north)])
 
 
-def _north_arrow(ax: Any, mission: MissionBase, area: OpArea) -> None:
-    """A north arrow in the OpArea's upper-left corner (planning frame, y drawn down)."""
-    x0, y0, size, north = _north_geometry(area)
+def north_corner(area: OpArea, marks: NDArray[np.float64],
+                 track: NDArray[np.float64]) -> int:
+    """The corner for the north arrow (:func:`_north_geometry`): of those where the arrow and
+    its label stay inside the OpArea, the one with the fewest markers (``marks``: start, home,
+    sources) near them, then the fewest ``track`` points; the upper left among equals. A
+    review's start marker sat under the arrow in the fixed upper-left corner."""
+    size = 0.07 * area.diagonal_m
+
+    def near(pts: NDArray[np.float64], arrow: NDArray[np.float64], r: float) -> int:
+        pts = pts[np.isfinite(pts).all(axis=1)]
+        if not len(pts):
+            return 0
+        d = np.hypot(pts[:, None, 0] - arrow[None, :, 0], pts[:, None, 1] - arrow[None, :, 1])
+        return int(np.count_nonzero(d.min(axis=1) < r))
+
+    best: tuple[int, int, int] | None = None
+    choice = 0
+    for k in range(4):
+        arrow = _north_points(area, k)
+        inside = area.contains_array(arrow[:, 0], arrow[:, 1]).all()
+        score = (0 if inside else 1, near(marks, arrow, 0.6 * size),
+                 near(track, arrow, 0.25 * size))
+        if best is None or score < best:
+            best, choice = score, k
+    return choice
+
+
+def _north_arrow(ax: Any, mission: MissionBase, area: OpArea, corner: int = 0) -> None:
+    """A north arrow in an OpArea corner (:func:`north_corner`; planning frame, y drawn
+    down)."""
+    x0, y0, size, north = _north_geometry(area, corner)
     tip = (x0 + size * math.cos(north), y0 + size * math.sin(north))
     ax.annotate("", xy=tip, xytext=(x0, y0),
                 arrowprops={"arrowstyle": "-|>", "color": "black", "lw": 1.5})

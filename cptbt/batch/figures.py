@@ -11,7 +11,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cptbt.batch.compass import _graticule, _north_arrow, _north_points, _place_labels
+from cptbt.batch.compass import (
+    _graticule,
+    _north_arrow,
+    _north_points,
+    _place_labels,
+    north_corner,
+)
 from cptbt.batch.engine import VehicleRun
 from cptbt.frames import OpArea
 from cptbt.mission import MissionBase
@@ -202,14 +208,16 @@ def trajectory_figure(
         if math.isfinite(x) and math.isfinite(y):
             ax.update_datalim([(x - pad, y - pad), (x + pad, y + pad)])
     ax.autoscale_view()
+    trace = run.trace or {}
+    track = np.column_stack([trace.get("x", run.path_true[:, 0]),
+                             trace.get("y", run.path_true[:, 1])])
+    spots = np.array([(q.x, q.y) for q in marks] + [tuple(run.start)]).reshape(-1, 2)
+    north = (north_corner(area, spots, np.concatenate([track, det.reshape(-1, 2)]))
+             if mission.frame != "planning" else None)
     if flow_deg is not None:
-        trace = run.trace or {}
-        drawn = np.concatenate([
-            np.column_stack([trace.get("x", run.path_true[:, 0]),
-                             trace.get("y", run.path_true[:, 1])]), det.reshape(-1, 2),
-            np.array([(q.x, q.y) for q in marks]).reshape(-1, 2)])
+        drawn = np.concatenate([track, det.reshape(-1, 2), spots])
         flow_arrow(ax, area, flow_deg, drawn,
-                   _north_points(area) if mission.frame != "planning" else None)
+                   _north_points(area, north) if north is not None else None)
     if belief is not None:
         _map_panel(ax_map, belief, area, truth, declared, run.declaration_report or {}, plt)
         ax.tick_params(labelbottom=True)  # shared x: the top panel's numbers too
@@ -218,7 +226,7 @@ def trajectory_figure(
     if mission.frame == "planning":  # no compass: drawing a north would invent one
         ax.set_xlabel("x (m), planning frame (no compass given)")
     else:
-        _north_arrow(ax, mission, area)
+        _north_arrow(ax, mission, area, north or 0)
         bearing = area.frame.x_bearing_deg % 360
         side = ("the OpArea's long axis" if area.xmax - area.xmin > area.ymax - area.ymin
                 else "the OpArea's x axis")

@@ -201,14 +201,33 @@ def test_the_mean_current_keeps_off_the_north_arrow(tmp_path: Path,
                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     """A strip whose x points west draws north downward, from the top-left corner into the
     bottom-left one: with the track all over the strip, the arrow had gone there, onto the N."""
-    from cptbt.batch.compass import _north_points
-
     mission = load(str(ROOT / "tests/e2e/data/north_down_strip.yaml"), simulate=True)
-    tail = arrow_tail(drawn(mission, monkeypatch, tmp_path)[0])
-    north = _north_points(mission.op_area_geometry())
-    assert north[:, 1].max() > 0  # it does reach into the lower half
-    gap = min(((x - tail[0]) ** 2 + (y - tail[1]) ** 2) ** 0.5 for x, y in north)
-    assert gap > 15.0, (tail, gap)
+    fig = drawn(mission, monkeypatch, tmp_path)[0]
+    tail = arrow_tail(fig)
+    (label,) = [t.get_position() for t in fig.axes[0].texts if t.get_text() == "N"]
+    north = [t.xyann for t in fig.axes[0].texts if t.get_text() == ""][1]  # drawn second
+    for x, y in (label, north):
+        assert ((x - tail[0]) ** 2 + (y - tail[1]) ** 2) ** 0.5 > 15.0, (tail, x, y)
+
+
+def test_the_north_arrow_takes_a_corner_clear_of_the_markers() -> None:
+    """A review's start marker sat under the north arrow, drawn always in the upper-left
+    corner: the arrow takes the corner with the fewest markers near it (upper left among
+    equals), and never one it would leave the OpArea from."""
+    import numpy as np
+
+    from cptbt.batch.compass import _north_points, north_corner
+
+    mission = load(str(ROOT / "missions" / "small_oparea.yaml"), simulate=True)
+    area = mission.op_area_geometry()
+    none = np.empty((0, 2))
+    assert north_corner(area, none, none) == 0
+    on_upper_left = _north_points(area, 0)[8:9]  # a marker on the arrow's middle
+    k = north_corner(area, on_upper_left, none)
+    assert k != 0
+    arrow = _north_points(area, k)
+    assert area.contains_array(arrow[:, 0], arrow[:, 1]).all()
+    assert np.hypot(*(arrow - on_upper_left).T).min() > 5.0
 
 
 def test_a_marker_at_the_plots_edge_is_drawn_whole(tmp_path: Path,
