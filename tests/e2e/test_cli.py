@@ -201,3 +201,18 @@ def test_verbosity_flags_control_the_log() -> None:
     assert "INFO: cptbt.mission" in cptbt("-v", "validate", mission).stderr
     assert cptbt("validate", mission).stderr == ""
     assert cptbt("-q", "validate", mission).stderr == ""
+
+
+def test_the_readmes_whole_mission_validates_without_warnings_and_flies(tmp_path: Path) -> None:
+    """README's "Write a mission" shows every block of a mission in one file (a review found
+    only some there): it must stay a mission that validates cleanly and declares."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    start = readme.index("```yaml\nname: my_survey") + len("```yaml\n")
+    path = tmp_path / "my_survey.yaml"
+    path.write_text(readme[start:readme.index("```", start)], encoding="utf-8")
+    checked = cptbt("validate", str(path))
+    assert checked.returncode == 0 and checked.stderr == "", checked.stderr
+    run = cptbt("run", str(path), "--out", str(tmp_path / "out"), "--no-figure")
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text(encoding="utf-8"))
+    assert summary["success"], summary["outcome"]
