@@ -9,11 +9,8 @@ import os
 import re
 import subprocess
 import sys
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
-
-from pydantic import BaseModel
 
 from cptbt import __version__
 from cptbt.batch.errors import BatchError, CodeChanged
@@ -21,85 +18,13 @@ from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
-from cptbt.batch.study import (
-    Study,
-    Sweep,
-    configurations,
-    grid_starts,
-    log_sample,
-    variant_sweep_notes,
-)
+from cptbt.batch.study import Study, Sweep, grid_starts, log_sample
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
-from cptbt.cli.inspect_cmds import load, mission_text, study_sweeps, warn_swept
-from cptbt.loader import parse_yaml
+from cptbt.cli.batch_sweeps import study_configs
+from cptbt.cli.inspect_cmds import load
 from cptbt.mission import MissionBase
 from cptbt.study_spec import StudySpec
-
-
-def _sweep_text(sweep: Sweep) -> str:
-    """A sweep as ``--sweep`` spells it: ``PATH=V1,V2``."""
-    return f"{'+'.join(sweep.paths)}={','.join(str(v) for v in sweep.values)}"
-
-
-_UNKNOWN = object()  # a path whose fallback value is not known: no study value is taken for it
-
-
-def _not_flown(own: list[Sweep], given: list[Sweep],
-               fallback: Callable[[str], Any] = lambda path: _UNKNOWN) -> list[Sweep]:
-    """The study section's sweeps cut to the values the command line's sweeps do not fly.
-
-    A value is flown when each of its paths takes it in some given sweep (the configurations
-    are their product) or, for a path no given sweep sets, is the value it falls back to
-    (``fallback(path)``); a study sweep with every value flown is left out.
-    """
-    def flies(path: str, value: Any) -> bool:
-        setting = [g for g in given if path in g.paths]
-        if setting:
-            return any(value in g.values for g in setting)
-        return bool(fallback(path) == value)
-
-    out = []
-    for s in own:
-        left = tuple(v for v in s.values if not all(flies(p, v) for p in s.paths))
-        if left:
-            out.append(Sweep(s.paths, left))
-    return out
-
-
-def _fallback_value(mission: MissionBase, path: str) -> tuple[Any, str, Any]:
-    """What a path no sweep sets is flown at: (value, whose: "the mission's value" or "the
-    default", its field or None), the value :data:`_UNKNOWN` where it is not a field of a
-    loaded model."""
-    head, _, rest = path.partition(".")
-    entry = next((e for e in mission.entries() if e.family == head), None) \
-        if rest and head not in type(mission).model_fields else None
-    node: Any = entry.params if entry is not None else mission
-    *parents, leaf = (rest if entry is not None else path).split(".")
-    for key in parents:
-        node = node.get(key) if isinstance(node, dict) else getattr(node, key, None)
-    if isinstance(node, dict) and leaf in node:
-        return node[leaf], "the mission's value", None
-    field = type(node).model_fields.get(leaf) if isinstance(node, BaseModel) else None
-    if field is None:
-        return _UNKNOWN, "", None
-    whose = "the mission's value" if leaf in node.model_fields_set else "the default"
-    return getattr(node, leaf), whose, field
-
-
-def _fallback(mission: MissionBase, path: str) -> str:
-    """What a path no sweep sets is flown at: ``PATH falls back to the mission's value, V`` (or
-    ``the default, V`` where the mission file leaves it out); a None says what None means, from
-    the field's description."""
-    value, whose, field = _fallback_value(mission, path)
-    if value is _UNKNOWN:  # not a field of a loaded model: say no more than is known
-        return f"{path} falls back to the mission's own setting"
-    if value is None and field is not None:
-        meaning = re.search(r"\b(?:None|default): ([^)]*)", field.description or "")
-        shown = f"none ({meaning.group(1).strip()})" if meaning else "none"
-    else:
-        shown = str(value)
-    return f"{path} falls back to {whose}, {shown}"
 
 
 def _sweep(text: str) -> Sweep:
@@ -301,29 +226,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         mission = mission.model_copy(update={"mission_a": None})
     _check_planner(mission)
     spec = mission.study
-    own = study_sweeps(mission)
-    sweeps: list[Sweep] = args.sweep or own
-    dropped = _not_flown(own, args.sweep, lambda p: _fallback_value(mission, p)[0]) \
-        if args.sweep else []
-    if dropped:  # --sweep replaces the study section's sweeps, all of them: never silently
-        # Per value: a --sweep that flies some of a study sweep's values leaves only the rest
-        # unflown; a path no --sweep sets is flown at one value, which is said.
-        unset = [p for s in dropped for p in s.paths
-                 if not any(p in g.paths for g in args.sweep)]
-        falls = "".join(f"; {_fallback(mission, p)}" for p in dict.fromkeys(unset))
-        print(f"cptbt: note: --sweep replaces the sweeps of {args.mission}'s study section; not "
-              f"flown: {'; '.join(_sweep_text(s) for s in dropped)} (give them as --sweep too "
-              f"to keep them){falls}", file=sys.stderr)
-    try:
-        lines = parse_yaml(mission_text(args.mission), args.mission)[1] \
-            if sweeps else None
-        configs = configurations(mission, sweeps, args.mission, lines)
-    except ValueError as exc:
-        raise UsageError(f"batch: {exc}") from None
-    for note in variant_sweep_notes(mission, sweeps):
-        print(f"cptbt: note: {note}", file=sys.stderr)
-    if not args.quiet:
-        warn_swept(mission, configs if sweeps else [], args.mission)
+    sweeps, configs = study_configs(args, mission)
     starts = _starts(args, mission, spec)
     _check_starts(mission, starts)
     runs_per_start = args.runs_per_start or (spec.runs_per_start if spec else 1)

@@ -315,7 +315,7 @@ def test_sweep_on_the_command_line_says_which_study_sweeps_it_replaces(
 def test_a_study_value_is_flown_when_each_of_its_paths_takes_it() -> None:
     """The note's per-value comparison: joined paths need every path to take the value; a
     --sweep joining more paths still flies it."""
-    from cptbt.cli.batch_cmd import _not_flown
+    from cptbt.cli.batch_sweeps import _not_flown
 
     own = [Sweep(("a", "b"), (1, 2)), Sweep(("c",), (3, 4))]
     assert _not_flown(own, [Sweep(("a",), (1, 2)), Sweep(("b",), (2,)),
@@ -326,7 +326,7 @@ def test_a_study_value_is_flown_when_each_of_its_paths_takes_it() -> None:
 def test_the_note_says_what_a_dropped_path_falls_back_to() -> None:
     """The mission's value where its file sets the path, else the default; a None is said with
     what None means (the field's description)."""
-    from cptbt.cli.batch_cmd import _fallback
+    from cptbt.cli.batch_sweeps import _fallback
     from cptbt.cli.inspect_cmds import load
 
     ab = load(str(Path(__file__).resolve().parents[2] / "missions/ab2001_fig9.yaml"),
@@ -344,7 +344,7 @@ def test_a_value_flown_as_a_dropped_paths_fallback_is_not_listed_as_not_flown() 
     """A review's run: ``--sweep maintain_plume.beta1_deg=0,5`` on AB Fig. 9 flies the preset
     at the mission's ab_large_meander, which the note had listed as not flown beside saying
     the preset falls back to it."""
-    from cptbt.cli.batch_cmd import _fallback_value, _not_flown
+    from cptbt.cli.batch_sweeps import _fallback_value, _not_flown
     from cptbt.cli.inspect_cmds import load, study_sweeps
 
     ab = load(str(Path(__file__).resolve().parents[2] / "missions/ab2001_fig9.yaml"),
