@@ -35,7 +35,7 @@ def problems(m: MissionBase) -> list[Problem]:
         return [(("op_area", "corners"), f"{exc}: {pole_text(exc.pole)}")]
     except ValueError as exc:
         return [(("op_area", "corners"), str(exc))]
-    out += _rectangle_problems(m, area) + _pole_problems(m, area)
+    out += _size_problems(m, area) or _rectangle_problems(m, area) + _pole_problems(m, area)
     if out:
         return out  # places are judged against a sound OpArea
     for key in ("start", "home"):
@@ -106,6 +106,38 @@ def _rectangle_problems(m: MissionBase, area: OpArea) -> list[Problem]:
     return [(("op_area", "corners"),
              f"not a rectangle: a corner lies {misfit:.1f} m off the fitted rectangle "
              f"(tolerance {tol:.1f} m, 1% of the diagonal); sides at {sides}")]
+
+
+MIN_SIDE_M = 1.0
+"""An OpArea side shorter than this is refused: no vehicle turns in it."""
+
+MAX_SIDE_M = 100_000.0
+"""An OpArea side longer than this (100 km) is refused: plume tracing by AUV works in areas of
+hundreds of metres (TRO: 254 x 112 m)."""
+
+
+def _size(v: float) -> str:
+    return f"{v / 1000:,.0f} km".replace(",", " ") if v >= 10_000 else f"{v:.3g} m"
+
+
+def _size_problems(m: MissionBase, area: OpArea) -> list[Problem]:
+    """An OpArea of millimetres or of thousands of kilometres: coordinates of one frame
+    written under another (a review's [latitude, longitude] under frame 'ne' validated as a box
+    millimetres across, and metres under 'geodetic' as one 6 700 km long)."""
+    w, h = area.xmax - area.xmin, area.ymax - area.ymin
+    size = f"{_size(max(w, h))} x {_size(min(w, h))}"
+    if min(w, h) < MIN_SIDE_M:
+        hint = ("; [latitude, longitude] written under frame "
+                f"'{m.frame}', which reads metres? (frame: geodetic reads degrees)"
+                if m.frame != "geodetic" else "")
+        return [(("op_area", "corners"), f"the OpArea is {size}, narrower than "
+                 f"{MIN_SIDE_M:g} m{hint}")]
+    if max(w, h) > MAX_SIDE_M:
+        hint = ("; metres written under frame 'geodetic', which reads [latitude, longitude] "
+                "degrees? (frame: ne reads metres)" if m.frame == "geodetic" else "")
+        return [(("op_area", "corners"), f"the OpArea is {size}, longer than an AUV's plume "
+                 f"search covers ({_size(MAX_SIDE_M)} at most){hint}")]
+    return []
 
 
 def pole_text(name: str) -> str:

@@ -201,6 +201,16 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("ne centre not lat/lon", sub("[-100, -50]]\n",
                                   "[-100, -50]]\n  geodetic_centre_deg: [91, 0]\n"),
      5, "op_area.geodetic_centre_deg", "[91, 0] is not [latitude, longitude]"),
+    # one frame's coordinates under another: a review's metres under 'geodetic' validated as a
+    # 6 700 km box, and [lat, lon] under 'ne' as one of millimetres
+    ("metres under geodetic", lambda s: geodetic(s).replace(
+        "[[32.981, -118.537], [32.981, -118.536], [32.979, -118.536], [32.979, -118.537]]",
+        "[[30, -20], [30, 20], [-30, 20], [-30, -20]]"),
+     4, "op_area.corners", "metres written under frame 'geodetic'"),
+    ("lat/lon under ne", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
+                             "[[78.2301, 15.601], [78.2301, 15.605], [78.2299, 15.605], "
+                             "[78.2299, 15.601]]"),
+     4, "op_area.corners", "narrower than 1 m; [latitude, longitude] written under frame 'ne'"),
     # an OpArea over a pole: there is no north (a review's was refused as "origin latitude
     # must be in (-90, 90)", a wider one accepted with an accidental north)
     ("ne centre by the pole", sub("[-100, -50]]\n",
