@@ -66,3 +66,18 @@ def test_a_small_oparea_without_a_turn_guard_is_told_of_it(half: float, guard: f
     assert bool(got) == warned, got
     if warned:
         assert got[0].startswith(f"the OpArea is {2 * half} m across"), got
+
+
+@pytest.mark.parametrize(("out", "warned"), [(20, False), (21, True)])
+def test_an_outward_current_is_counted_in_the_turn_back(out: float, warned: bool) -> None:
+    """A review's start 21-22 m outside, heading straight out with the current flowing out
+    too, was not warned of (the turn alone reaches 28.5 m) and gave back within seconds: the
+    current carries the vehicle ~2.4 m farther while it turns (flown, seed 1)."""
+    text = (ROOT / "missions/small_oparea.yaml").read_text(encoding="utf-8")
+    text = text.replace("start: [-15, -15]", f"start: [{25 + out}, 0]\nallow_outside: [start]")
+    text = text.replace("flow_toward_deg: 200", "flow_toward_deg: 0")  # north: outward
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    assert bool(_warned(mission)) == warned
+    (run,), _, _ = simulate(mission, to_sim_params(mission, 1), [launch_pose(mission)],
+                            time_limit_s=60.0)
+    assert (str(run.outcome) == "relinquished") == warned, (run.outcome, run.t_end)
