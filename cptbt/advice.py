@@ -63,10 +63,19 @@ PLUME_FAMILIES = ("declare_source", "maintain_plume", "reacquire_plume")
 
 
 def order_advice(mission: MissionBase) -> list[Problem]:
-    """A plume behaviour listed below one that always drives never drives (a review's
-    find_plume above maintain_plume searched for 600 s, its plume never tracked)."""
+    """Safety not listed first; a plume behaviour listed below one that always drives never
+    drives (a review's find_plume above maintain_plume searched for 600 s, its plume never
+    tracked)."""
     out: list[Problem] = []
     families = [e.family for e in mission.entries()]
+    if "safety" in families[1:]:  # a review's safety listed last validated silently
+        k = families.index("safety")
+        below = next((f"{f} (behaviours[{i}]), which has a command every cycle: it never "
+                      "drives" for i, f in enumerate(families[:k]) if f in ALWAYS_DRIVES),
+                     f"{families[0]}: it drives only when no behaviour above it has a command")
+        out.append((("behaviours", k, "safety"),
+                     f"the OpArea guard is listed below {below}, so the vehicle can leave the "
+                     "OpArea unchecked (SPEC §3 and TRO Fig. 2 put safety first)"))
     for i, family in enumerate(families):
         if family not in ALWAYS_DRIVES:
             continue

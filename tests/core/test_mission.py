@@ -215,3 +215,19 @@ def test_a_plug_in_family_one_slip_from_a_slot_is_told() -> None:
     # a family of its own name is no slip
     assert misspelt_slot("plume_mapper") is None and misspelt_slot("safety") is None
     assert misspelt_slot("declare_sources") == "declare_source"
+
+
+def test_safety_not_listed_first_is_told() -> None:
+    """A review's safety listed last validated silently (the declaration listed there was
+    told): the OpArea guard below find-plume never drives."""
+    last = load(GOOD.replace("  - safety: {}\n", "").replace(
+        "  - move_to_field: {}\n", "  - move_to_field: {}\n  - safety: {}\n"))
+    ((loc, why),) = [(loc, why) for loc, why in last.advisories() if "OpArea guard" in why]
+    assert loc == ("behaviours", 3, "safety")
+    assert ("below find_plume (behaviours[1]), which has a command every cycle: it never "
+            "drives") in why, why
+    second = load(GOOD.replace("  - safety: {}\n", "").replace(
+        "  - find_plume:", "  - safety: {}\n  - find_plume:"))
+    ((loc, why),) = [(loc, why) for loc, why in second.advisories() if "OpArea guard" in why]
+    assert loc == ("behaviours", 1, "safety") and "below maintain_plume: it drives only" in why
+    assert not [w for _, w in load(GOOD).advisories() if "OpArea guard" in w]
