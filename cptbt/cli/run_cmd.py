@@ -123,18 +123,20 @@ def declaration_lines(s: dict[str, Any]) -> list[str]:
             + (f"error {fmt(s['error_m'], ' m')}" if len(points) == 1
                else f"the last of {n}; {worst}"))
     if len(points) > 1 or (points and not s["declared_source"]):
-        lines.append("  declared points: " + "; ".join(_point_and_error(q, s) for q in points))
+        lines.append("  declared points, numbered as in trajectory.png: " + "; ".join(
+            f"{i}: {_point_and_error(q, s)}" for i, q in enumerate(points, 1)))
     return lines
 
 
 def _point_and_error(q: dict[str, Any], s: dict[str, Any]) -> str:
     """A declared point with its error and, among several true sources, which one it is
-    judged against (numbered as ``true_sources``, the mission's ``source`` 1)."""
+    judged against, by its key in the mission (``source``, ``extra_sources[0]``, ...: a
+    review read "source 2" against the figure's declaration numbers)."""
     if q.get("error_m") is None:
         return place(q)
     k = q.get("nearest_source")
-    against = (f" from source {k + 1}" if s["sources_true"] > 1 and k is not None
-               else "")
+    key = "source" if k == 0 else f"extra_sources[{k - 1}]" if k is not None else ""
+    against = f" from {key}" if s["sources_true"] > 1 and key else ""
     return f"{place(q)} ({fmt(q['error_m'], ' m')}{against})"
 
 

@@ -144,8 +144,9 @@ def test_several_declared_points_are_printed_with_their_own_error_and_source() -
          "declared_sources": [{"x": -7.4, "y": -24.7, "error_m": 2.6, "nearest_source": 1},
                               {"x": -68.5, "y": 23.8, "error_m": 1.9, "nearest_source": 0}]}
     lines = declaration_lines(s)
-    assert lines[-1] == ("  declared points: x -7.4 m, y -24.7 m (2.6 m from source 2); "
-                         "x -68.5 m, y 23.8 m (1.9 m from source 1)")
+    assert lines[-1] == ("  declared points, numbered as in trajectory.png: 1: x -7.4 m, "
+                         "y -24.7 m (2.6 m from extra_sources[0]); 2: x -68.5 m, y 23.8 m "
+                         "(1.9 m from source)")
     # one true source: no source to name
     one = {**s, "sources_true": 1}
     assert "from source" not in declaration_lines(one)[-1]

@@ -57,10 +57,10 @@ def test_the_printed_run_names_every_declared_point(tmp_path: Path,
                                                    capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", str(TWO), "--out", str(tmp_path), "--no-figure"]) == 0
     out = capsys.readouterr().out.splitlines()
-    lines = [ln for ln in out if "declared points:" in ln]
+    lines = [ln for ln in out if "declared points, numbered" in ln]
     assert len(lines) == 1 and lines[0].count("x ") == 2, lines
     # each point with its own error and the source it is judged against
-    assert "from source 1)" in lines[0] and "from source 2)" in lines[0], lines
+    assert "from source)" in lines[0] and "from extra_sources[0])" in lines[0], lines
     # the error is the worst point's: it is not printed as the last point's own
     (t3,) = [ln for ln in out if "declared at t3" in ln]
     assert "the last of 2 points" in t3 and "worst error" in t3, t3
