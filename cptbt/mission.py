@@ -110,8 +110,10 @@ class MissionBase(BaseModel):
     frame: Literal["ne", "planning", "geodetic"] = Field(
         default="ne",
         description="Frame of every coordinate in this file: 'ne' = [north, east] metres; "
-        "'planning' = [x, y] metres of an OpArea aligned with x = north; 'geodetic' = "
-        "[latitude, longitude] decimal degrees (WGS-84)",
+        "'planning' = [x, y] metres of the planning frame itself (SPEC §1: the OpArea an "
+        "axis-aligned box, every angle measured from +x toward +y; no compass, so outputs "
+        "give no north or latitude/longitude); 'geodetic' = [latitude, longitude] decimal "
+        "degrees (WGS-84)",
     )
     op_area: OpAreaSpec = Field(description="The operating area: a rectangle (SPEC §1)")
     home: Coord = Field(description="Where the vehicle goes after declaring, in the mission frame")
