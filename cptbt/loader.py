@@ -204,6 +204,9 @@ def read_yaml(text: str, source: str) -> tuple[Any, Lines, list[tuple[Loc, str]]
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else 1
         msg = " ".join(str(x) for x in (exc.context, exc.problem) if x)
+        if "'\\t'" in str(exc.problem):  # PyYAML's words for a tab read as a token's start
+            msg = (f"a tab character at column {mark.column + 1 if mark else '?'}: YAML indents "
+                   "and separates with spaces only; replace the tab with spaces")
         began = exc.context_mark
         if began is not None and mark is not None and began.line != mark.line:
             msg += f" (it began at line {began.line + 1})"
@@ -259,7 +262,13 @@ def _unknown_key(path: Loc, model: type[BaseModel] | None, data: Any) -> str:
         return (f"unknown key: '{key}' moved to {moved} in cptbt 0.2; write it under "
                 f"'{moved.split('.')[0]}:'")
     known = _fields_at(model, path[:-1], data) if model is not None else []
-    return "unknown key" + (close_matches(key, known) if known else "")
+    owner = ""
+    if len(path) == 4 and path[0] == "behaviours":  # a behaviour's parameter: whose keys
+        entry = _at(data, path[:3])
+        variant = entry.get("variant") if isinstance(entry, dict) else None
+        owner = (f" of {path[2]} {variant}" if isinstance(variant, str)
+                 else f" of {path[2]}'s default variant")
+    return f"unknown key{owner}" + (close_matches(key, known) if known else "")
 
 
 def _fields_at(model: type[BaseModel], path: Loc, data: Any) -> list[str]:
@@ -307,6 +316,11 @@ def close_matches(word: str, choices: list[str], known: bool = True) -> str:
     return "; known keys: " + ", ".join(choices) if known else ""
 
 
+BOUND_ERRORS = frozenset({"greater_than", "greater_than_equal", "less_than",
+                          "less_than_equal"})
+"""pydantic's range errors: their message is told with the value given."""
+
+
 def format_errors(
     exc: ValidationError,
     data: Any,
@@ -341,6 +355,8 @@ def located_errors(
             msg = (f"unknown value {err['input']!r}: one of "
                    + ", ".join(repr(o) for o in options)
                    + close_matches(err["input"], options, known=False))
+        elif err["type"] in BOUND_ERRORS and isinstance(err.get("input"), (int, float)):
+            msg = f"{msg}, got {err['input']!r}"  # a review: the bad value was not echoed
         elif err["type"] == "missing" and loc and isinstance(loc[-1], int):
             given = err.get("input")  # a short list (a point of one coordinate), not a key
             count = len(given) if isinstance(given, (list, tuple)) else "fewer"

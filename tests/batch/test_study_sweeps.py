@@ -131,13 +131,13 @@ OBLIQUE = Path(__file__).resolve().parents[2] / "missions/oblique_flow.yaml"
 @pytest.mark.parametrize(("sweep", "where"), [
     # a key the file has: its line, the sweep named
     ("maintain_plume.beta_deg=5,500", ":43: behaviours[2].maintain_plume.beta_deg: Input should "
-     "be less than 90 (with sweep maintain_plume.beta_deg=500)"),
+     "be less than 90, got 500 (with sweep maintain_plume.beta_deg=500)"),
     # a key the file lacks: no line (the swept mission's own text is no file the user has)
     ("reacquire_plume.arrive_radius_m=-1", " [sweep reacquire_plume.arrive_radius_m=-1]: "
-     "behaviours[3].reacquire_plume.arrive_radius_m: Input should be greater than 0"),
+     "behaviours[3].reacquire_plume.arrive_radius_m: Input should be greater than 0, got -1"),
     # the simulator's limits are checked before any run, as for the file itself
     ("environment.dt_s=1e-7", " [sweep environment.dt_s=1e-07]: environment.dt_s: Input should "
-     "be greater than or equal to 0.005"),
+     "be greater than or equal to 0.005, got 1e-07"),
     # a flow speed the mission's flow_speed_mps overrides: every configuration would fly the
     # same flow (the sweep compared nothing)
     ("environment.flow.mean_speed_mps=0.1,0.2", " [sweep environment.flow.mean_speed_mps=0.1]: "
@@ -188,7 +188,7 @@ def with_study(tmp_path: Path, sweeps: str) -> tuple[Path, int]:
      "Input should be a finite number (with sweep declare_source.radius_m=nan)"),
     # a key the file has too: at the sweep's line, where the bad value is
     ("environment.flow_speed_mps: [0.1, -1]", ":{line}: environment.flow_speed_mps: Input "
-     "should be greater than or equal to 0 (with sweep environment.flow_speed_mps=-1)"),
+     "should be greater than or equal to 0, got -1 (with sweep environment.flow_speed_mps=-1)"),
     ("infotaxis.cell_m: [1, 2]", ":{study}: study.sweeps: sweep path 'infotaxis.cell_m': the "
      "mission has no 'infotaxis' behaviour"),
     ("declare_source.radius_m: [10, 10.0]", ":{study}: study.sweeps: sweep "

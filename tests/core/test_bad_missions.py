@@ -64,6 +64,15 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     # an unclosed bracket is found lines later: the line it began on is said too
     ("unclosed bracket", sub("start: [-80, 20]", "start: [-80, 20"), 6, "(yaml)",
      "(it began at line 5)"),
+    # a tab: PyYAML's "found character '\t' that cannot start any token" said what, not why
+    ("tab indent", sub("  - safety: {variant: oparea}", "\t- safety: {variant: oparea}"), 15,
+     "(yaml)", "a tab character at column 1: YAML indents and separates with spaces only"),
+    # the value given is echoed with a range error, and an unknown parameter names its variant
+    ("speed below range", sub("speed_mps: 1.5", "speed_mps: -1"), 7, "speed_mps",
+     "Input should be greater than 0, got -1"),
+    ("parameter of another variant", sub("{variant: track_in_out, beta_deg: 10}",
+                                         "{variant: track_in_out, beta_deg: 10, d_leaf_m: 3}"),
+     17, "behaviours[2].maintain_plume.d_leaf_m", "unknown key of maintain_plume track_in_out"),
     # -- names and paths ---------------------------------------------------------------------
     ("path in name", sub("name: corpus_base", "name: ../../../../tmp/pwned"), 1, "name",
      "should match pattern"),
