@@ -109,6 +109,7 @@ class RunSummary:
     held_candidate: dict[str, float] | None = None
     unchecked: int | None = None
     closest_approach_m: float | None = None
+    farthest_outside_m: float = 0.0
     T_M: float | None = None
     path_m: float | None = None
     start_to_source_m: float | None = None
@@ -184,6 +185,8 @@ def summarise(
     there are); ``search_end_t`` is when the search for more ended (``search_given_up``: when
     ``declared_source`` was written). ``closest_approach_m`` and ``start_to_source_m`` are
     about the mission's ``source``.
+    ``farthest_outside_m`` is how far outside the OpArea the vehicle's true track went while
+    the AMP drove (0 when it stayed inside; a review missed it, the README quoting it).
     ``closest_approach_m`` is the vehicle's closest true approach to the true source while the
     AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
     maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before
@@ -292,6 +295,7 @@ def summarise(
                         else None),
         unchecked=report.get("unchecked"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
+        farthest_outside_m=_farthest_outside(mission, true),
         T_M=_maintain_time(run) if mission.evaluation.criterion == "maintain" else None,
         path_m=path_m,
         start_to_source_m=straight,
@@ -311,6 +315,14 @@ def _with_error(out: dict[str, float] | None, p: Point,
     d = [math.hypot(p.x - q.x, p.y - q.y) for q in truth]
     k = min(range(len(d)), key=d.__getitem__)
     return out | {"error_m": d[k], "nearest_source": k}
+
+
+def _farthest_outside(mission: MissionBase, true: NDArray[np.float64]) -> float:
+    """How far outside the OpArea a true track went, m (0: it stayed inside)."""
+    if not len(true):
+        return 0.0
+    far = mission.op_area_geometry().distance_outside_array(true[:, 0], true[:, 1])
+    return float(np.nanmax(far, initial=0.0))
 
 
 def _maintain_time(run: VehicleRun) -> float | None:

@@ -49,6 +49,14 @@ def place(d: dict[str, float]) -> str:
     return text
 
 
+def outside_line(s: dict[str, Any]) -> str | None:
+    """How far outside the OpArea the vehicle went, when it left it (None: it did not)."""
+    far = s.get("farthest_outside_m") or 0.0
+    if far < 0.05:
+        return None
+    return f"  left the OpArea: at most {far:.1f} m outside it (true track)"
+
+
 def sensor_faults_line(s: dict[str, Any]) -> str | None:
     """What the perception dropped or corrected in a run summary (None: nothing)."""
     parts = []

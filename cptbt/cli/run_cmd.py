@@ -22,6 +22,7 @@ from cptbt.cli.inspect_cmds import load
 from cptbt.cli.output import (
     fmt,
     fresh_folder,
+    outside_line,
     place,
     sensor_faults_line,
     time_share,
@@ -347,7 +348,8 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"  {s['outcome']}: {why}")
         for text in declaration_lines(s):
             print(text)
-        for line in (sources_line(s), upflow_check_line(s), sensor_faults_line(s)):
+        for line in (sources_line(s), upflow_check_line(s), sensor_faults_line(s),
+                     outside_line(s)):
             if line:
                 print(line)
         if s["criterion"] == "maintain":
@@ -434,7 +436,7 @@ def refly(args: argparse.Namespace) -> int:
         why = why_ended(summary)
         for line in ((f"  {summary['outcome']}: {why}" if why else None),
                      *declaration_lines(summary), sources_line(summary),
-                     sensor_faults_line(summary)):
+                     sensor_faults_line(summary), outside_line(summary)):
             if line:
                 print(line)
         print(f"  wrote {out}")
