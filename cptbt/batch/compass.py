@@ -124,7 +124,8 @@ Spots = list[tuple[float, float]]
 def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]],
                   area: OpArea | None = None) -> None:
     """Move each graticule label to the first place along its line where it overlaps no label
-    placed before it, nor another text of the axes (the north arrow's N, the current's label),
+    placed before it, nor another text or arrow of the axes (the north arrow and its N, the
+    current's arrow and label),
     and stands wholly inside ``area`` (off its border); one with no such place is not drawn.
     Done once the layout is settled (before saving): a label's size is in points, the spacing
     of the lines in metres."""
@@ -140,6 +141,9 @@ def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]],
     mine = {id(text) for text, _ in labels}
     taken = [t.get_window_extent(renderer).expanded(1.1, 1.2) for t in ax.texts
              if id(t) not in mine and t.get_visible() and t.get_text()]
+    # the arrows too (north, current): a review's label stood on the north arrow's shaft
+    taken += [t.arrow_patch.get_window_extent(renderer) for t in ax.texts
+              if getattr(t, "arrow_patch", None) is not None and t.get_visible()]
     for text, spots in labels:
         for spot in spots:
             text.set_position(spot)

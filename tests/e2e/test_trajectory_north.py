@@ -353,3 +353,20 @@ def test_a_long_legend_entry_wraps(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     (entry,) = [t.get_text() for t in seen[0].legends[0].get_texts() if "plug_in" in t.get_text()]
     lines = entry.split("\n")
     assert len(lines) > 1 and all(len(x) <= LEGEND_CHARS for x in lines), lines
+
+
+def test_a_graticule_label_keeps_off_the_arrows() -> None:
+    """A review's Svalbard figure drew 14°59.700'E on the north arrow's shaft: a label's
+    place must be clear of the arrows as well as of the texts."""
+    import matplotlib.pyplot as plt
+
+    from cptbt.batch.compass import _place_labels
+
+    fig, ax = plt.subplots()
+    ax.set_xlim(0, 100)
+    ax.set_ylim(0, 100)
+    ax.annotate("", xy=(50, 90), xytext=(50, 10), arrowprops={"arrowstyle": "-|>", "lw": 1.5})
+    label = ax.text(50, 50, "14°59.700'E", ha="center", va="center", fontsize=7)
+    _place_labels(fig, ax, [(label, [(50.0, 50.0), (80.0, 50.0)])])
+    plt.close(fig)
+    assert label.get_visible() and label.get_position() == (80.0, 50.0)
