@@ -340,7 +340,7 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
         bar = plt.colorbar(mesh, ax=ax, location="bottom", shrink=0.5, aspect=40, pad=0.02)
         when = ("the search gave up" if report.get("search_given_up") else
                 "the end of the run, still searching" if report.get("map_at") == "end"
-                else "last declaration")
+                else "last declaration" if len(declared) > 1 else "declaration")
         bar.set_label(f"source-likelihood posterior per cell at t = {belief.t:.0f} s ({when}), "
                       "log scale;\nwhite inside the OpArea: below 1e-4 of the peak (ruled out)",
                       fontsize=8)
