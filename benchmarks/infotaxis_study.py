@@ -65,7 +65,9 @@ def studies(ab_runs: int, tro_runs: int, workers: int) -> dict[str, list[str]]:
 
 NAMES = {
     "ab2001_strategy3": "Strategy III",
-    "variant=space_aware_infotaxis": "space-aware infotaxis",
+    "find_plume=space_aware_infotaxis": "space-aware infotaxis",
+    "find_plume=infotaxis": "infotaxis",
+    "variant=space_aware_infotaxis": "space-aware infotaxis",  # rows of studies before 0.x
     "variant=infotaxis": "infotaxis",
 }
 

@@ -25,9 +25,10 @@ Rows = list[dict[str, Any]]
 def config_label(coords: dict[str, Any], mission: str) -> str:
     """The name of a configuration in tables and legends: its sweep values, else the mission.
 
-    Each swept setting is named by its last key (``speed_mps=1``); where two sweeps share a last
-    key (``maintain_plume.speed_mps`` and ``find_plume.speed_mps``) both keep their full path,
-    so no label can be read two ways.
+    Each swept setting is named by its last key (``speed_mps=1``), a variant by its family
+    (``reacquire_plume=three_point``: "variant=three_point" left a reader to guess whose); where
+    two sweeps share a name (``maintain_plume.speed_mps`` and ``find_plume.speed_mps``) both
+    keep their full path, so no label can be read two ways.
     """
     if not coords:
         return mission
@@ -38,9 +39,13 @@ def config_label(coords: dict[str, Any], mission: str) -> str:
 
 
 def _last_keys(path: str) -> str:
-    """``a.b`` -> ``b``; a joint sweep ``a.variant+b.variant`` -> ``variant``."""
-    names = dict.fromkeys(part.split(".")[-1] for part in path.split("+"))
-    return "+".join(names)
+    """``a.b`` -> ``b``; a behaviour's variant ``a.variant`` -> ``a``; a joint sweep
+    ``a.variant+b.variant`` -> ``a+b``."""
+    def name(part: str) -> str:
+        keys = part.split(".")
+        return keys[-2] if keys[-1] == "variant" and len(keys) > 1 else keys[-1]
+
+    return "+".join(dict.fromkeys(name(part) for part in path.split("+")))
 
 
 def _config_label(row: dict[str, Any]) -> str:

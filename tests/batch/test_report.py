@@ -267,7 +267,10 @@ def test_config_label_names_each_setting_unambiguously() -> None:
     assert config_label({}, "msn") == "msn"
     assert config_label({"maintain_plume.speed_mps": 1.0}, "msn") == "speed_mps=1.0"
     joint = "maintain_plume.variant+reacquire_plume.variant"
-    assert config_label({joint: "strategy_1"}, "msn") == "variant=strategy_1"
+    assert config_label({joint: "strategy_1"}, "msn") == "maintain_plume+reacquire_plume=strategy_1"
+    # a variant by its family: "variant=three_point" left a reader to guess whose
+    assert config_label({"reacquire_plume.variant": "three_point"}, "msn") \
+        == "reacquire_plume=three_point"
     # Two sweeps ending in the same key would both read "speed_mps=...": full paths instead.
     two = {"maintain_plume.speed_mps": 1.0, "find_plume.speed_mps": 2.0, "environment.seed": 3}
     assert config_label(two, "msn") == (
