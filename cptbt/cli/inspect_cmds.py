@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -243,13 +244,19 @@ def cmd_behaviours(args: argparse.Namespace) -> int:
         ]
         print(json.dumps(out, indent=2, default=str))
         return 0
+    def plain(text: str) -> str:  # docstring markup (``psi_u``) read as clutter (a review)
+        return text.replace("``", "")
+
     for family in registry.families():
         print(f"{family}")
         for spec in registry.variants(family):
             mark = " (default)" if spec.default else ""
-            print(f"  {spec.variant}{mark}: {spec.summary}")
+            print(textwrap.fill(f"{spec.variant}{mark}: {plain(spec.summary)}", 100,
+                                initial_indent="  ", subsequent_indent="      "))
             for row in _param_rows(spec.params):
-                print(f"      {row['name']} = {row['default']!r}  {row['description']}")
+                print(textwrap.fill(f"{row['name']} = {row['default']!r}  "
+                                    f"{plain(row['description'])}", 100,
+                                    initial_indent="      ", subsequent_indent="          "))
     return 0
 
 

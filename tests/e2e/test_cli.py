@@ -137,6 +137,9 @@ def test_behaviours_lists_parameters_with_defaults() -> None:
     assert res.returncode == 0, res.stderr
     assert re.search(r"beta_deg = 10", res.stdout)
     assert "cloverleaf (default)" in res.stdout
+    # plain text for a terminal: no docstring markup, lines wrapped (a review)
+    assert "``" not in res.stdout and "(psi_u)" in res.stdout
+    assert max(len(line) for line in res.stdout.splitlines()) <= 100
     listing = json.loads(cptbt("behaviours", "--json").stdout)
     assert {"family", "variant", "params"} <= listing[0].keys()
 
