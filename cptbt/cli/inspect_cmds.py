@@ -211,12 +211,21 @@ def _check_study_sweeps(mission: MissionBase, path: str) -> None:
     warn_swept(mission, configs, path, own=False)
 
 
+TREE_KEY = (
+    "key (py_trees): [-] sequence: its children tick in turn, every cycle; [o] selector: the\n"
+    "first child with a command drives, the rest are not ticked (highest priority first: the\n"
+    "subsumption of TRO Fig. 2); --> a behaviour; watch:NAME runs NAME's perception every\n"
+    "cycle, whether or not it drives")
+"""The legend printed under ``cptbt tree`` (a review read its symbols without one)."""
+
+
 def cmd_tree(args: argparse.Namespace) -> int:
     """Print the arbitration tree a mission builds (highest priority first)."""
     mission = load(args.mission)
     planner = Planner(mission)
     try:
         print(render_ascii(planner.root), end="")
+        print(TREE_KEY)
         if args.dot:
             Path(args.dot).write_text(render_dot(planner.root), encoding="utf-8")
             print(f"wrote {args.dot}")

@@ -130,6 +130,8 @@ def test_tree_prints_the_subsumption_order_and_writes_dot(tmp_path: Path) -> Non
     positions = [body.index(n) for n in order]
     assert positions == sorted(positions)
     assert dot.read_text().startswith("digraph amp {")
+    # the symbols are explained under the tree (a review read them without a key)
+    assert "key (py_trees): [-] sequence" in res.stdout and "[o] selector" in res.stdout
 
 
 def test_behaviours_lists_parameters_with_defaults() -> None:
