@@ -24,6 +24,9 @@ def cmd_phases(args: argparse.Namespace) -> int:
     mission = load(args.mission)
     spec = mission.mission_a
     print(f"{mission.name}: mission phases (SPEC §9)")
+    if spec is None:  # said first: a review read the whole machine before learning this
+        print("  this mission has no mission_a section: the AMP drives from launch, and "
+              "cptbt run uses no phases; the machine a mission_a section would fly:")
     print(describe())
     print("settings:")
     if spec is None:

@@ -153,6 +153,11 @@ def test_cptbt_phases_prints_the_machine_and_writes_dot(tmp_path: Path, capsys: 
     assert "amp_enable: on reaching waypoint 1" in out
     text = dot.read_text()
     assert text.startswith("digraph") and '"return_to_break_off" -> "mission_a.resumed"' in text
+    assert "no mission_a section" not in out
+    # a mission without Mission A says so before the machine, not after it (a review)
+    assert main(["phases", str(ROOT / "missions" / "oblique_flow.yaml")]) == 0
+    first = capsys.readouterr().out.splitlines()[1]
+    assert first.startswith("  this mission has no mission_a section"), first
 
 
 def test_cptbt_run_reports_phases_and_geodetic_positions(tmp_path: Path) -> None:
