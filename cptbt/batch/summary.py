@@ -65,6 +65,7 @@ class RunSummary:
     criterion: str
     success_radius_m: float
     start: dict[str, float]
+    home: dict[str, float]
     declared_source: dict[str, float] | None
     true_source: dict[str, float] | None
     error_m: float | None
@@ -257,6 +258,7 @@ def summarise(
         criterion=mission.evaluation.criterion,
         success_radius_m=mission.evaluation.success_radius_m,
         start=place(mission, Point(*run.start)),
+        home=place(mission, mission.to_xy(mission.home)),
         declared_source=where(mission, declared),
         true_source=where(mission, source),
         error_m=verdict.error_m,

@@ -75,6 +75,10 @@ def test_cptbt_run_writes_summary_trace_and_figure(tmp_path: Path) -> None:
     src = summary["true_source"]
     assert src["north"] == pytest.approx(43) and src["east"] == pytest.approx(-55)
     assert set(summary["start"]) == set(src)  # the start in every frame the sources are in
+    # home too (a review found none): where the run ends, in the mission's own frame
+    home = summary["home"]
+    assert home["north"] == pytest.approx(-100) and home["east"] == pytest.approx(40)
+    assert set(summary["home"]) == set(src)
     assert (tmp_path / "trace.parquet").exists() or (tmp_path / "trace.csv").exists()
     png = (tmp_path / "trajectory.png").read_bytes()
     assert png.startswith(b"\x89PNG") and len(png) > 20_000
