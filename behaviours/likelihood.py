@@ -33,7 +33,8 @@ from cptbt.behaviours.likelihood_params import (
 from cptbt.behaviours.map_guided import MapGuidedReacquire
 from cptbt.behaviours.several_sources import SeveralSources
 from cptbt.behaviours.source_map import SOURCE_MAP_KEY, SourceMap
-from cptbt.behaviours.upflow_check import UpflowCheck, room
+from cptbt.behaviours.upflow_check import UpflowCheck
+from cptbt.frames import room
 from cptbt.node import BehaviourParams, Contract
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept, Point
@@ -53,103 +54,12 @@ class LikelihoodMapDeclare(SeveralSources):
     explained piles up where no evidence reaches (the OpArea's edge) and would otherwise be declared
     there on the strength of the known plume's detections.
 
-    **The up-flow check** (``upflow_check_m``; None turns it off). A map can be sure of a point
-    short of the source: the meander carried the plume off the flow estimate's axis while the
-    vehicle's misses ruled out the water up-flow (TRO MSN007, 1000 runs, seed 2024: the five
-    declarations beyond 15 m lay 19-46 m down-flow of the source). Three tests stand between
-    the rule and the declaration, the last two along the current flow estimate, and the
-    vehicle flies what they need before the map is quite sure (*early*, the last item):
-
-    - *plume seen near* (``upflow_seen_near``): a detection no declared source explains, made
-      since the search for this source began, within ``radius_m`` of the candidate. Without one
-      the node drives to the candidate itself (a *visit*, counted in ``visits``): the map can be
-      sure of a point where no plume was ever seen — up-flow of a source the vehicle overshot,
-      whose own misses there were too few, or against a wall its passes never sampled — and
-      the misses at the point move the map's mass (or the plume is found there). A visit not
-      done after ``upflow_timeout_s`` ends (``visits_ended``) and holds its candidate back
-      while the tree searches on, until plume is seen near it or the map moves to another
-      candidate (a new visit): a candidate no plume was seen near is never declared. A
-      source emits: next to it a pass detects in most cycles (the model's ``detection_prob``).
-      Only with the check on (``upflow_check_m``);
-    - *crossing*: the track (since the search for this source began, and since the latest
-      vetoing detection) must have crossed the candidate's flow line ``upflow_check_m``
-      up-flow of it (give or take ``arrive_radius_m``), reaching ``upflow_band_m`` to either
-      side (less ``arrive_radius_m``) and passing over the line itself (within
-      ``arrive_radius_m`` of it, or from one side to the other between two cycles). Until it
-      has, the node drives a *check leg* to the point that far up-flow and that far to the
-      side not yet reached (the nearer first), or, both sides reached apart, to the line's
-      point that far up-flow: excursions to either side made at different times leave the
-      water straight up-flow unseen (two-source mission, root seed 2028: all three false
-      declarations, 16-43 m short, had been passed so; none of 200 runs is with the line).
-      An empty crossing at ``a`` up-flow rules out only sources beyond ``a``: until session 18
-      a crossing up to twice ``upflow_check_m`` (23 m) up-flow counted, and it let through
-      sources 15-21 m short (three of four false two-source declarations left on root seeds
-      2027 and 2029, each passed by a sweep lane 20-23 m up-flow of the candidate).
-      ``upflow_window_m`` sets how far up-flow a crossing still counts (23: the rule before,
-      faster and less precise: measured in README's declaration table). With several
-      sources the line must be passed over twice, more than 15 s apart
-      (``upflow_crossings``; None: once with ``max_sources`` 1, twice with more; until the
-      second the leg goes back to the line's point): near a source the plume is intermittent
-      and one empty pass can miss it. The two-source mission's false declarations left after
-      session 18 (root seeds 2024-2030: five of six, 17-57 m short, one pass each) are each
-      mended by the second pass; measured in README's two-source table. A single source
-      keeps one pass: a second costs T_D, and MSN007's declarations beyond 15 m were not of
-      this kind. A
-      side whose point lies outside the OpArea needs no crossing; nearer the up-flow wall than
-      that reach (plus ``arrive_radius_m``) the crossing is looked for nearer, at the candidate
-      itself against the wall (the map's mass piles up at a wall no evidence reaches). A leg
-      that has not got there after ``upflow_timeout_s`` (safety held the vehicle, say) ends,
-      and the candidate is declared unchecked (counted, as is a candidate declared without a
-      flow direction). A leg is timed and counted once per candidate: a cycle or two of the
-      map dipping below ``confidence`` resumes it (same clock) if the candidate has moved less
-      than ``radius_m``. With ``upflow_fan_deg`` (20°) the sides to reach, and the veto's
-      band, widen up-flow by the flow estimate's direction error: ``upflow_band_m`` plus
-      ``tan(upflow_fan_deg)`` per metre up-flow (8.6 m at 10 m);
-    - *early* (``upflow_early_fraction``, 0.7): the visit and the leg are flown as soon as the
-      map holds that fraction of ``confidence`` within ``radius_m`` of a candidate, while the
-      map gathers the rest, so that they overlap the time the map takes to become sure
-      instead of following it; the declaration still waits for ``confidence`` and a check
-      passed by the candidate it is then sure of. An early test passes nothing unchecked (a
-      leg out of time ends and is not flown early again for that candidate; once the map is
-      sure, the leg has a clock of its own, as does a leg still under way then), and counts
-      no veto. The early leg and the fan serve a single source (``max_sources`` 1); with
-      several, neither is flown and the band keeps ``upflow_band_m``: on the two-source
-      mission they were not shown to help, and measured worse (runs with a false declaration:
-      11 of 600 on seeds 2026-2028 against 5 of the same 600 without; not understood).
-      Measured:
-      ``benchmarks/results/likelihood_map_tuning.md``, "The early leg and the fan";
-    - *veto*: a detection no declared source explains, made since the search for this source
-      began (within ``upflow_memory_s`` if set), lying more than ``upflow_veto_near_m`` (5 m;
-      ``None``: ``radius_m``, the earlier default) and at most three
-      times ``upflow_check_m`` up-flow of the candidate and within ``upflow_band_m`` of its
-      line, vetoes it (counted once per run of vetoed cycles): a source is not down-flow of
-      its own plume, and the map, having ruled that water out, had put such a detection down to
-      a false alarm. So does a *trace* there (``upflow_trace_fraction``, 0.25): a reading below
-      the threshold but above that fraction of it, and above three times the median reading of
-      the track's cycles without a detection (a noise floor: a noisy or offset sensor reads
-      above zero in clean water, and the trace veto then needs more). Up-flow of a source there
-      is no dye at all; a check leg that crossed the plume's fringe, or a filament too diluted
-      to reach the threshold, has seen plume that came from farther up-flow. Limits: a single
-      reading decides (each of the three study runs the trace veto was made for had exactly
-      one above the level in the band), so it cannot tell a spike from a trace, and the veto
-      lasts like a detection's (ending it after ``upflow_timeout_s`` lost two-source replicate
-      8 of seed 2024, whose old traces in the band of a turned flow had held a candidate 45 m
-      off back). The floor is a median over the cycles that speak of this source (those a
-      declared source explains, or made outside the OpArea, are left out), so *rare* spikes do
-      not raise it: with a sensor whose samples are at half the threshold 2% of the time
-      (MSN007 runs 0-19, root seed 2024, the spikes seen by the declaration alone), one run
-      of 20 never declared, its right candidate held back by one spike. A lagging sensor
-      (``alpha_per_s`` 0.2) carries a decaying tail of the plume past the source into the
-      band. Set ``upflow_trace_fraction: null``, or a finite ``upflow_memory_s``, for such
-      sensors.
-      ``trace_vetoes`` counts vetoes whose band held traces but no detection. No leg is
-      flown; the tree searches on, and crossings made before the latest vetoing detection no
-      longer count. A veto lasts while the map stays sure of that
-      candidate: with the default ``upflow_memory_s`` (none), a single false alarm in that band
-      holds a correct candidate back for the rest of this source's search (the simulator has
-      no false alarms; a sensor that has them wants a finite memory), and a reversed flow turns
-      the plume already seen into such detections (tidal water: set the memory shorter than
-      the tide's turn).
+    **The up-flow check** (``upflow_check_m``; None turns it off): a map can be sure of a point
+    short of the source, so the candidate must have had plume seen near it (else the vehicle
+    visits it), the track must have crossed its flow line up-flow of it (else a *check leg*),
+    and no plume may have been seen up-flow of it (a *veto*); the legs and visits are flown
+    early, as the map becomes sure. The rule, its readings and how each part was measured:
+    :mod:`cptbt.behaviours.upflow_check`'s docstring.
 
     The checks and vetoes are counted in ``declaration_report`` and the run's summary.
 

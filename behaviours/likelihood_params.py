@@ -68,7 +68,7 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     rule was fixed) 5 of 3000 lie beyond 15 m, none farther than 16.9 m (before: 10 of 4000,
     up to 33 m), at a T_D share of 24.3-24.6%; the price is about 0.2 m of median error (3.8 m
     against the up-flow cluster's 3.6 m on seed 2028). Both serve a single source: with
-    ``max_sources`` above 1 neither is flown (``LikelihoodMapDeclare``'s docstring).
+    ``max_sources`` above 1 neither is flown (behaviours/upflow_check.py's docstring).
     """
 
     detection_prob: float = Field(
@@ -148,14 +148,14 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     known_plume_max_prob: float | None = Field(
         default=0.2, gt=0, le=1, description="A candidate where a declared source's plume "
         "would give a detection in at least this share of cycles is held, not declared: there "
-        "the up-flow check cannot tell that plume from the candidate's (LikelihoodMapDeclare's "
+        "the up-flow check cannot tell that plume from the candidate's (SeveralSources' "
         "docstring; None: no hold)"
     )
     upflow_known_veto: bool = Field(
         default=False, description="A detection a declared source's plume explains still "
         "vetoes a candidate down-flow of it, as plume seen up-flow does: fewer false "
         "declarations near a known plume, more sources in its edge never declared (measured: "
-        "LikelihoodMapDeclare's docstring; False: only unexplained plume vetoes)"
+        "SeveralSources' docstring; False: only unexplained plume vetoes)"
     )
     upflow_check_m: float | None = Field(
         default=10.0, gt=0, description="The up-flow check's reach: declare only once the track "
@@ -168,14 +168,14 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
     upflow_window_m: float | None = Field(
         default=None, gt=0, description="A crossing counts for the up-flow check from "
         "upflow_check_m less arrive_radius_m up to this far up-flow of the candidate: an empty "
-        "crossing rules out only sources farther up-flow than it (LikelihoodMapDeclare's "
+        "crossing rules out only sources farther up-flow than it (upflow_check.py's "
         "docstring; None: upflow_check_m plus arrive_radius_m), m"
     )
     upflow_crossings: int | None = Field(
         default=None, ge=1, le=5, description="How many passes over the candidate's flow line, "
         "inside the crossing window and more than 15 s apart, the up-flow check asks for: a "
         "plume near its source is intermittent, and one empty pass can miss it (measured: "
-        "LikelihoodMapDeclare's docstring; None: 1 with max_sources 1, 2 with several)"
+        "upflow_check.py's docstring; None: 1 with max_sources 1, 2 with several)"
     )
     upflow_crossing_gap_s: float = Field(
         default=15.0, gt=0, description="Passes over the candidate's flow line less than this "
@@ -210,13 +210,13 @@ class LikelihoodMapParams(DeclareParams, MapModelParams):
         "fraction of the perception's threshold in the veto band (and above three times the "
         "median reading of the track's cycles without a detection: a noise floor) vetoes like "
         "a detection: up-flow of a source there is no dye at all. A sensor with rare spikes or "
-        "a slow filter wants None (LikelihoodMapDeclare's docstring; None: only detections veto)"
+        "a slow filter wants None (upflow_check.py's docstring; None: only detections veto)"
     )
     upflow_seen_near: bool = Field(
         default=True, description="A candidate needs plume seen within radius_m of it (since "
         "this source's search began) before the up-flow check's crossing is looked for; until "
         "then the vehicle visits it; a visit not done in upflow_timeout_s holds it back while "
-        "the tree searches on (LikelihoodMapDeclare's docstring)"
+        "the tree searches on (upflow_check.py's docstring)"
     )
     upflow_memory_s: float | None = Field(
         default=None, gt=0, description="Plume seen up-flow of a candidate vetoes it if seen "
@@ -330,7 +330,7 @@ def advise(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
         value = getattr(params, name)
         if several and value and value != LikelihoodMapParams.model_fields[name].default:
             out.append((name, "has no effect with max_sources above 1 (the early leg and the "
-                        "fan serve a single source: LikelihoodMapDeclare's docstring)"))
+                        "fan serve a single source: upflow_check.py's docstring)"))
     if params.search_give_up_s is not None and params.max_sources == 1:
         out.append(("search_give_up_s", "has no effect with max_sources 1 (it bounds the "
                     "search for a further source)"))

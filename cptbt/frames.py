@@ -360,3 +360,19 @@ def _polygon_area(poly: list[tuple[float, float]]) -> float:
         p[0] * q[1] - q[0] * p[1] for p, q in zip(poly, poly[1:] + poly[:1], strict=True)
     )
     return abs(twice) / 2.0
+
+
+def room(area: OpArea, at: Point, dx: float, dy: float, inset_m: float = 0.0) -> float:
+    """How far from ``at`` (inside the OpArea) along the unit direction (dx, dy) the wall is,
+    or the OpArea shrunk by ``inset_m`` (limited to half its width on each axis, as
+    :meth:`~cptbt.frames.OpArea.clamp`) if given."""
+    out = math.inf
+    ix = min(inset_m, 0.5 * (area.xmax - area.xmin))
+    iy = min(inset_m, 0.5 * (area.ymax - area.ymin))
+    for c, d, lo, hi in ((at.x, dx, area.xmin + ix, area.xmax - ix),
+                         (at.y, dy, area.ymin + iy, area.ymax - iy)):
+        if d > 1e-12:
+            out = min(out, (hi - c) / d)
+        elif d < -1e-12:
+            out = min(out, (lo - c) / d)
+    return max(out, 0.0)

@@ -290,8 +290,8 @@ def test_the_early_leg_and_the_fan_serve_a_single_source() -> None:
     assert two.upflow.target is None and two.declared is None
     said = dict(advise(LikelihoodMapParams(max_sources=2, upflow_fan_deg=25.0), AREA))
     assert "no effect with max_sources above 1" in said["upflow_fan_deg"]
-    # where to read why: the class by name (a reader has no "declaring class" to look up)
-    assert said["upflow_fan_deg"].endswith("serve a single source: LikelihoodMapDeclare's "
+    # where to read why: the module by name (a reader has no "declaring class" to look up)
+    assert said["upflow_fan_deg"].endswith("serve a single source: upflow_check.py's "
                                            "docstring)"), said["upflow_fan_deg"]
     assert "upflow_early_fraction" not in said  # left at its default: nothing to say
     # the defaults written out (as a swept configuration is built): nothing to say either

@@ -10,7 +10,8 @@ import math
 
 import pytest
 
-from cptbt.behaviours.upflow_check import UpflowCheck, room
+from cptbt.behaviours.upflow_check import UpflowCheck
+from cptbt.frames import room
 from cptbt.testing import ScriptedPerception, square_area
 from cptbt.types import Percept, Point
 
