@@ -146,7 +146,10 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
         ax.set_aspect("equal", adjustable="box" if aspect >= 0.75 else "datalim")
         ax.invert_yaxis()
         # the planning frame (x along the OpArea's long axis), whatever frame --starts took
-        ax.set_xlabel("start x (m), planning frame")
+        frame = geometry.ne_frame if geometry is not None else None
+        # with a compass, its bearing (a review's rotated box had none to read)
+        ax.set_xlabel("start x (m), planning frame" + (
+            f", compass bearing {frame.x_bearing_deg % 360:.1f}°" if frame is not None else ""))
         ax.set_ylabel("start y (m), planning frame, drawn down")
     # One bar for the panels' one scale: beside tall maps, under wide ones (never taller than
     # the map, its label never longer than the bar).

@@ -243,12 +243,13 @@ def test_rates_chart_survives_wilson_bounds_a_rounding_error_past_the_rate(
 
 
 def _map_figure(rows: list[dict[str, Any]], tmp_path: Path,
-                monkeypatch: pytest.MonkeyPatch) -> Any:
+                monkeypatch: pytest.MonkeyPatch, ne_frame: Any = None) -> Any:
     from matplotlib.figure import Figure
 
     seen: list[Figure] = []
     monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: seen.append(self))
-    write_report(rows, tmp_path, StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0))
+    write_report(rows, tmp_path, StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0,
+                                               ne_frame=ne_frame))
     (fig,) = [f for f in seen if f.axes and "start x" in f.axes[0].get_xlabel()]
     return fig.axes[0]
 
@@ -262,6 +263,17 @@ def test_scattered_starts_are_drawn_as_points_not_cells(tmp_path: Path,
     ax = _map_figure(rows, tmp_path, monkeypatch)
     kinds = {type(c) for c in ax.collections}
     assert PathCollection in kinds and QuadMesh not in kinds  # 3 of a 2 x 2 grid's starts
+
+def test_the_start_map_gives_the_compass_bearing_of_x(tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review's rotated box: the map's axes said "planning frame" and no bearing."""
+    from cptbt.frames import PlanningFrame
+
+    ax = _map_figure(grid_rows(1), tmp_path, monkeypatch, PlanningFrame(30.0))
+    assert ax.get_xlabel() == "start x (m), planning frame, compass bearing 30.0°"
+    ax = _map_figure(grid_rows(1), tmp_path, monkeypatch)  # a planning-frame mission
+    assert ax.get_xlabel() == "start x (m), planning frame"
+
 
 def test_config_label_names_each_setting_unambiguously() -> None:
     assert config_label({}, "msn") == "msn"
