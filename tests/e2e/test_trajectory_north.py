@@ -192,8 +192,11 @@ def test_a_long_title_is_wrapped_to_the_panel(tmp_path: Path,
     fig, _ = drawn(mission.model_copy(update={"time_limit_s": 5.0}), monkeypatch, tmp_path,
                    title=f"{title}\nsecond line", flow=False)
     assert fig.axes[0].get_title().replace("\n", " ") == f"{title} second line"
-    fig.canvas.draw()
-    box = fig.axes[0].title.get_window_extent()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()  # at the figure's own resolution
+    fig.draw(renderer)
+    box = fig.axes[0].title.get_window_extent(renderer)
     assert box.x0 >= 0 and box.x1 <= fig.bbox.x1, (box, fig.bbox)  # on the page
 
 
@@ -370,3 +373,19 @@ def test_a_graticule_label_keeps_off_the_arrows() -> None:
     _place_labels(fig, ax, [(label, [(50.0, 50.0), (80.0, 50.0)])])
     plt.close(fig)
     assert label.get_visible() and label.get_position() == (80.0, 50.0)
+
+
+def test_the_saved_figure_keeps_its_y_label_on_the_page(tmp_path: Path) -> None:
+    """A review's 300 x 120 m box with the current at 45°: the saved trajectory.png had its y
+    label cut at the page's left edge (the layout, settled in one pass at saving, had not
+    converged). The figure is made as `cptbt run` makes it and its left edge read: nothing
+    drawn there."""
+    from matplotlib.image import imread
+
+    from cptbt.cli import main
+
+    assert main(["run", str(ROOT / "tests/e2e/data/wide_oblique.yaml"), "--out",
+                 str(tmp_path), "--quiet"]) == 0
+    image = imread(str(tmp_path / "trajectory.png"))
+    edge = image[:, :3, :3]  # the first three columns, RGB
+    assert edge.min() > 0.95, "something is drawn at the page's left edge"
