@@ -141,7 +141,9 @@ def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
                     defaults = registry.get(family, str(value)).params().model_dump(mode="json")
                 except RegistryError:  # an unknown variant fails in configurations()
                     continue
-                other = [f"{k}={v} (its default {defaults[k]})" for k, v in given.items()
+                # the value flown first, the mission's beside it (a review read "it flies
+                # step_m=8.0 (its default 10.0)": the mission's 8.0 as the one flown)
+                other = [f"{k}={defaults[k]} (the mission's {v})" for k, v in given.items()
                          if k in defaults and defaults[k] != v]
                 absent = [f"{k}={v}" for k, v in given.items() if k not in defaults]
                 parts = ([f"flies {', '.join(other)}"] if other else []) + (

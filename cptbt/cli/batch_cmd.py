@@ -99,7 +99,10 @@ def add_parsers(sub: Any) -> None:
                    "seed) to DIR/logs (needs cptbt[logs]); cptbt log summary / replay read them")
     p.add_argument("--no-plots", action="store_true",
                    help="skip the figures (tables.md is still written)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress bar, summary or warnings; the notes on what a --sweep "
+                   "changes (values not flown, settings a variant does not take) are still "
+                   "printed: they say what the study compares")
     p.set_defaults(func=cmd_batch)
 
     p = sub.add_parser("plot", help="figures and tables of a study", description=cmd_plot.__doc__)

@@ -92,7 +92,7 @@ def test_a_variant_sweep_says_which_mission_settings_it_drops() -> None:
     mission = loads_mission(text, str(path), default_registry(), Environment)
     strategies = Sweep.parse("maintain_plume.variant+reacquire_plume.variant=strategy_1,strategy_3")
     (note,) = variant_sweep_notes(mission, [strategies])
-    assert "reacquire_plume.variant" in note and "give_up_s=7" in note
+    assert "reacquire_plume.variant" in note and "give_up_s=4.0 (the mission's 7.0)" in note
     assert [_give_up(c) for c in configurations(mission, [strategies], str(path))] == [7, 4]
     # The same setting swept beside it is kept, in either order: no note, and every
     # configuration flies with it.
@@ -123,6 +123,15 @@ def test_a_variant_sweep_names_the_settings_the_other_variant_has_no_parameter_f
     assert notes == ["sweep declare_source.variant: upflow_cluster flies with its own defaults, "
                      "not the mission's declare_source settings: it has no parameter for "
                      "max_sources=2, flyby=True"], notes
+    # a setting both variants have: the value flown is the variant's default, the mission's
+    # beside it (a review read the mission's value as the one flown)
+    text = OBLIQUE.read_text(encoding="utf-8").replace("{variant: cloverleaf, d_leaf_m: 15,",
+                                                       "{variant: cloverleaf, d_leaf_m: 15, "
+                                                       "arrive_radius_m: 4,")
+    assert "arrive_radius_m: 4" in text
+    mission = loads_mission(text, str(OBLIQUE), default_registry(), Environment)
+    (note,) = variant_sweep_notes(mission, [Sweep.parse("reacquire_plume.variant=three_point")])
+    assert "it flies arrive_radius_m=" in note and "(the mission's 4.0)" in note, note
 
 
 OBLIQUE = Path(__file__).resolve().parents[2] / "missions/oblique_flow.yaml"
