@@ -60,7 +60,7 @@ def maintain_table(groups: dict[str, Rows]) -> list[str]:
 
 
 def _coords(label: str) -> dict[str, str]:
-    """``k=v, k=v`` (the configuration label of :func:`cptbt.batch.report.config_label`)."""
+    """``k=v, k=v`` (the configuration label of :func:`cptbt.batch.study.config_label`)."""
     out = {}
     for part in label.split(", "):
         key, sep, value = part.partition("=")

@@ -157,6 +157,35 @@ def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
     return notes
 
 
+def config_label(coords: dict[str, Any], mission: str) -> str:
+    """The name of a configuration in tables and legends: its sweep values, else the mission.
+
+    A row's ``configuration`` column, so it lives with the code whose source is the study's
+    identity (:mod:`cptbt.batch.report`, presentation only, is not).
+
+    Each swept setting is named by its last key (``speed_mps=1``), a variant by its family
+    (``reacquire_plume=three_point``: "variant=three_point" left a reader to guess whose); where
+    two sweeps share a name (``maintain_plume.speed_mps`` and ``find_plume.speed_mps``) both
+    keep their full path, so no label can be read two ways.
+    """
+    if not coords:
+        return mission
+    short = {path: _last_keys(path) for path in coords}
+    clash = {name for name in short.values() if list(short.values()).count(name) > 1}
+    return ", ".join(f"{path if short[path] in clash else short[path]}={value}"
+                     for path, value in coords.items())
+
+
+def _last_keys(path: str) -> str:
+    """``a.b`` -> ``b``; a behaviour's variant ``a.variant`` -> ``a``; a joint sweep
+    ``a.variant+b.variant`` -> ``a+b``."""
+    def name(part: str) -> str:
+        keys = part.split(".")
+        return keys[-2] if keys[-1] == "variant" and len(keys) > 1 else keys[-1]
+
+    return "+".join(dict.fromkeys(name(part) for part in path.split("+")))
+
+
 @dataclass(frozen=True)
 class Config:
     """One point of the sweep: its coordinates and the mission (as validated YAML text)."""

@@ -17,7 +17,6 @@ from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.integrity import code_identity
 from cptbt.batch.outcome import ERROR_OUTCOME
-from cptbt.batch.report import config_label
 from cptbt.batch.scenario import (
     Environment,
     launch_pose,
@@ -25,7 +24,7 @@ from cptbt.batch.scenario import (
     to_sim_params,
     true_sources,
 )
-from cptbt.batch.study import GroupTask, group_seeds
+from cptbt.batch.study import GroupTask, config_label, group_seeds
 from cptbt.batch.summary import summarise
 from cptbt.loader import loads_mission
 from cptbt.mission import MissionBase

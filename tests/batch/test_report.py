@@ -10,7 +10,8 @@ from typing import Any
 
 import pytest
 
-from cptbt.batch.report import StudyGeometry, compared, config_label, wilson, write_report
+from cptbt.batch.report import StudyGeometry, compared, wilson, write_report
+from cptbt.batch.study import config_label
 
 BASE: dict[str, Any] = {
     "config": 0, "replicate": 0, "mission": "m", "start_y": 0.0, "error_m": None, "T_F": None,
