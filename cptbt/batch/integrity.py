@@ -14,8 +14,12 @@ import functools
 import hashlib
 import importlib.util
 import json
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from cptbt.mission import MissionBase
 
 # The packages whose source shapes a run's rows, and the modules among them that only present
 # the results (changing a figure's label must not force a study to start over).
@@ -69,23 +73,39 @@ RESULT_DEPENDENCIES = ("numpy", "py_trees")
 stable across its releases (NEP 19), and py_trees ticks every behaviour."""
 
 
-def plugin_sources() -> list[Path]:
-    """The source files of every behaviour registered from outside cptbt (plug-ins).
+def plugin_packages(used: Iterable[tuple[str, str]] | None = None) -> frozenset[str]:
+    """The top-level packages of the behaviours registered from outside cptbt (plug-ins):
+    those of the (family, variant) pairs ``used``, or of every one registered."""
+    from cptbt.registry import default_registry
+
+    registry = default_registry()
+    wanted = None if used is None else set(used)
+    tops = set()
+    for spec in registry.specs():
+        if wanted is not None and (spec.family, spec.variant) not in wanted:
+            continue
+        for obj in (*spec.behaviour_classes, spec.build):
+            top = (getattr(obj, "__module__", None) or "").split(".")[0]
+            if top and top != "cptbt":
+                tops.add(top)
+    return frozenset(tops)
+
+
+def used_behaviours(missions: Iterable[MissionBase]) -> frozenset[tuple[str, str]]:
+    """The (family, variant) pairs the missions fly."""
+    return frozenset((e.family, e.variant) for m in missions for e in m.entries())
+
+
+def plugin_sources(tops: frozenset[str] | None = None) -> list[Path]:
+    """The source files of the plug-in packages ``tops`` (default: every plug-in's).
 
     A plug-in's whole top-level package is taken (its behaviours may use its other modules).
     """
     import inspect
     import sys
 
-    from cptbt.registry import default_registry
-
-    tops = set()
-    for spec in default_registry().specs():
-        for obj in (*spec.behaviour_classes, spec.build):
-            top = (getattr(obj, "__module__", None) or "").split(".")[0]
-            if top and top != "cptbt":
-                tops.add(top)
     files: list[Path] = []
+    tops = plugin_packages() if tops is None else tops
     for top in sorted(tops):
         module = sys.modules.get(top)
         try:
@@ -100,8 +120,9 @@ def plugin_sources() -> list[Path]:
 
 
 @functools.cache
-def environment_hash() -> str:
-    """SHA-256 of what besides cptbt's source shapes a row: plug-in sources, library versions."""
+def environment_hash(tops: frozenset[str] | None = None) -> str:
+    """SHA-256 of what besides cptbt's source shapes a row: the sources of the plug-in
+    packages ``tops`` (default: every installed one), library versions."""
     from importlib.metadata import PackageNotFoundError, version
 
     h = hashlib.sha256()
@@ -110,14 +131,17 @@ def environment_hash() -> str:
             h.update(f"{name}=={version(name.replace('_', '-'))}\0".encode())
         except PackageNotFoundError:
             h.update(f"{name}==?\0".encode())
-    for path in plugin_sources():
+    for path in plugin_sources(tops):
         h.update(path.name.encode("utf-8") + b"\0" + path.read_bytes() + b"\0")
     return h.hexdigest()
 
 
-def code_identity() -> str:
+def code_identity(used: Iterable[tuple[str, str]] | None = None) -> str:
     """``<version>+src.<hash>``: the package version and a hash of its source (see above),
-    of the plug-ins' sources and of the versions of :data:`RESULT_DEPENDENCIES`.
+    of the plug-ins' sources and of the versions of :data:`RESULT_DEPENDENCIES`. With
+    ``used`` (the (family, variant) pairs a study flies: :func:`used_behaviours`), only the
+    plug-ins among them count: a review's unrelated plug-in, edited, had stopped every study
+    from resuming (and one without plug-ins gets the identity it always had).
 
     Under the ``fast`` simulator-kernel tier (``CPTBT_KERNELS=fast``), whose concentrations
     differ from numpy's in the last bits, ``+kernels.fast`` is appended: its rows are another
@@ -127,12 +151,13 @@ def code_identity() -> str:
     from cptbt.sim import kernels
 
     tier = "+kernels.fast" if kernels.tier() == "fast" else ""
-    return f"{__version__}+src.{_source_hash_cached()[:16]}{tier}"
+    tops = None if used is None else plugin_packages(used)
+    return f"{__version__}+src.{_source_hash_cached(tops)[:16]}{tier}"
 
 
 @functools.cache
-def _source_hash_cached() -> str:
-    return hashlib.sha256(f"{source_hash()}+{environment_hash()}".encode()).hexdigest()
+def _source_hash_cached(tops: frozenset[str] | None = None) -> str:
+    return hashlib.sha256(f"{source_hash()}+{environment_hash(tops)}".encode()).hexdigest()
 
 
 def fingerprint(study_identity: str, code: str) -> str:

@@ -269,7 +269,9 @@ class ResultStore:
             if old and old.get("code") != code and not restart:
                 if old.get("code"):
                     raise CodeChanged(
-                        f"{self.folder} was made by cptbt {old['code']}, this is {code}")
+                        f"{self.folder} was made by cptbt {old['code']}, this is {code} (the "
+                        "code identity covers cptbt's source, the source of the behaviour "
+                        "plug-ins the study flies, and numpy's and py_trees' versions)")
                 raise CodeChanged(f"{self.folder} was made by an older cptbt "
                                   f"({old.get('code_version', 'version unknown')})")
         if restart:

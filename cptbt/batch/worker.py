@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.errors import BatchError
-from cptbt.batch.integrity import code_identity
+from cptbt.batch.integrity import code_identity, used_behaviours
 from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.scenario import (
     Environment,
@@ -112,6 +112,17 @@ def flatten(summary: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
+def _flown(task: GroupTask) -> frozenset[tuple[str, str]] | None:
+    """The (family, variant) pairs a group's mission flies (None: its mission does not load,
+    which its flight reports)."""
+    try:
+        mission = loads_mission(task.mission_yaml, f"group {task.key}", default_registry(),
+                                Environment)
+    except Exception:
+        return None
+    return used_behaviours([mission])
+
+
 def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None
               ) -> tuple[MissionBase, list[VehicleRun], Point, float]:
     """Fly every start of one group in one shared world (its replicate's plume).
@@ -179,8 +190,9 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
         BatchError: this process runs other code than the study was planned with (a Dask
             worker with another cptbt installed).
     """
-    if task.code and task.code != code_identity():
-        raise BatchError(f"a worker runs cptbt {code_identity()} but the study needs "
+    here = code_identity(_flown(task)) if task.code else ""
+    if task.code and task.code != here:
+        raise BatchError(f"a worker runs cptbt {here} but the study needs "
                          f"{task.code}: install the same cptbt on every worker")
     try:
         mission, runs, source, wall = fly_group(task)

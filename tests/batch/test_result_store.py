@@ -282,10 +282,35 @@ def test_a_plugins_source_and_numpys_version_are_part_of_the_code(
     assert integrity.environment_hash.__wrapped__() != before  # the plug-in changed
     (package / "rules.py").write_text("def build(params, namespace):\n    return None\n")
     assert integrity.environment_hash.__wrapped__() == before
+    # a study counts only the plug-ins it flies: a review's edit to an unrelated plug-in had
+    # stopped every study from resuming
+    uses = frozenset({("find_plume", "test_plugin")})
+    assert integrity.plugin_packages(uses) == {"cptbt_test_plugin_pkg"}
+    assert integrity.plugin_packages({("find_plume", "billiard")}) == frozenset()
+    own = integrity.environment_hash.__wrapped__(integrity.plugin_packages(uses))
+    other = integrity.environment_hash.__wrapped__(frozenset())
+    (package / "rules.py").write_text("def build(params, namespace):\n    return 2\n")
+    assert integrity.environment_hash.__wrapped__(integrity.plugin_packages(uses)) != own
+    assert integrity.environment_hash.__wrapped__(frozenset()) == other
+    (package / "rules.py").write_text("def build(params, namespace):\n    return None\n")
     monkeypatch.setattr(integrity, "RESULT_DEPENDENCIES", ("numpy", "py_trees", "pytest"))
     assert integrity.environment_hash.__wrapped__() != before  # another library's version
     sys.modules.pop("cptbt_test_plugin_pkg", None)
     sys.modules.pop("cptbt_test_plugin_pkg.rules", None)
+
+
+def test_a_study_without_plug_ins_keeps_the_identity_it_had() -> None:
+    """Scoping the identity to the plug-ins a study flies changes nothing without plug-ins:
+    studies made before still resume."""
+    from cptbt.batch.integrity import used_behaviours
+    from cptbt.loader import load_mission
+    from cptbt.registry import default_registry
+
+    mission = load_mission(Path(__file__).resolve().parents[2] / "missions/tro2006_msn007.yaml",
+                           default_registry())
+    used = used_behaviours([mission])
+    assert ("declare_source", "upflow_cluster") in used
+    assert code_identity(used) == code_identity()  # no plug-in installed in the test run
 
 
 def test_worker_running_other_code_refuses_the_group() -> None:
