@@ -102,6 +102,11 @@ class MissionContext:
     threshold: float | None = None
 
 
+WAIT_FOR_FIELD = frozenset({"find_plume"})
+"""Families with no output until the vehicle has reached the field (``field_reached``): move-to-
+field, below find-plume in priority, drives first (TRO III)."""
+
+
 class PlanBehaviour(py_trees.behaviour.Behaviour):
     """A leaf of the arbitration tree: percept in, command or nothing out.
 
@@ -114,6 +119,8 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         variant: its name within the family (``billiard``, ``track_in_out``, ...).
         Params: its frozen parameter model.
         ends_move_to_field: once this behaviour has had an output, move-to-field stops for good.
+            A find-plume variant has no output until then (:data:`WAIT_FOR_FIELD`; the base
+            class holds it, so a variant's ``decide`` need not know).
         persistent_state: (optional) attribute names kept on purpose across pre-emption (a
             reacquire pattern's progress, a sign that belongs to a detection); every other
             per-activation attribute must be reset in :meth:`initialise`, which
@@ -183,6 +190,11 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         """Tick: RUNNING with the command written to the blackboard, or FAILURE."""
         assert self.context is not None and self.context.percept is not None, "call setup()"
         self.activity = None
+        if self.family in WAIT_FOR_FIELD and not self.bb.field_reached:
+            # find-plume waits while move-to-field, below it, drives to the start point (TRO
+            # III): held here for every variant (a review's plug-in, not told, drove at once)
+            self.last_command = None
+            return Status.FAILURE
         cmd = self.decide(self.context.percept)
         self.last_command = cmd
         if cmd is None:

@@ -151,8 +151,8 @@ def test_the_class_data_message_names_the_tick_and_gives_its_advice_first() -> N
     from cptbt.node import PlanBehaviour
     from cptbt.types import Command, Percept
 
-    class LongHistory(PlanBehaviour):
-        family: ClassVar[str] = "find_plume"
+    class LongHistory(PlanBehaviour):  # not a find-plume, which waits for the field
+        family: ClassVar[str] = "reacquire_plume"
         variant: ClassVar[str] = "long_history"
         seen: ClassVar[list[float]] = [0.0] * 5000
 
@@ -164,7 +164,8 @@ def test_the_class_data_message_names_the_tick_and_gives_its_advice_first() -> N
     with pytest.raises(AssertionError) as err:
         check_behaviour(LongHistory)
     text = str(err.value).splitlines()[0]
-    assert text.startswith("find_plume.long_history tick 6 (t=3.0): a leaf changed its class's "
+    assert text.startswith("reacquire_plume.long_history tick 6 (t=3.0): a leaf changed its "
+                           "class's "
                            "data: class-level state is shared by every instance"), text
     assert ("LongHistory.seen changed (was 5000 items, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ...], "
             "now 5001 items, [0.0, " in text), text
@@ -190,3 +191,29 @@ def test_the_check_fails_a_behaviour_that_writes_undeclared_blackboard_keys() ->
 
     with pytest.raises(AssertionError, match=r"no client declared for writing \(/test\d+/hint\)"):
         check_behaviour(Sneaky)
+
+
+def test_a_find_plume_variant_waits_for_the_field_without_knowing_it() -> None:
+    """A review's plug-in lawnmower ignored ``field_reached`` (told only in go_to.py's
+    docstring) and drove at once, so move-to-field never flew to the start: the base class
+    holds every find-plume variant until the field is reached."""
+    from typing import ClassVar
+
+    from cptbt.node import PlanBehaviour
+    from cptbt.testing import ScriptedPerception, TreeHarness, fresh_namespace, square_area
+    from cptbt.types import Command, Percept
+
+    class Lawnmower(PlanBehaviour):
+        family: ClassVar[str] = "find_plume"
+        variant: ClassVar[str] = "lawnmower_test"
+
+        def decide(self, p: Percept) -> Command | None:
+            return self.command(90.0)
+
+    harness = TreeHarness(Lawnmower(namespace=fresh_namespace()), field_reached=False)
+    script = ScriptedPerception(square_area(100.0), flow=(0.1, 0.0))
+    before = harness.tick(script.step(0.0, 10.0, 0.0, 0.0, 0.0))
+    assert before.command is None and before.active is None
+    harness.set("field_reached", True)
+    after = harness.tick(script.step(1.0, 10.0, 0.0, 0.0, 0.0))
+    assert after.command is not None and after.command.heading_deg == 90.0
