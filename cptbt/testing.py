@@ -97,6 +97,16 @@ class ScriptedPerception:
         self.perception = Perception(op_area or square_area(), settings)
         self.flow = flow
 
+    def context(self, home: tuple[float, float] = (0.0, 0.0),
+                start: tuple[float, float] | None = None, speed_mps: float = 1.0,
+                threshold: float | None = None) -> MissionContext:
+        """A mission context on this script's OpArea (:func:`make_context`): the node under
+        test must see the OpArea its percepts were made in (a review's script on a 200-m
+        square and a node on the default 100-m one steered differently, and nothing said so)."""
+        return make_context(self.perception.op_area, home, start, speed_mps,
+                            threshold if threshold is not None
+                            else self.perception.settings.threshold)
+
     def step(
         self,
         t: float,

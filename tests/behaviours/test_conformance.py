@@ -217,3 +217,14 @@ def test_a_find_plume_variant_waits_for_the_field_without_knowing_it() -> None:
     harness.set("field_reached", True)
     after = harness.tick(script.step(1.0, 10.0, 0.0, 0.0, 0.0))
     assert after.command is not None and after.command.heading_deg == 90.0
+
+
+def test_a_scripts_context_is_on_the_scripts_oparea() -> None:
+    """A review's script on a 200-m square and node on the default 100-m context steered
+    differently, and nothing said so: the script gives the context that matches it."""
+    from cptbt.testing import ScriptedPerception, square_area
+
+    script = ScriptedPerception(square_area(200.0), threshold=0.3)
+    context = script.context(home=(5.0, 0.0))
+    assert context.op_area == square_area(200.0) != square_area()
+    assert context.threshold == 0.3 and context.home.x == 5.0
