@@ -111,7 +111,13 @@ class Registry:
 
         Raises:
             DuplicateBehaviourError: the (family, variant) is taken.
+            RegistryError: the item is neither a :class:`BehaviourSpec` nor a
+                :class:`~cptbt.node.PlanBehaviour` subclass.
         """
+        if not isinstance(item, BehaviourSpec) and not (
+                isinstance(item, type) and issubclass(item, PlanBehaviour)):
+            raise RegistryError(f"{item!r} is neither a PlanBehaviour subclass nor a "
+                                "BehaviourSpec")
         spec = item if isinstance(item, BehaviourSpec) else BehaviourSpec.of(item)
         if not spec.family or not spec.variant:
             raise RegistryError(f"{spec!r} has no family or variant name")
@@ -198,6 +204,7 @@ _DEFAULT: Registry | None = None
 def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
     """A new registry holding every variant declared in the entry-point group."""
     registry = Registry()
+    origin: dict[tuple[str, str], str] = {}
     for ep in sorted(entry_points(group=group), key=lambda e: e.name):
         try:
             items = ep.load()
@@ -205,8 +212,22 @@ def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
             raise RegistryError(
                 f"cannot load behaviours from entry point {ep.value}: {exc}"
             ) from exc
-        registry.register_all(items)
+        try:  # a review's bad item and reused name read as an internal error, or no source
+            for item in items:
+                spec = registry.register(item)
+                origin[(spec.family, spec.variant)] = ep.value
+        except DuplicateBehaviourError as exc:
+            first = origin.get(_key_of(item))
+            raise RegistryError(f"entry point {ep.value}: {exc}"
+                                + (f" (first by entry point {first})" if first else "")) from exc
+        except (RegistryError, TypeError) as exc:
+            raise RegistryError(f"entry point {ep.value}: {exc}") from exc
     return registry
+
+
+def _key_of(item: object) -> tuple[str, str]:
+    """The (family, variant) an item registers under (empty names if it has none)."""
+    return (str(getattr(item, "family", "")), str(getattr(item, "variant", "")))
 
 
 def default_registry() -> Registry:
