@@ -28,8 +28,8 @@ from cptbt.cli.output import (
     time_share,
     times_line,
 )
-from cptbt.loader import dump_mission, loads_mission
-from cptbt.mission import MissionBase
+from cptbt.loader import MissionError, dump_mission, loads_mission
+from cptbt.mission import MissionBase, dotted
 from cptbt.registry import default_registry
 from cptbt.types import Point
 
@@ -398,8 +398,15 @@ def refly(args: argparse.Namespace) -> int:
         start_mode=str(row.get("start_mode") or meta.get("start_mode", "place")),
         start_ids=(int(row["start"]),),
     )
-    mission = loads_mission(mission_yaml, f"{folder}/study.json", default_registry(),
-                            Environment)
+    try:
+        mission = loads_mission(mission_yaml, f"{folder}/study.json", default_registry(),
+                                Environment)
+    except MissionError as exc:  # the stored mission's lines are no lines of study.json
+        said = "; ".join(f"{dotted(loc)}: {msg}" for loc, msg in exc.located or []) or str(exc)
+        plug = (" (a behaviour the study flew is not installed here: install the plug-in it "
+                "came from)" if "unknown variant" in said or "unknown behaviour" in said else "")
+        raise BatchError(f"{folder}/study.json, configuration {task.config}: its mission no "
+                         f"longer loads{plug}: {said}") from None
     grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
     mission, (run,), source, wall = fly_group(task, trace=True, plume_grid=grid)
     summary = summarise(run, mission, source, task.root_seed, wall,

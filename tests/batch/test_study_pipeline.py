@@ -138,6 +138,27 @@ def test_a_row_flown_with_another_seed_is_reported_different(study: Path, tmp_pa
     assert res.returncode == 1 and "DIFFERENT" in res.stdout
 
 
+def test_a_row_whose_behaviour_is_not_installed_says_so_without_a_false_line(
+        study: Path, tmp_path: Path) -> None:
+    """A review's plug-in, uninstalled: the error pointed at "study.json:30", a line of the
+    stored mission and not of the file, and did not say a plug-in was missing."""
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for name in ("results.parquet", "study.json"):
+        (copy / name).write_bytes((study / name).read_bytes())
+    meta = json.loads((copy / "study.json").read_text())
+    meta["config_missions"] = [m.replace("variant: cloverleaf", "variant: square_spiral")
+                               for m in meta["config_missions"]]
+    assert "square_spiral" in meta["config_missions"][0]
+    (copy / "study.json").write_text(json.dumps(meta))
+    res = cptbt("run", "--from", str(copy), "--row", "0", "--no-figure")
+    (line,) = res.stderr.strip().splitlines()
+    assert res.returncode != 0 and "study.json:" not in line, line
+    assert f"{copy}/study.json, configuration 0: its mission no longer loads (a behaviour the " \
+           "study flew is not installed here" in line, line
+    assert "unknown variant 'square_spiral'" in line, line
+
+
 def test_row_out_of_range_is_one_line(study: Path) -> None:
     res = cptbt("run", "--from", str(study), "--row", "99")
     assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
