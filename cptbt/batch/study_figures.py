@@ -7,6 +7,7 @@ Only presentation: these change no row, so they are outside the code identity
 
 from __future__ import annotations
 
+import math
 import textwrap
 from collections import defaultdict
 from pathlib import Path
@@ -58,6 +59,8 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
     it), with the OpArea, the true source and the mean flow; contours are added on grids of at
     least 10 × 10 starts. As in AB, a search that fails counts with the time it ran.
     """
+    if not _any_time(groups):
+        return None
     first = next(iter(groups.values()))
     xs_all = sorted({float(r["start_x"]) for r in first})
     ys_all = sorted({float(r["start_y"]) for r in first})
@@ -163,8 +166,15 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
     return path
 
 
+def _any_time(groups: dict[str, Rows]) -> bool:
+    """Whether any run has a search time to draw (a run stopped on an error has none)."""
+    return any(math.isfinite(_search_time(r)) for rows in groups.values() for r in rows)
+
+
 def _line(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
     """Mean time to source against the start's x (AB Fig. 10), ± one standard error."""
+    if not _any_time(groups):
+        return None  # every run stopped on an error: empty axes said nothing (a review)
     first = next(iter(groups.values()))
     xs_all = {float(r["start_x"]) for r in first}
     ys_all = {float(r["start_y"]) for r in first}

@@ -452,3 +452,20 @@ def test_the_study_figures_say_what_each_panel_and_bar_is(tmp_path: Path,
             {**r, "maintain_plume.beta1_deg": float(beta), "environment.preset": "x"})
     assert maintain_figure(groups, tmp_path / "m.png", pyplot()) is not None
     assert seen[-1].axes[0].get_xlabel() == "maintain_plume.beta1_deg"
+
+
+def test_no_time_figure_when_every_run_stopped_on_an_error(tmp_path: Path) -> None:
+    """A review's study of a plug-in that raised: time_vs_start.png had empty axes from -0.04
+    to 0.04. The tables say what happened; the figures with nothing to draw are not made."""
+    pytest.importorskip("matplotlib")
+    from cptbt.batch.outcome import ERROR_OUTCOME
+
+    rows = [{**r, "outcome": ERROR_OUTCOME, "success": False, "sim_time_s": None, "t3": None}
+            for r in line_rows()]
+    written = {p.name for p in write_report(rows, tmp_path)}
+    assert "time_vs_start.png" not in written and "tables.md" in written
+    grid = [{**r, "outcome": ERROR_OUTCOME, "success": False, "sim_time_s": None, "t3": None}
+            for r in grid_rows(1)]
+    assert "time_to_source_map.png" not in {p.name for p in write_report(grid, tmp_path / "g")}
+    # one run with a time: drawn
+    assert "time_vs_start.png" in {p.name for p in write_report(line_rows(), tmp_path / "l")}
