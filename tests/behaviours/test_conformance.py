@@ -228,3 +228,34 @@ def test_a_scripts_context_is_on_the_scripts_oparea() -> None:
     context = script.context(home=(5.0, 0.0))
     assert context.op_area == square_area(200.0) != square_area()
     assert context.threshold == 0.3 and context.home.x == 5.0
+
+
+def test_state_not_reset_names_only_what_differs_shortened() -> None:
+    """The reset rule had no test, and its message printed every attribute (a review's, 645
+    characters for a 10-point tuple): it names the attributes that differ, shortened."""
+    from typing import ClassVar
+
+    from cptbt.node import PlanBehaviour
+    from cptbt.types import Command, Percept
+
+    class Forgets(PlanBehaviour):
+        family: ClassVar[str] = "reacquire_plume"
+        variant: ClassVar[str] = "forgets"
+
+        def initialise(self) -> None:
+            self.steady = 1.0
+            if not hasattr(self, "trail"):  # set once, never reset: the bug
+                self.trail: tuple[float, ...] = ()
+
+        def decide(self, p: Percept) -> Command | None:
+            self.trail = (*self.trail, p.t)[-10:]
+            return self.command(0.0)
+
+    with pytest.raises(AssertionError) as err:
+        check_behaviour(Forgets)
+    text = str(err.value)
+    assert text.startswith("reacquire_plume.forgets: state not reset after pre-emption (reset "
+                           "it in initialise(), or name it in persistent_state if it is kept "
+                           "on purpose): trail 10 items, (")
+    assert "after a run, () fresh" in text and "steady" not in text, text
+    assert len(text) < 300, text
