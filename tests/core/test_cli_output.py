@@ -24,8 +24,10 @@ def test_fresh_folder_never_reuses_one(tmp_path: Path) -> None:
 
 
 def test_time_share_leaves_out_only_an_empty_none() -> None:
-    assert time_share({"a.b": 0.5, "none": 0.001}) == "a.b 50%"
-    assert time_share({"a.b": 0.9, "none": 0.1}) == "a.b 90%, none 10%"
+    assert time_share({"a.b": 0.5, "none": 0.0}) == "a.b 50%"
+    assert time_share({"a.b": 0.5, "none": 0.001, "c.d": 0.004}) == \
+        "a.b 50%, no output <1%, c.d <1%"
+    assert time_share({"a.b": 0.9, "none": 0.1}) == "a.b 90%, no output 10%"
     assert fmt(None) == fmt(math.nan) == "—" and fmt(3.14159, " m") == "3.1 m"
 
 
