@@ -242,13 +242,24 @@ def _param_rows(model: type[BaseModel]) -> list[dict[str, Any]]:
     return rows
 
 
+def _package_of(spec: Any) -> str:
+    """The top-level package a registered variant comes from (``cptbt`` for the built-in)."""
+    for obj in (*spec.behaviour_classes, spec.build):
+        top = (getattr(obj, "__module__", None) or "").split(".")[0]
+        if top:
+            return top
+    return "cptbt"
+
+
 def cmd_behaviours(args: argparse.Namespace) -> int:
     """List every behaviour family, its variants (default first) and their parameters."""
     registry = default_registry()
     if args.json:
         out = [
             {"family": s.family, "variant": s.variant, "default": s.default,
-             "summary": s.summary, "params": _param_rows(s.params)}
+             "summary": s.summary, "params": _param_rows(s.params),
+             "pairs_with": [list(p) for p in s.contract.pairs_with],
+             "package": _package_of(s)}
             for s in registry.specs()
         ]
         print(json.dumps(out, indent=2, default=str))
@@ -262,6 +273,13 @@ def cmd_behaviours(args: argparse.Namespace) -> int:
             mark = " (default)" if spec.default else ""
             print(textwrap.fill(f"{spec.variant}{mark}: {plain(spec.summary)}", 100,
                                 initial_indent="  ", subsequent_indent="      "))
+            # what validate would refuse, and whose it is (a review learnt both late)
+            notes = [f"with {f} {v} only" for f, v in spec.contract.pairs_with]
+            package = _package_of(spec)
+            if package != "cptbt":
+                notes.append(f"from the plug-in package {package}")
+            if notes:
+                print(f"      ({'; '.join(notes)})")
             for row in _param_rows(spec.params):
                 print(textwrap.fill(f"{row['name']} = {row['default']!r}  "
                                     f"{plain(row['description'])}", 100,

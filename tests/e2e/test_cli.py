@@ -142,8 +142,13 @@ def test_behaviours_lists_parameters_with_defaults() -> None:
     # plain text for a terminal: no docstring markup, lines wrapped (a review)
     assert "``" not in res.stdout and "(psi_u)" in res.stdout
     assert max(len(line) for line in res.stdout.splitlines()) <= 100
+    # a pairing validate enforces is said where the variant is listed (a review learnt it late)
+    assert "  map_guided: " in res.stdout
+    after = res.stdout.split("  map_guided: ", 1)[1].splitlines()
+    assert "      (with declare_source likelihood_map only)" in after[:3], after[:3]
     listing = json.loads(cptbt("behaviours", "--json").stdout)
-    assert {"family", "variant", "params"} <= listing[0].keys()
+    assert {"family", "variant", "params", "pairs_with", "package"} <= listing[0].keys()
+    assert {e["package"] for e in listing} == {"cptbt"}
 
 
 def test_schema_is_json_schema_naming_every_family() -> None:
