@@ -379,7 +379,8 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
     lines += ["", "## Evaluation protocol", "",
               "Times to source over the successful runs (a failure counts in P(fail) only); "
               "path efficiency = straight line from the start to the true source / true path "
-              "flown to success; D0/D3 (TRO) over declarations.", "",
+              "flown to success; D0/D3 (TRO) the mean of each declaration's ratio (not the "
+              "ratio of the means).", "",
               *protocol_table(groups)]
     for label, rows in groups.items():
         declared = [r for r in rows if r.get("t3") is not None]
