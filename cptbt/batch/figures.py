@@ -39,10 +39,12 @@ BEHAVIOUR_COLOURS = {
 
 PHASE_STYLES = {
     "mission_a": ("#555555", "--", "Mission A (vehicle)"),
+    # resumed after the AMP: lighter, so the two halves read apart (a review)
+    "mission_a.resumed": ("#9a9a9a", "--", "Mission A resumed (vehicle)"),
     "return_to_break_off": ("#8c564b", ":", "return to break-off"),
     "amp.give_back": ("#8c564b", ":", "return to break-off"),
     "pre_launch": ("#555555", "--", "Mission A (vehicle)"),
-    "post_mission": ("#555555", "--", "Mission A (vehicle)"),
+    "post_mission": ("#9a9a9a", "--", "Mission A resumed (vehicle)"),
 }
 """How the phases outside the AMP override are drawn (trace column ``phase``)."""
 

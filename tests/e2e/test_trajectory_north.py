@@ -389,3 +389,14 @@ def test_the_saved_figure_keeps_its_y_label_on_the_page(tmp_path: Path) -> None:
     image = imread(str(tmp_path / "trajectory.png"))
     edge = image[:, :3, :3]  # the first three columns, RGB
     assert edge.min() > 0.95, "something is drawn at the page's left edge"
+
+
+def test_mission_a_before_and_after_the_amp_are_drawn_apart() -> None:
+    """A review: Mission A before and after the AMP shared one style and one legend entry."""
+    from cptbt.batch.figures import _phase_style
+
+    before, after = _phase_style("mission_a.waypoints"), _phase_style("mission_a.resumed")
+    assert before is not None and after is not None and before != after
+    assert before[2] == "Mission A (vehicle)" and after[2] == "Mission A resumed (vehicle)"
+    assert _phase_style("post_mission") == after  # the vehicle's own mission, finished
+    assert _phase_style("amp.override") is None   # the AMP's part: coloured by behaviour
