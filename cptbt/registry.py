@@ -181,6 +181,15 @@ class Registry:
         return len(self._specs)
 
 
+def package_of(spec: BehaviourSpec) -> str:
+    """The top-level package a registered variant comes from (``cptbt`` for the built-in)."""
+    for obj in (*spec.behaviour_classes, spec.build):
+        top = (getattr(obj, "__module__", None) or "").split(".")[0]
+        if top and top != "cptbt":
+            return top
+    return "cptbt"
+
+
 def misspelt_slot(family: str) -> str | None:
     """The TRO slot a plug-in family's name is one slip from (``reaquire_plume``:
     ``reacquire_plume``), or None: a new family is allowed, but a misspelt slot is not what its

@@ -76,19 +76,11 @@ stable across its releases (NEP 19), and py_trees ticks every behaviour."""
 def plugin_packages(used: Iterable[tuple[str, str]] | None = None) -> frozenset[str]:
     """The top-level packages of the behaviours registered from outside cptbt (plug-ins):
     those of the (family, variant) pairs ``used``, or of every one registered."""
-    from cptbt.registry import default_registry
+    from cptbt.registry import default_registry, package_of
 
-    registry = default_registry()
     wanted = None if used is None else set(used)
-    tops = set()
-    for spec in registry.specs():
-        if wanted is not None and (spec.family, spec.variant) not in wanted:
-            continue
-        for obj in (*spec.behaviour_classes, spec.build):
-            top = (getattr(obj, "__module__", None) or "").split(".")[0]
-            if top and top != "cptbt":
-                tops.add(top)
-    return frozenset(tops)
+    return frozenset(package_of(spec) for spec in default_registry().specs()
+                     if wanted is None or (spec.family, spec.variant) in wanted) - {"cptbt"}
 
 
 def used_behaviours(missions: Iterable[MissionBase]) -> frozenset[tuple[str, str]]:

@@ -21,7 +21,7 @@ from cptbt.loader import (
 )
 from cptbt.mission import Loc, MissionBase, dotted
 from cptbt.planner import Planner
-from cptbt.registry import default_registry
+from cptbt.registry import default_registry, package_of
 from cptbt.schema import mission_json_schema
 from cptbt.tree import render_ascii, render_dot
 
@@ -242,15 +242,6 @@ def _param_rows(model: type[BaseModel]) -> list[dict[str, Any]]:
     return rows
 
 
-def _package_of(spec: Any) -> str:
-    """The top-level package a registered variant comes from (``cptbt`` for the built-in)."""
-    for obj in (*spec.behaviour_classes, spec.build):
-        top = (getattr(obj, "__module__", None) or "").split(".")[0]
-        if top:
-            return top
-    return "cptbt"
-
-
 def cmd_behaviours(args: argparse.Namespace) -> int:
     """List every behaviour family, its variants (default first) and their parameters."""
     registry = default_registry()
@@ -259,7 +250,7 @@ def cmd_behaviours(args: argparse.Namespace) -> int:
             {"family": s.family, "variant": s.variant, "default": s.default,
              "summary": s.summary, "params": _param_rows(s.params),
              "pairs_with": [list(p) for p in s.contract.pairs_with],
-             "package": _package_of(s)}
+             "package": package_of(s)}
             for s in registry.specs()
         ]
         print(json.dumps(out, indent=2, default=str))
@@ -275,7 +266,7 @@ def cmd_behaviours(args: argparse.Namespace) -> int:
                                 initial_indent="  ", subsequent_indent="      "))
             # what validate would refuse, and whose it is (a review learnt both late)
             notes = [f"with {f} {v} only" for f, v in spec.contract.pairs_with]
-            package = _package_of(spec)
+            package = package_of(spec)
             if package != "cptbt":
                 notes.append(f"from the plug-in package {package}")
             if notes:
