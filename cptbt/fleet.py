@@ -57,7 +57,14 @@ from cptbt.fleet_perception import (
     IntArray,
 )
 from cptbt.mission import MissionBase
-from cptbt.node import BehaviourParams, MissionContext, PlanBehaviour, Watch, planner_keys
+from cptbt.node import (
+    WAIT_FOR_FIELD,
+    BehaviourParams,
+    MissionContext,
+    PlanBehaviour,
+    Watch,
+    planner_keys,
+)
 from cptbt.perception import PerceptionSettings
 from cptbt.registry import Registry, default_registry
 from cptbt.tree import build_tree, plan_leaves
@@ -308,6 +315,9 @@ class FleetPlanner:
             if np.count_nonzero(running) != len(running):
                 rule.initialise(sub.ids[~running])
             h = rule.decide(sub, running)
+            if any(c.family in WAIT_FOR_FIELD for c in rule.covers):
+                # held until the field is reached, as PlanBehaviour.update holds the leaf
+                h = np.where(self.board.array("field_reached", bool)[sub.ids], h, np.nan)
             ok = np.isfinite(h)
             if np.count_nonzero(running):
                 stopped = running & ~ok

@@ -16,10 +16,7 @@ import importlib.util
 import json
 from collections.abc import Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
-
-if TYPE_CHECKING:
-    from cptbt.mission import MissionBase
+from typing import Any
 
 # The packages whose source shapes a run's rows, and the modules among them that only present
 # the results (changing a figure's label must not force a study to start over).
@@ -83,11 +80,6 @@ def plugin_packages(used: Iterable[tuple[str, str]] | None = None) -> frozenset[
                      if wanted is None or (spec.family, spec.variant) in wanted) - {"cptbt"}
 
 
-def used_behaviours(missions: Iterable[MissionBase]) -> frozenset[tuple[str, str]]:
-    """The (family, variant) pairs the missions fly."""
-    return frozenset((e.family, e.variant) for m in missions for e in m.entries())
-
-
 def plugin_sources(tops: frozenset[str] | None = None) -> list[Path]:
     """The source files of the plug-in packages ``tops`` (default: every plug-in's).
 
@@ -131,7 +123,7 @@ def environment_hash(tops: frozenset[str] | None = None) -> str:
 def code_identity(used: Iterable[tuple[str, str]] | None = None) -> str:
     """``<version>+src.<hash>``: the package version and a hash of its source (see above),
     of the plug-ins' sources and of the versions of :data:`RESULT_DEPENDENCIES`. With
-    ``used`` (the (family, variant) pairs a study flies: :func:`used_behaviours`), only the
+    ``used`` (the (family, variant) pairs a study flies: ``Study.flies``), only the
     plug-ins among them count: a review's unrelated plug-in, edited, had stopped every study
     from resuming (and one without plug-ins gets the identity it always had).
 

@@ -345,6 +345,9 @@ class GroupTask:
     """Study indices of the starts whose runs write a cycle log (see :func:`log_sample`)."""
     log_dir: str = ""
     """Where those logs go: ``<log_dir>/<group key>-s<start>.mcap``."""
+    flies: tuple[tuple[str, str], ...] = ()
+    """The (family, variant) pairs the whole study flies (:meth:`Study.flies`): ``code`` is
+    the code identity over them; empty: over every installed plug-in."""
 
     @property
     def ids(self) -> tuple[int, ...]:
@@ -371,11 +374,20 @@ class Study:
 
     def tasks(self, code: str = "") -> list[GroupTask]:
         """One task per configuration × replicate; ``code``: the code identity workers need."""
+        flies = self.flies()
         return [
             GroupTask(c.index, r, c.mission_yaml, tuple(self.starts), self.root_seed,
-                      self.heading_deg, self.time_limit_s, c.coords, code, self.start_mode)
+                      self.heading_deg, self.time_limit_s, c.coords, code, self.start_mode,
+                      flies=flies)
             for c in self.configs for r in range(self.runs_per_start)
         ]
+
+    def flies(self) -> tuple[tuple[str, str], ...]:
+        """The (family, variant) pairs any configuration flies: the code identity counts the
+        plug-ins among them, for the whole study (a worker flying one configuration checks the
+        same set, or a sweep between a plug-in and a built-in refuses every group)."""
+        return tuple(sorted({(e.family, e.variant) for c in self.configs
+                             for e in c.mission.entries()}))
 
     def identity(self) -> str:
         """SHA-256 of everything the rows depend on but the code: each configuration's

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.errors import BatchError
-from cptbt.batch.integrity import code_identity, used_behaviours
+from cptbt.batch.integrity import code_identity
 from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.scenario import (
     Environment,
@@ -112,15 +112,10 @@ def flatten(summary: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
-def _flown(task: GroupTask) -> frozenset[tuple[str, str]] | None:
-    """The (family, variant) pairs a group's mission flies (None: its mission does not load,
-    which its flight reports)."""
-    try:
-        mission = loads_mission(task.mission_yaml, f"group {task.key}", default_registry(),
-                                Environment)
-    except Exception:
-        return None
-    return used_behaviours([mission])
+def worker_code(task: GroupTask) -> str:
+    """The code identity this process has for a task's study (over the behaviours the whole
+    study flies, as the study's own was computed)."""
+    return code_identity(task.flies or None)
 
 
 def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None
@@ -190,7 +185,7 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
         BatchError: this process runs other code than the study was planned with (a Dask
             worker with another cptbt installed).
     """
-    here = code_identity(_flown(task)) if task.code else ""
+    here = worker_code(task) if task.code else ""
     if task.code and task.code != here:
         raise BatchError(f"a worker runs cptbt {here} but the study needs "
                          f"{task.code}: install the same cptbt on every worker")

@@ -14,7 +14,7 @@ from typing import Any
 
 from cptbt import __version__
 from cptbt.batch.errors import BatchError, CodeChanged
-from cptbt.batch.integrity import code_identity, digest, used_behaviours
+from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
@@ -266,7 +266,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     # whatever its target. Fewer runs per start tabulate the first ones.
     identity = digest({"study": study_of(1).identity(),
                        "replicates": "until_sem" if adaptive else "any"})
-    code = code_identity(used_behaviours(c.mission for c in configs))
+    code = code_identity(study_of(1).flies())
     store = ResultStore(Path(args.out))
     geometry = geometry_of(mission)
     metadata = {

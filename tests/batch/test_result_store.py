@@ -300,17 +300,61 @@ def test_a_plugins_source_and_numpys_version_are_part_of_the_code(
 
 
 def test_a_study_without_plug_ins_keeps_the_identity_it_had() -> None:
-    """Scoping the identity to the plug-ins a study flies changes nothing without plug-ins:
-    studies made before still resume."""
-    from cptbt.batch.integrity import used_behaviours
-    from cptbt.loader import load_mission
-    from cptbt.registry import default_registry
+    """Scoped to the plug-ins a study flies, a study of built-in behaviours has the identity
+    the formula before gave without plug-ins (source hash + library versions), whatever
+    plug-ins are installed: studies made before still resume."""
+    import hashlib
+    from importlib.metadata import version
 
-    mission = load_mission(Path(__file__).resolve().parents[2] / "missions/tro2006_msn007.yaml",
-                           default_registry())
-    used = used_behaviours([mission])
-    assert ("declare_source", "upflow_cluster") in used
-    assert code_identity(used) == code_identity()  # no plug-in installed in the test run
+    from cptbt import __version__
+    from cptbt.batch import integrity
+
+    libs = hashlib.sha256()
+    for name in integrity.RESULT_DEPENDENCIES:
+        libs.update(f"{name}=={version(name.replace('_', '-'))}\0".encode())
+    both = hashlib.sha256(f"{source_hash()}+{libs.hexdigest()}".encode()).hexdigest()
+    flies = (("declare_source", "upflow_cluster"), ("find_plume", "billiard"))
+    assert code_identity(flies) == f"{__version__}+src.{both[:16]}"
+
+
+def test_a_sweep_between_a_plug_in_and_a_built_in_flies_every_group(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A review: the study's identity counted the plug-in of one configuration, each worker
+    only its own group's, so every built-in group was refused ("install the same cptbt on
+    every worker"). Every task carries the study's behaviours and is checked against them."""
+    import importlib
+    import sys
+
+    import cptbt.registry as registry_module
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.study import Study, Sweep, configurations
+    from cptbt.batch.worker import worker_code
+    from cptbt.loader import load_mission
+    from cptbt.registry import load_entry_points
+
+    package = tmp_path / "cptbt_test_sweep_plugin"
+    package.mkdir()
+    (package / "__init__.py").write_text(
+        "from typing import ClassVar\nfrom cptbt.node import PlanBehaviour\n"
+        "class Lawn(PlanBehaviour):\n    family: ClassVar[str] = 'find_plume'\n"
+        "    variant: ClassVar[str] = 'test_lawn'\n"
+        "    def decide(self, p):\n        return self.command(0.0)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    plugin = importlib.import_module("cptbt_test_sweep_plugin")
+    registry = load_entry_points()
+    registry.register(plugin.Lawn)
+    monkeypatch.setattr(registry_module, "_DEFAULT", registry)
+    mission = load_mission(Path(__file__).resolve().parents[2] / "missions/small_oparea.yaml",
+                           registry, Environment)
+    configs = configurations(mission, [Sweep.parse("find_plume.variant=billiard,test_lawn")],
+                             "m.yaml")
+    study = Study(configs, [(0.0, 0.0)], 1, 7, 0.0, 5.0)
+    code = code_identity(study.flies())
+    assert code != code_identity((("find_plume", "billiard"),))  # the plug-in counts
+    for task in study.tasks(code):
+        assert worker_code(task) == code, task.coords
+    sys.modules.pop("cptbt_test_sweep_plugin", None)
 
 
 def test_worker_running_other_code_refuses_the_group() -> None:
