@@ -127,12 +127,11 @@ def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]],
     placed before it, nor another text or arrow of the axes (the north arrow and its N, the
     current's arrow and label),
     and stands wholly inside ``area`` (off its border); one with no such place is not drawn.
-    Done once the layout is settled (before saving): a label's size is in points, the spacing
-    of the lines in metres."""
+    Called once the layout is settled (the figure drawn at its saving resolution): a label's
+    size is in points, the spacing of the lines in metres."""
     if not labels:
         return
-    fig.canvas.draw()  # settle the constrained layout and the aspect before measuring
-    renderer = fig.canvas.get_renderer()
+    renderer = fig.canvas.get_renderer()  # the caller has drawn: the layout is settled
     inner = None
     if area is not None:  # the OpArea in display units, 2 px in from its drawn edge
         (x0, y0), (x1, y1) = ax.transData.transform([(area.xmin, area.ymin),

@@ -227,8 +227,8 @@ def launch_turn_advice(mission: MissionBase, params: EnvironmentParams,
     d = area.distance_outside(x, y)
     if d <= 0.0:
         return []
-    nx = (x - min(max(x, area.xmin), area.xmax)) / d
-    ny = (y - min(max(y, area.ymin), area.ymax)) / d
+    edge = area.clamp(x, y)  # the OpArea's nearest point
+    nx, ny = (x - edge.x) / d, (y - edge.y) / d
     h = math.radians(heading)
     away = math.cos(h) * nx + math.sin(h) * ny  # cos φ
     if away <= 0.0:

@@ -370,6 +370,7 @@ def test_a_graticule_label_keeps_off_the_arrows() -> None:
     ax.set_ylim(0, 100)
     ax.annotate("", xy=(50, 90), xytext=(50, 10), arrowprops={"arrowstyle": "-|>", "lw": 1.5})
     label = ax.text(50, 50, "14°59.700'E", ha="center", va="center", fontsize=7)
+    fig.canvas.draw()  # as trajectory_figure does before placing the labels
     _place_labels(fig, ax, [(label, [(50.0, 50.0), (80.0, 50.0)])])
     plt.close(fig)
     assert label.get_visible() and label.get_position() == (80.0, 50.0)
