@@ -15,7 +15,8 @@
       detections by 0.3 or 0.5), for comparison.
 
     Per configuration: declared %, false declarations (error > 15 m), error median / 95th /
-    max, mean T_D share of the mission time to declaration (T_D / t3, TRO Table III), mean D3
+    max, mean T_D share of the mission time to declaration (T_D / T_total, T_total = t3 - t0,
+    TRO Table III; t0 is 0 here), mean D3
     (TRO Table IV) and its paired change against ``upflow_cluster``, fly-bys and withdrawals.
 (b) ``missions/two_sources.yaml`` (or ``--two-mission``), ``N2`` realisations: both sources
     declared within 15 m, false declarations.
@@ -43,6 +44,7 @@ import argparse
 import json
 import os
 import platform
+import shlex
 import statistics
 import sys
 import time
@@ -55,7 +57,7 @@ import numpy as np
 import yaml
 
 from cptbt.batch.engine import simulate
-from cptbt.batch.report import wilson
+from cptbt.batch.report import td_share, wilson
 from cptbt.batch.scenario import Environment, launch_pose, to_sim_params
 from cptbt.batch.study import apply_setting, group_seeds
 from cptbt.batch.summary import summarise
@@ -124,7 +126,7 @@ def fly(job: tuple[str, str, dict[str, Any], int, int]) -> dict[str, Any]:
     sources = [Point(*params.source_xy_m), *(Point(*xy) for xy in params.extra_sources_xy_m)]
     s = summarise(run, mission, sources[0], seed, wall, sources=sources,
                   success_radius_m=FALSE_M).to_dict()
-    keep = ("outcome", "error_m", "t3", "T_D", "D3", "sources_true", "sources_declared",
+    keep = ("outcome", "error_m", "t3", "T_D", "T_total", "D3", "sources_true", "sources_declared",
             "sources_found", "false_declarations", "flybys", "withdrawn", "upflow_checks",
             "upflow_vetoes", "trace_vetoes", "visits", "visits_ended", "unchecked", "sim_time_s",
             "wall_time_s")
@@ -156,7 +158,7 @@ def table_msn007(rows: list[dict[str, Any]], n: int) -> list[str]:
         dec = [r for r in got if r["t3"] is not None]
         err = [r["error_m"] for r in dec if r["error_m"] is not None]
         false = sum(e > FALSE_M for e in err)
-        share = [r["T_D"] / r["t3"] for r in dec if r["T_D"] is not None and r["t3"]]
+        share = [s for s in map(td_share, dec) if s is not None]
         d3 = [r["D3"] for r in dec if r["D3"] is not None]
         both = [k for k, r in runs.items()
                 if r["D3"] is not None and k in base and base[k]["D3"] is not None]
@@ -336,15 +338,15 @@ def main() -> int:
     if not args.from_rows:
         machine += (f", 1-min load average {load0:.1f} at the start and "
                     f"{os.getloadavg()[0]:.1f} at the end")
+    # the whole command as given (a review re-ran a header that had left --configs out)
+    command = shlex.join(["python", "benchmarks/likelihood_map.py", *sys.argv[1:]])
     lines = [
         "# Likelihood-map declaration study (issue 13)",
         "",
         ("Tabulated by `python benchmarks/likelihood_map.py --from-rows` from the rows in "
          f"`{rows_path.name}` ({args.runs} MSN007 replicates at most per rule, {args.two_runs} "
          f"two-source runs; how they were flown: the notes) on {machine}" if args.from_rows else
-         f"Produced by `python benchmarks/likelihood_map.py --runs {args.runs} --two-runs "
-         f"{args.two_runs}" + (f" --seed {args.seed}" if args.seed != SEED else "")
-         + f"` on {machine}")
+         f"Produced by `{command}` on {machine}")
         + ("" if args.from_rows else f": {len(jobs)} runs in {wall / 60:.1f} min")
         + f". Root seed {args.seed}; replicate r flies the same plume, vehicle noise and start in "
         "every rule (paired)."

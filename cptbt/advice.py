@@ -45,7 +45,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
             out.append((("cycle_hz",), f"{mission.cycle_hz:g} Hz is slower than the "
                         f"{need:g} Hz {e.family} {e.variant} needs: its timings are fractions "
                         "of a second (SPEC §2), which a slower cycle only meets late"))
-    out += order_advice(mission) + family_advice(mission)
+    out += order_advice(mission) + family_advice(mission) + start_advice(mission)
     cycle, lam = 1.0 / mission.cycle_hz, mission.perception.lambda_s
     if cycle > lam:  # a review's AB strategy at 0.2 Hz never reacquired
         out.append((("cycle_hz",), f"{mission.cycle_hz:g} Hz is a cycle of {cycle:g} s, "
@@ -87,6 +87,21 @@ def order_advice(mission: MissionBase) -> list[Problem]:
                             "first; SPEC §3 puts declare_source, maintain_plume and "
                             "reacquire_plume above find_plume)"))
     return out
+
+
+def start_advice(mission: MissionBase) -> list[Problem]:
+    """Move-to-field listed without a ``start:`` (a review's half-typed ``start:`` flew from
+    home, move-to-field idle, without a word; an empty ``home:`` is an error)."""
+    if mission.start is not None:
+        return []
+    families = [e.family for e in mission.entries()]
+    if "move_to_field" not in families:
+        return []
+    at = (("start",) if "start" in mission.model_fields_set
+          else ("behaviours", families.index("move_to_field"), "move_to_field"))
+    return [(at, "the mission has no start: under cptbt run move_to_field has no goal and "
+             "the vehicle starts at home (a study's --grid or --starts gives each run a start "
+             "of its own)")]
 
 
 def family_advice(mission: MissionBase) -> list[Problem]:

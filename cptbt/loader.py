@@ -118,6 +118,10 @@ class _Walk:
                 if not isinstance(key_node, yaml.ScalarNode):
                     kind = "list" if isinstance(key_node, yaml.SequenceNode) else "mapping"
                     raise self.fail(key_line, path, f"a key must be a plain word, not a {kind}")
+                if key_node.tag in _WORDLESS_KEYS and not key_node.style:  # `~:`, `yes:`
+                    kind = _WORDLESS_KEYS[key_node.tag]  # (a review's `~:` was told at line 1)
+                    raise self.fail(key_line, (*path, key_node.value),
+                                    f"a key must be a word, and this one reads as {kind}")
                 key = key_node.value
                 if key in keys:  # told with the rest (a review's file was told this alone),
                     if alias_at is None:  # once: not again where an alias repeats the mapping
@@ -139,6 +143,9 @@ class _Walk:
                 self.walk(item, (*path, i), alias_at)
         self.on_path.discard(id(node))
 
+
+_WORDLESS_KEYS = {"tag:yaml.org,2002:null": "null", "tag:yaml.org,2002:bool": "true/false"}
+"""Keys YAML reads as something other than a word (a number key is told by the schema)."""
 
 _OPENERS = (yaml.BlockMappingStartToken, yaml.BlockSequenceStartToken,
             yaml.FlowMappingStartToken, yaml.FlowSequenceStartToken)

@@ -117,6 +117,8 @@ hundreds of metres (TRO: 254 x 112 m)."""
 
 
 def _size(v: float) -> str:
+    if v >= 1e9:  # a million km and more: 3 significant figures (corners of ±1e200 had printed
+        return f"{v / 1000:.3g} km"  # 300 digits, a review)
     return f"{v / 1000:,.0f} km".replace(",", " ") if v >= 10_000 else f"{v:.3g} m"
 
 

@@ -250,11 +250,18 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
     return [p for p in written if p is not None]
 
 
-def _td_share(row: dict[str, Any]) -> float | None:
-    """T_D as a share of the mission time to declaration (TRO Table III), when both exist."""
-    if row.get("T_D") is None or not row.get("t3"):
+def td_share(row: dict[str, Any]) -> float | None:
+    """T_D as a share of the mission time to declaration, ``T_total = t3 - t0`` (TRO Table
+    III), when both exist. Not ``T_D / t3``: a run with the vehicle's own mission first starts
+    its measures at t0 > 0 (a review: 29% by t3 where TRO's share is 43.5%)."""
+    if row.get("T_D") is None:
         return None
-    return float(row["T_D"]) / float(row["t3"])
+    total = row.get("T_total")
+    if total is None and row.get("t3") is not None:  # a table without T_total
+        total = float(row["t3"]) - float(row.get("t0") or 0.0)
+    if not total:
+        return None
+    return float(row["T_D"]) / float(total)
 
 
 def _sem(values: list[Any]) -> float:
@@ -379,14 +386,18 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
     lines += ["", "## Evaluation protocol", "",
               "Times to source over the successful runs (a failure counts in P(fail) only); "
               "path efficiency = straight line from the start to the true source / true path "
-              "flown to success; D0/D3 (TRO) the mean of each declaration's ratio (not the "
-              "ratio of the means).", "",
+              "flown to success; D0/D3 the mean of each declaration's ratio of TRO's D0 and D3 "
+              "(SPEC §11; not the ratio of the means, and not a column of TRO Table IV, which "
+              "gives D1/D0 and D1/D3).", "",
               *protocol_table(groups)]
     for label, rows in groups.items():
         declared = [r for r in rows if r.get("t3") is not None]
         if not declared:
             continue  # TRO's tables are about declarations (AB's arrival runs declare nothing)
-        lines += ["", f"## {label}: times and paths (TRO Tables III and IV form)", ""]
+        lines += ["", f"## {label}: times and paths (TRO Tables III and IV form)", "",
+                  "Errors are to the simulator's true source. TRO Table III's 15–50 m are not "
+                  "comparable: they are offsets in the vehicle's navigation frame from a "
+                  "nominal source position (TRO V).", ""]
         if multi:
             lines += ["Each declared point is listed with its own error (to its nearest true "
                       "source); the error column is the worst of them. The times and paths are "
@@ -405,7 +416,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
                   "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         shown = declared if len(declared) <= 20 else []
         for r in shown:
-            share = _td_share(r)
+            share = td_share(r)
             lines.append(
                 f"| r{r['replicate']}s{r['start']} | {_place(r['start_x'], r['start_y'], frame)} "
                 f"| {_declared_cell(r, frame)} | {_fmt(r.get('error_m'))} "
@@ -415,7 +426,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
                 f"| {_fmt(r.get('D3'))} | {_fmt(r.get('D1_over_D0'), 2)} |")
         keys = ("error_m", "T_F", "T_T", "T_D", "D0", "D1", "D2", "D3", "D1_over_D0")
         means = {k: _mean([r.get(k) for r in declared]) for k in keys}
-        share = _mean([_td_share(r) for r in declared])
+        share = _mean([td_share(r) for r in declared])
         lines.append(
             f"| mean of {len(declared)} declared | | | {_fmt(means['error_m'])} "
             f"| {_fmt(means['T_F'])} | {_fmt(means['T_T'])} | {_fmt(means['T_D'])} "

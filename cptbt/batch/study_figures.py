@@ -24,8 +24,8 @@ from cptbt.batch.report import (
     _search_time,
     _sem,
     _several_sources,
-    _td_share,
     success_label,
+    td_share,
     wilson,
 )
 from cptbt.frames import OpArea
@@ -266,7 +266,7 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
               if any(r.get("criterion", "declaration") == "declaration" for r in rows)}
     err = {k: [float(r["error_m"]) for r in rows if r.get("error_m") is not None
                and r.get("t3") is not None] for k, rows in judged.items()}
-    share = {k: [v for v in map(_td_share, rows) if v is not None] for k, rows in judged.items()}
+    share = {k: [v for v in map(td_share, rows) if v is not None] for k, rows in judged.items()}
     if not any(err.values()) and not any(share.values()):
         return None
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4), layout="constrained")

@@ -54,7 +54,9 @@ class RunSummary:
     (:func:`cptbt.batch.outcome.judge`); every time is the mission clock, s; every distance m.
     Places (``start``, the sources) are given as :func:`where` gives them; ``start`` is where
     the recorded run began: the launch point of the AMP alone, the AMP's take-over point of a
-    phased run.
+    phased run. ``mission_start`` is the mission's own ``start:`` (move-to-field's goal, TRO
+    Table III's start column; None when the mission has none): a review set ``start`` against
+    Table III and compared two different points.
     """
 
     mission: str
@@ -65,6 +67,7 @@ class RunSummary:
     criterion: str
     success_radius_m: float
     start: dict[str, float]
+    mission_start: dict[str, float] | None
     home: dict[str, float]
     declared_source: dict[str, float] | None
     true_source: dict[str, float] | None
@@ -258,6 +261,8 @@ def summarise(
         criterion=mission.evaluation.criterion,
         success_radius_m=mission.evaluation.success_radius_m,
         start=place(mission, Point(*run.start)),
+        mission_start=(None if mission.start is None
+                       else place(mission, mission.to_xy(mission.start))),
         home=place(mission, mission.to_xy(mission.home)),
         declared_source=where(mission, declared),
         true_source=where(mission, source),

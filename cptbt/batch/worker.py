@@ -87,7 +87,7 @@ def flatten(summary: dict[str, Any]) -> dict[str, Any]:
     axes = tuple(truth) if isinstance(truth, dict) else ("x", "y", "north", "east")
     for key, value in summary.items():
         if key in ("time_in_behaviour_s", "time_share", "declared_sources", "true_sources",
-                   "home"):  # home: the mission's, the same in every row of a study
+                   "home", "mission_start"):  # the mission's, the same in every row of a study
             continue
         if isinstance(value, dict):
             for sub, v in value.items():

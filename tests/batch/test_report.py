@@ -10,7 +10,7 @@ from typing import Any
 
 import pytest
 
-from cptbt.batch.report import StudyGeometry, compared, wilson, write_report
+from cptbt.batch.report import StudyGeometry, compared, td_share, wilson, write_report
 from cptbt.batch.study import config_label
 
 BASE: dict[str, Any] = {
@@ -469,3 +469,14 @@ def test_no_time_figure_when_every_run_stopped_on_an_error(tmp_path: Path) -> No
     assert "time_to_source_map.png" not in {p.name for p in write_report(grid, tmp_path / "g")}
     # one run with a time: drawn
     assert "time_vs_start.png" in {p.name for p in write_report(line_rows(), tmp_path / "l")}
+
+
+def test_td_share_is_of_the_time_from_t0() -> None:
+    # TRO Table III: T_D / T_total, T_total = t3 - t0. A run with the vehicle's own mission
+    # first starts its measures at t0 = 240 s (the README's `cptbt run`): 211 / 485, not / 725.
+    row = {**BASE, "t0": 240.0, "t3": 725.0, "T_D": 211.0, "T_total": 485.0}
+    assert td_share(row) == pytest.approx(211.0 / 485.0)
+    # a table without T_total (an older one): t3 - t0, t0 taken as 0 when absent
+    assert td_share({**row, "T_total": None}) == pytest.approx(211.0 / 485.0)
+    assert td_share({**BASE, "t3": 40.0, "T_D": 10.0}) == pytest.approx(0.25)
+    assert td_share({**BASE, "t3": 40.0}) is None

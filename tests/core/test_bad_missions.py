@@ -50,6 +50,9 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("self alias", whole("name: x\nloop: &s [*s]\n"), 2, "loop[0]", "contains it"),
     ("nul byte", sub("name: corpus_base", "name: corpus\0base"), 1, "(yaml)", "NUL byte"),
     ("complex key", sub("speed_mps: 1.5", "? [a, b]\n: 1"), 7, "(top)", "plain word"),
+    # a key YAML reads as null or true/false (a review's `~: 1.5` was told at line 1, as None)
+    ("null key", sub("speed_mps: 1.5", "~: 1.5"), 7, "~", "reads as null"),
+    ("true/false key", sub("speed_mps: 1.5", "yes: 1.5"), 7, "yes", "reads as true/false"),
     ("deep nesting", whole("x: " + "[" * 3000 + "]" * 3000 + "\n"), 1, "(yaml)",
      "nested deeper than 40"),
     ("huge file", whole("description: '" + "x" * 1_100_000 + "'\n"), 1, "(file)", "at most"),
@@ -216,6 +219,11 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
         "[[32.981, -118.537], [32.981, -118.536], [32.979, -118.536], [32.979, -118.537]]",
         "[[30, -20], [30, 20], [-30, 20], [-30, -20]]"),
      4, "op_area.corners", "metres written under frame 'geodetic'"),
+    # absurd corners in figures a reader can read (a review's ±1e200 printed 300 digits)
+    ("corners of 1e200", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
+                             "[[1e200, -1e200], [1e200, 1e200], [-1e200, 1e200], "
+                             "[-1e200, -1e200]]"),
+     4, "op_area.corners", "the OpArea is 2e+197 km x 2e+197 km, longer than"),
     ("lat/lon under ne", sub("[[100, -50], [100, 50], [-100, 50], [-100, -50]]",
                              "[[78.2301, 15.601], [78.2301, 15.605], [78.2299, 15.605], "
                              "[78.2299, 15.601]]"),

@@ -231,3 +231,16 @@ def test_safety_not_listed_first_is_told() -> None:
     ((loc, why),) = [(loc, why) for loc, why in second.advisories() if "OpArea guard" in why]
     assert loc == ("behaviours", 1, "safety") and "below maintain_plume: it drives only" in why
     assert not [w for _, w in load(GOOD).advisories() if "OpArea guard" in w]
+
+
+def test_move_to_field_without_a_start_is_told() -> None:
+    """A review's half-typed ``start:`` (null) flew from home, move-to-field idle, silently."""
+    null = load(GOOD.replace("start: [50, 10]", "start:"))
+    ((loc, why),) = [(loc, why) for loc, why in null.advisories() if "no start" in why]
+    assert loc == ("start",) and "move_to_field has no goal" in why, why
+    absent = load(GOOD.replace("start: [50, 10]\n", ""))
+    ((loc, _),) = [(loc, why) for loc, why in absent.advisories() if "no start" in why]
+    assert loc == ("behaviours", 3, "move_to_field")
+    without = load(GOOD.replace("start: [50, 10]\n", "").replace("  - move_to_field: {}\n", ""))
+    assert not [w for _, w in without.advisories() if "no start" in w]
+    assert not [w for _, w in load(GOOD).advisories() if "no start" in w]

@@ -75,6 +75,12 @@ def test_cptbt_run_writes_summary_trace_and_figure(tmp_path: Path) -> None:
     src = summary["true_source"]
     assert src["north"] == pytest.approx(43) and src["east"] == pytest.approx(-55)
     assert set(summary["start"]) == set(src)  # the start in every frame the sources are in
+    # the mission's own start: (TRO Table III's), not where the AMP took over (a review)
+    mission_start = summary["mission_start"]
+    assert mission_start["north"] == pytest.approx(-55.5)
+    assert mission_start["east"] == pytest.approx(82.9)
+    assert (mission_start["north"], mission_start["east"]) != (summary["start"]["north"],
+                                                                summary["start"]["east"])
     # home too (a review found none): where the run ends, in the mission's own frame
     home = summary["home"]
     assert home["north"] == pytest.approx(-100) and home["east"] == pytest.approx(40)
