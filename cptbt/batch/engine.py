@@ -204,6 +204,7 @@ def simulate(
     goals: Sequence[Point | None] | None = None,
     logs: Mapping[int, CycleLog] | None = None,
     planner: str | None = None,
+    on_end: Callable[[int, VehicleRun], None] | None = None,
 ) -> tuple[list[VehicleRun], World, float]:
     """Fly one planner per start pose (x, y, heading; planning frame) in one shared world.
 
@@ -219,6 +220,10 @@ def simulate(
 
     With ``plume_grid`` (xs, ys), each run keeps a :class:`PlumeSnapshot` taken when it declared
     (or, without a declaration, when it ended).
+
+    ``on_end(i, run)`` hears of each vehicle's run as soon as it is complete (its last cycle
+    recorded), while the others fly on: a study keeps it then (an interrupted group had lost
+    the runs already done in it).
 
     Returns:
         The runs, the world at the end (for plume snapshots) and the wall time spent.
@@ -246,7 +251,7 @@ def simulate(
         if support.ok:
             runs = [VehicleRun(None, (s[0], s[1]), rec, i, period, rec if trace else None)
                     for i, s in enumerate(starts)]
-            _fly_fleet(world, mission, runs, rec, limit, trace, plume_grid)
+            _fly_fleet(world, mission, runs, rec, limit, trace, plume_grid, on_end)
             return runs, world, time.perf_counter() - wall0
         if choice == "fleet":
             raise ValueError(f"the fleet planner cannot run {mission.name}: {support.reason}")
@@ -341,6 +346,9 @@ def simulate(
             }
         rec.add(active, values, detected, codes)
         cmd_speed[active[~keep]] = 0.0
+        if on_end is not None:
+            for i in active[~keep]:
+                on_end(int(i), runs[i])
         active = active[keep]
         commanded = True
         return len(active) > 0
@@ -354,7 +362,8 @@ def simulate(
 
 def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: Recorder,
                limit: float, trace: bool,
-               plume_grid: tuple[NDArray[np.float64], NDArray[np.float64]] | None) -> None:
+               plume_grid: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+               on_end: Callable[[int, VehicleRun], None] | None = None) -> None:
     """:func:`simulate`'s loop with one :class:`~cptbt.fleet.FleetPlanner` for the group.
 
     The same steps as the per-vehicle loop, on arrays: feed, tick at the cycle rate, record,
@@ -445,6 +454,10 @@ def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: 
             }
         rec.add(active, values, p.detected, codes_of[tick.active])
         cmd_speed[active[ended]] = 0.0
+        for i in active[ended]:
+            runs[i].closest_m = float(closest[i])  # final: its run is over
+            if on_end is not None:
+                on_end(int(i), runs[i])
         active = active[~ended]
         commanded = True
         return len(active) > 0

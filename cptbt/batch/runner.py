@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import sys
 import time
@@ -52,6 +53,21 @@ def _local(tasks: list[GroupTask], workers: int) -> Groups:
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _rest(task: GroupTask, kept: Rows, store: ResultStore, journal: bool) -> GroupTask:
+    """The part of ``task`` still to fly: the starts whose runs ``kept`` lacks (each start's
+    seeds are its own, so flown without the others it is the same run), journalled to the
+    store when ``journal`` (local workers: a Dask worker's files are not the study's)."""
+    done = {r["start"] for r in kept}
+    if done:
+        left = [(i, s) for i, s in zip(task.ids, task.starts, strict=True) if i not in done]
+        task = dataclasses.replace(task, starts=tuple(s for _, s in left),
+                                   start_ids=tuple(i for i, _ in left))
+    if journal:
+        task = dataclasses.replace(task, journal=str(store.journal_path(task.key)),
+                                   journal_tag=store.fingerprint)
+    return task
 
 
 def _kill_workers(pool: ProcessPoolExecutor) -> None:
@@ -135,14 +151,22 @@ def run_study(
     of each such group, with the reason, before anything runs.
 
     Returns:
-        Counts: groups skipped (resumed), run and re-run, runs (all, and those resumed from
-        disk), successes, and the wall time.
+        Counts: groups skipped (resumed), run and re-run, runs (all, those resumed from disk,
+        and those of them kept from groups under way when the study stopped), successes, and
+        the wall time.
     """
     resume = store.check(tasks)
     for key, reason in resume.rerun.items():
         if on_rerun is not None:
             on_rerun(key, reason)
-    todo = [t for t in tasks if t.key not in resume.done]
+    whole = {t.key: t for t in tasks}
+    for key, kept in list(resume.partial.items()):
+        if len(kept) == len(whole[key].starts):  # killed between its last run and its part
+            store.write_group(whole[key], kept)
+            resume.done.add(key)
+            del resume.partial[key]
+    todo = [_rest(t, resume.partial.get(t.key, []), store, journal=not scheduler)
+            for t in tasks if t.key not in resume.done]
     runs_per_group = len(tasks[0].starts) if tasks else 0
     progress = Progress(len(tasks) * runs_per_group, resume.runs, resume.successes, quiet)
     t0 = time.perf_counter()
@@ -150,10 +174,14 @@ def run_study(
               else _local(todo, workers))
     try:
         for task, rows in source:
-            store.write_group(task, rows)
+            kept = resume.partial.get(task.key, [])
+            full = whole[task.key]
+            # the runs kept from an interrupted flight of the group, and the rest just flown
+            merged = sorted(kept + rows, key=lambda r: full.ids.index(r["start"]))
+            store.write_group(full, merged)
             progress.update(rows)
             if on_group is not None:
-                on_group(task, rows)
+                on_group(full, merged)
     finally:
         source.close()  # stops the pool now, not when the traceback is freed
         progress.close()
@@ -163,6 +191,7 @@ def run_study(
         "groups_rerun": len(resume.rerun),
         "runs": progress.done,
         "runs_resumed": resume.runs,
+        "runs_partial": sum(len(rows) for rows in resume.partial.values()),
         "successes": progress.successes,
         "wall_time_s": time.perf_counter() - t0,
     }

@@ -1,12 +1,15 @@
 """Study results on disk: one part file per finished group, written atomically, checked on resume.
 
 A group's rows reach disk all at once, by writing a temporary file, syncing it and renaming it,
-so an interrupted or crashed study keeps every finished group and none half-written. Each part
-also carries its group's identity, the study's fingerprint (``integrity``) and a checksum of its
-rows, in the Parquet key-value metadata (or a ``.json`` sidecar beside a CSV part). A resume keeps
-only the parts that pass every check and re-runs the others, saying why: a part that is empty,
-truncated or garbage, changed since it was written, copied from another study, or written by
-other code is never mixed into the results.
+so an interrupted or crashed study keeps every finished group and none half-written. While a
+group flies (on this machine), each of its runs is appended to the group's journal as soon as it
+ends, so the runs an interruption finds done are kept too: a resume flies only the rest of the
+group (a run's seeds are its own, so it is the same run) and writes the group's part whole. Each
+part also carries its group's identity, the study's fingerprint (``integrity``) and a checksum
+of its rows, in the Parquet key-value metadata (or a ``.json`` sidecar beside a CSV part). A
+resume keeps only the parts that pass every check and re-runs the others, saying why: a part
+that is empty, truncated or garbage, changed since it was written, copied from another study, or
+written by other code is never mixed into the results.
 """
 
 from __future__ import annotations
@@ -210,6 +213,24 @@ DEFAULT_FORMAT = "parquet" if pq is not None else "csv"
 SUFFIX = _FORMATS[DEFAULT_FORMAT].suffix
 
 
+JOURNAL_SUFFIX = ".runs.jsonl"
+"""A group's journal: the rows of its runs finished so far, one JSON line each, appended by the
+worker as each run ends and removed once the group's part is written."""
+
+
+def journal_line(tag: str, key: str, row: dict[str, Any]) -> str:
+    """One journal line: the row, its group, the study's fingerprint and the row's checksum
+    (a torn or edited line is never taken for a run)."""
+    plain = json.loads(json.dumps(row, default=_plain))
+    return json.dumps({"study": tag, "group": key, "sha256": rows_checksum([plain]),
+                       "row": plain}) + "\n"
+
+
+def _plain(value: Any) -> Any:
+    item = getattr(value, "item", None)  # a numpy scalar
+    return item() if callable(item) else str(value)
+
+
 @dataclass
 class Resume:
     """What a results folder already holds of a study."""
@@ -218,6 +239,8 @@ class Resume:
     """Keys of the groups whose parts passed every check."""
     rerun: dict[str, str] = field(default_factory=dict)
     """Keys of the groups whose parts failed a check, and why."""
+    partial: dict[str, Rows] = field(default_factory=dict)
+    """Keys of unfinished groups whose journal holds finished runs, and those runs' rows."""
     runs: int = 0
     successes: int = 0
 
@@ -321,18 +344,54 @@ class ResultStore:
         """The part file of group ``key``."""
         return self.parts / f"{key}{self.format.suffix}"
 
+    def journal_path(self, key: str) -> Path:
+        """The journal of group ``key`` (its runs finished before it was)."""
+        return self.parts / f"{key}{JOURNAL_SUFFIX}"
+
+    def journal_rows(self, task: GroupTask) -> Rows:
+        """The rows of ``task``'s runs its journal holds, one per start, in start order; lines
+        torn by a kill, edited, of another study or group, or of a start not in the task are
+        left out (those runs are flown again)."""
+        path = self.journal_path(task.key)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            return []
+        ids = set(task.ids)
+        rows: dict[int, dict[str, Any]] = {}
+        for line in text.splitlines():
+            try:
+                entry = json.loads(line)
+                row = entry["row"]
+                start = row["start"]
+                ok = (entry["study"] == self.fingerprint and entry["group"] == task.key
+                      and entry["sha256"] == rows_checksum([row])
+                      and row.get("config") == task.config
+                      and row.get("replicate") == task.replicate)
+            except (ValueError, TypeError, KeyError):
+                continue
+            if ok and start in ids:
+                rows.setdefault(start, row)
+        return [rows[i] for i in sorted(rows)]
+
     def check(self, tasks: Sequence[GroupTask]) -> Resume:
-        """Which groups are finished on disk, and which parts must be re-run and why."""
+        """Which groups are finished on disk, which parts must be re-run and why, and the
+        finished runs of the groups under way when the study stopped."""
         resume = Resume()
         for task in tasks:
-            if not self.path(task.key).exists():
-                continue
-            try:
-                rows = self._verified(task)
-            except PartError as exc:
-                resume.rerun[task.key] = str(exc)
-                continue
-            resume.done.add(task.key)
+            rows: Rows = []
+            if self.path(task.key).exists():
+                try:
+                    rows = self._verified(task)
+                except PartError as exc:
+                    resume.rerun[task.key] = str(exc)
+                    continue
+                resume.done.add(task.key)
+            else:
+                rows = self.journal_rows(task)
+                if not rows:
+                    continue
+                resume.partial[task.key] = rows
             resume.runs += len(rows)
             resume.successes += sum(bool(r.get("success")) for r in rows)
         return resume
@@ -354,6 +413,7 @@ class ResultStore:
             raise BatchError(f"cannot write {path}: {exc.strerror or _first_line(exc)}; the "
                              f"finished groups are kept in {self.parts}: make room and run "
                              "the same command again to go on") from None
+        self.journal_path(task.key).unlink(missing_ok=True)  # its runs are in the part now
 
     def rows(self, tasks: Sequence[GroupTask] | None = None) -> Rows:
         """Every run of ``tasks`` (default: of every part in the folder), in group order.
@@ -402,7 +462,10 @@ class ResultStore:
         return rows
 
     def _discard(self) -> None:
-        """Delete the finished groups and the consolidated table (nothing else in the folder)."""
+        """Delete the finished groups, their journals and the consolidated table (nothing else
+        in the folder)."""
+        for path in self.parts.glob(f"*{JOURNAL_SUFFIX}"):
+            path.unlink()
         for fmt in _FORMATS.values():
             for path in self.parts.glob(f"*{fmt.suffix}"):
                 path.unlink()

@@ -348,6 +348,12 @@ class GroupTask:
     flies: tuple[tuple[str, str], ...] = ()
     """The (family, variant) pairs the whole study flies (:meth:`Study.flies`): ``code`` is
     the code identity over them; empty: over every installed plug-in."""
+    journal: str = ""
+    """A file the worker appends each run's row to as soon as that run ends (a line of JSON,
+    ``ResultStore.journal_line``), so that an interrupted group keeps the runs it finished;
+    empty: none (a Dask worker, whose files are not the study's)."""
+    journal_tag: str = ""
+    """The study's fingerprint, written on every journal line (a resume trusts no other's)."""
 
     @property
     def ids(self) -> tuple[int, ...]:

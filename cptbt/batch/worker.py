@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import json
 import os
 import signal
@@ -10,6 +11,7 @@ import sys
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -118,13 +120,16 @@ def worker_code(task: GroupTask) -> str:
     return code_identity(task.flies or None)
 
 
-def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None
+def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None,
+              on_end: Callable[[int, VehicleRun, MissionBase, Point], None] | None = None
               ) -> tuple[MissionBase, list[VehicleRun], Point, float]:
     """Fly every start of one group in one shared world (its replicate's plume).
 
     Under ``start_mode: place`` each vehicle starts at its start point, which is also its
     move-to-field goal; under ``launch`` every vehicle starts at the mission's launch point
     (``environment.launch``, else home) and move-to-field drives it to its start point.
+    ``on_end(k, run, mission, source)`` hears of the group's ``k``-th run as soon as it ends
+    (its cycle log, if it has one, closed first).
 
     Returns:
         The group's mission, its runs, the true source and the wall time.
@@ -141,19 +146,32 @@ def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None
     else:
         poses = [(x, y, heading) for x, y in task.starts]
     logs = _open_logs(task, mission, goals)
-    try:
-        runs, _, wall = simulate(mission, params, poses, env_rng=env_rng,
-                                 vehicle_rngs=vehicle_rngs, time_limit_s=task.time_limit_s,
-                                 goals=goals, trace=trace, plume_grid=plume_grid, logs=logs)
-        for k, log in logs.items():
-            run = runs[k]
+    source = Point(*params.source_xy_m)
+
+    def close_log(k: int, run: VehicleRun) -> None:
+        log = logs.pop(k, None)
+        if log is not None:
             outcome = run.outcome.value if run.outcome is not None else "not ended"
             log.phase(run.t_end, "amp.override", "amp.give_back", "study_run_end",
                       f"outcome {outcome}")
+            log.close()
+
+    def ended(k: int, run: VehicleRun) -> None:
+        close_log(k, run)
+        if on_end is not None:
+            on_end(k, run, mission, source)
+
+    try:
+        runs, _, wall = simulate(mission, params, poses, env_rng=env_rng,
+                                 vehicle_rngs=vehicle_rngs, time_limit_s=task.time_limit_s,
+                                 goals=goals, trace=trace, plume_grid=plume_grid, logs=logs,
+                                 on_end=ended)
+        for k in list(logs):  # a run the loop left without an end (none should be)
+            close_log(k, runs[k])
     finally:
         for log in logs.values():
             log.close()
-    return mission, runs, Point(*params.source_xy_m), wall
+    return mission, runs, source, wall
 
 
 def _open_logs(task: GroupTask, mission: MissionBase, goals: list[Point]) -> dict[int, CycleLog]:
@@ -189,12 +207,54 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
     if task.code and task.code != here:
         raise BatchError(f"a worker runs cptbt {here} but the study needs "
                          f"{task.code}: install the same cptbt on every worker")
+    journal = Journal(task)
     try:
-        mission, runs, source, wall = fly_group(task)
+        mission, runs, source, wall = fly_group(task, on_end=journal.ended)
     except Exception as exc:  # a bug met by one group: recorded, and the study goes on
         return failed_rows(task, exc)
-    return [row_of(task, k, run, mission, source, wall / len(runs))
+    finally:
+        journal.close()
+    rows = [journal.rows.get(k) or row_of(task, k, run, mission, source, 0.0)
             for k, run in enumerate(runs)]
+    for row in rows:  # the group's wall time, shared (as before the journal)
+        row["wall_time_s"] = wall / len(runs)
+    return rows
+
+
+class Journal:
+    """A group's runs, each made a row as soon as it ends and appended to the task's journal
+    file (``GroupTask.journal``), so that an interrupted group keeps them (a review's Ctrl-C
+    lost up to a group's worth, 99 runs of a 10 x 10 grid). A journal that cannot be written
+    is given up, silently: the group's part is written whole when it ends all the same."""
+
+    def __init__(self, task: GroupTask) -> None:
+        self.task = task
+        self.rows: dict[int, dict[str, Any]] = {}
+        self.file: Any = None
+        self.t0 = time.perf_counter()
+
+    def ended(self, k: int, run: VehicleRun, mission: MissionBase, source: Point) -> None:
+        """Run ``k`` of the group is over: its row, kept and journalled."""
+        wall = (time.perf_counter() - self.t0) / len(self.task.starts)
+        row = row_of(self.task, k, run, mission, source, wall)
+        self.rows[k] = row
+        if not self.task.journal:
+            return
+        from cptbt.batch.store import journal_line
+
+        try:
+            if self.file is None:
+                self.file = open(self.task.journal, "a", encoding="utf-8")  # noqa: SIM115
+            self.file.write(journal_line(self.task.journal_tag, self.task.key, row))
+            self.file.flush()  # in the page cache: a killed process keeps it
+        except OSError:
+            self.task = dataclasses.replace(self.task, journal="")
+
+    def close(self) -> None:
+        """Close the journal file (the study removes it once the group's part is written)."""
+        if self.file is not None:
+            self.file.close()
+            self.file = None
 
 
 def failed_rows(task: GroupTask, exc: Exception) -> list[dict[str, Any]]:

@@ -18,7 +18,7 @@ from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
-from cptbt.batch.study import Study, Sweep, grid_starts, log_sample
+from cptbt.batch.study import GroupTask, Study, Sweep, grid_starts, log_sample
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
 from cptbt.cli.batch_sweeps import study_configs
@@ -324,12 +324,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
                               scheduler_timeout_s=args.scheduler_timeout, quiet=args.quiet,
                               on_rerun=rerun)
         except KeyboardInterrupt:
-            saved = sum(store.path(t.key).exists() for t in tasks)
-            raise KeyboardInterrupt(
-                f"{saved} of {len(tasks)} groups of runs are saved in {args.out} (a group, one "
-                "replicate of one configuration from every start, is saved when all its runs "
-                "are done: the runs of a group under way are flown again); the same command "
-                "carries on from them") from None
+            raise KeyboardInterrupt(_saved(store, tasks, args)) from None
         wall += stats["wall_time_s"]
         flown_groups += stats["groups_run"]
         flown_runs += stats["runs"] - stats["runs_resumed"]
@@ -369,7 +364,10 @@ def cmd_batch(args: argparse.Namespace) -> int:
         pace = (f"{wall:.1f} s wall, {rate:.1f} missions/s" if flown_runs else
                 f"{f'all {runs} runs were' if runs != 1 else 'the run was'} already on disk; "
                 "none flown")
-        print(f"{runs} mission{'s' * (runs != 1)} ({resumed} groups resumed from disk): "
+        partial = stats["runs_partial"]
+        also = (f", and {partial} run{'s' * (partial != 1)} of groups under way when it "
+                "stopped" if partial else "")
+        print(f"{runs} mission{'s' * (runs != 1)} ({resumed} groups resumed from disk{also}): "
               f"{outcome}; {pace}")
         print(f"  wrote {table}")
         if args.log_runs:
@@ -393,6 +391,19 @@ def cmd_batch(args: argparse.Namespace) -> int:
               f"alone ({DEBUG_ENV}=1: with its traceback)", file=sys.stderr)
         return 1
     return 0
+
+
+def _saved(store: ResultStore, tasks: list[GroupTask], args: argparse.Namespace) -> str:
+    """What an interrupted study kept: every run finished, in whole groups and in the journals
+    of the groups under way (with a scheduler, a group under way is flown again whole)."""
+    whole = [t for t in tasks if store.path(t.key).exists()]
+    runs = sum(len(t.starts) for t in whole)
+    runs += sum(len(store.journal_rows(t)) for t in tasks if t not in whole)
+    total = sum(len(t.starts) for t in tasks)
+    lost = (" (with --scheduler a group is saved when all its runs are done: the runs of a "
+            "group under way are flown again)" if args.scheduler else "")
+    return (f"{runs} of {total} runs are saved in {args.out}{lost}; the same command flies "
+            "the rest")
 
 
 def _worst_rel_sem(rows: list[dict[str, Any]]) -> float:

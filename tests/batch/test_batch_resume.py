@@ -300,15 +300,51 @@ def test_ctrl_c_stops_the_study_and_its_workers_at_once(tmp_path: Path, how: str
             os.kill(proc.pid, signal.SIGTERM)
         _, err = proc.communicate(timeout=60)
         assert time.monotonic() - t0 < 5, "waited for the queued groups (seconds each)"
-        # One line that says what is kept (whole groups only) and how to go on.
+        # One line that says what is kept (every run finished) and how to go on.
         assert proc.returncode == 130 and re.fullmatch(
-            r"cptbt: interrupted: \d+ of 20 groups of runs are saved in .+ \(a group, one "
-            r"replicate of one configuration from every start, is saved when all its runs are "
-            r"done: the runs of a group under way are flown again\); the same command "
-            r"carries on from them\n", err), err
+            r"cptbt: interrupted: \d+ of 60 runs are saved in .+; the same command flies the "
+            r"rest\n", err), err
         assert not [pid for pid in workers if _running(pid)]
     finally:
         proc.kill()
         for pid in workers:
             if _running(pid):
                 os.kill(pid, signal.SIGKILL)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL])
+def test_an_interrupted_group_keeps_its_finished_runs(tmp_path: Path, sig: int) -> None:
+    """A review's Ctrl-C kept only whole groups (a group is one replicate from every start: up
+    to 99 finished runs lost on a 10 x 10 grid). Each run is journalled as it ends; a resume
+    flies only the rest of the group, and the table is the uninterrupted study's."""
+    study = ["--grid", "3x2", "--runs-per-start", "1", "--time-limit", "900", "--no-plots",
+             "--seed", "5", "--workers", "1"]
+    cmd = [str(SCRIPT), "batch", MISSION, "--amp-only", *study]
+    out = tmp_path / "stopped"
+    proc = subprocess.Popen([*cmd, "--out", str(out)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    journal = out / "parts" / "c000-r00000.runs.jsonl"
+    try:
+        deadline = time.monotonic() + 240
+        while time.monotonic() < deadline and proc.poll() is None:
+            if journal.exists() and journal.read_text(encoding="utf-8").count("\n") >= 2:
+                break
+            time.sleep(0.02)
+        assert proc.poll() is None, "stop the group while it flies"
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    kept = journal.read_text(encoding="utf-8").count("\n")
+    assert 2 <= kept < 6 and not (out / "parts" / "c000-r00000.parquet").exists()
+    if sig == signal.SIGINT:
+        assert f"interrupted: {kept} of 6 runs are saved in" in err, err
+    res = subprocess.run([*cmd, "--out", str(out)], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert f"and {kept} runs of groups under way when it stopped" in res.stdout, res.stdout
+    assert not journal.exists()  # its runs are in the part now
+    ref = tmp_path / "whole"
+    assert subprocess.run([*cmd, "--out", str(ref)], capture_output=True, text=True,
+                          timeout=300).returncode == 0
+    assert table(out) == table(ref)

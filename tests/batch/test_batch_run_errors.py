@@ -86,7 +86,8 @@ def test_a_full_disk_names_the_part_keeps_the_finished_groups_and_resumes(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """The disk fills while the second group's part is written: the command says which file,
     that the finished groups are kept and how to go on, in one line; it leaves no half-written
-    temporary file; and the same command then flies only the group that was lost."""
+    temporary file; and the same command then writes the lost group's part from the runs its
+    journal kept, flying none again."""
     from cptbt.batch import store
 
     real = store.os.fsync
@@ -108,5 +109,6 @@ def test_a_full_disk_names_the_part_keeps_the_finished_groups_and_resumes(
 
     monkeypatch.setattr(store.os, "fsync", real)
     assert main(["batch", MISSION, *STUDY, "--out", str(out)]) == 0
-    assert "(1 groups resumed from disk)" in capsys.readouterr().out
+    said = capsys.readouterr().out
+    assert "(2 groups resumed from disk)" in said and "none flown" in said, said
     assert len(load_results(out)) == 4
