@@ -278,8 +278,12 @@ def line_section(
     far = [x for x in xs if x >= FAR_X]
     near = [x for x in xs if abs(x - SOURCE_X) <= NEAR_M]
     summary: dict[str, Any] = {"far": {}, "near": {}}
+    # AB's own line (x = 0..100 every 1 m) has a start on the source too: kept, and said (a
+    # review read the near means as diluted by its 0 s)
+    on = (", the start on the source among them: 0 s for every strategy, as on AB's line"
+          if SOURCE_X in near else "")
     out += ["", f"Far from the source (x ≥ {FAR_X:.0f}, {len(far)} starts) and within "
-            f"{NEAR_M:.0f} m of it ({len(near)} starts): pooled mean ± SE, s", "",
+            f"{NEAR_M:.0f} m of it ({len(near)} starts{on}): pooled mean ± SE, s", "",
             "| | " + " | ".join(CONFIGS[k].label for k in keys) + " |",
             "|---|" + "---|" * len(keys)]
     for name, sel in (("far", far), ("near", near)):
