@@ -387,6 +387,8 @@ class ResultStore:
                     resume.rerun[task.key] = str(exc)
                     continue
                 resume.done.add(task.key)
+                # killed between writing the part and removing the journal: a leftover
+                self.journal_path(task.key).unlink(missing_ok=True)
             else:
                 rows = self.journal_rows(task)
                 if not rows:

@@ -382,3 +382,29 @@ def test_the_fast_kernel_tier_is_another_code_identity() -> None:
         assert code_identity() == f"{exact}+kernels.fast"
     finally:
         kernels.use(before)
+
+
+def test_a_journal_keeps_only_sound_lines_of_its_own_group(tmp_path: Path) -> None:
+    """The runs an interrupted group finished come back from its journal; a line torn by a
+    kill, edited, of another study or group, or a start flown twice, does not."""
+    from cptbt.batch.store import journal_line
+
+    store = opened(tmp_path, "parquet")
+    task = tasks(replicates=2, starts=4)[1]
+    rows = rows_of(task)
+    path = store.journal_path(task.key)
+    good = [journal_line(store.fingerprint, task.key, r) for r in rows[:3]]
+    edited = json.loads(good[1])
+    edited["row"]["success"] = not edited["row"]["success"]  # its checksum no longer holds
+    lines = [good[0], json.dumps(edited) + "\n", good[2], good[0],  # start 0 again
+             journal_line("another study", task.key, rows[3]),
+             journal_line(store.fingerprint, "c000-r00000", rows[3]),
+             good[1][: len(good[1]) // 2]]  # torn by a kill mid-write
+    path.write_text("".join(lines), encoding="utf-8")
+    kept = store.journal_rows(task)
+    assert [r["start"] for r in kept] == [0, 2]
+    assert kept[0] == json.loads(good[0])["row"]  # the row as written
+    resume = store.check(tasks(replicates=2, starts=4))
+    assert resume.partial == {task.key: kept} and resume.runs == 2
+    store.write_group(task, rows)  # the group's part, written whole, retires its journal
+    assert not path.exists()
