@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from cptbt.policy import RELINQUISH_OUTSIDE_M
+
 if TYPE_CHECKING:
     from cptbt.mission import MissionBase, Problem
 
@@ -63,11 +65,16 @@ PLUME_FAMILIES = ("declare_source", "maintain_plume", "reacquire_plume")
 
 
 def order_advice(mission: MissionBase) -> list[Problem]:
-    """Safety not listed first; a plume behaviour listed below one that always drives never
-    drives (a review's find_plume above maintain_plume searched for 600 s, its plume never
-    tracked)."""
+    """Safety missing or not listed first; a plume behaviour listed below one that always
+    drives never drives (a review's find_plume above maintain_plume searched for 600 s, its
+    plume never tracked)."""
     out: list[Problem] = []
     families = [e.family for e in mission.entries()]
+    if families and "safety" not in families:  # a review's flew out to the give-back, silently
+        out.append((("behaviours",), "no safety behaviour: nothing turns the vehicle back into "
+                    "the OpArea, so a behaviour heading out drives on until the give-back "
+                    f"{RELINQUISH_OUTSIDE_M:g} m outside (SPEC §3 and TRO Fig. 2 put safety "
+                    "first: - safety: {variant: oparea})"))
     if "safety" in families[1:]:  # a review's safety listed last validated silently
         k = families.index("safety")
         below = next((f"{f} (behaviours[{i}]), which has a command every cycle: it never "

@@ -120,6 +120,9 @@ class VehicleRun:
     t3: float | None = None
     distance_at_end_m: float = math.nan
     closest_m: float = math.inf
+    outside_m: float = 0.0
+    """How far outside the OpArea the true track went at steps no row records (a phased run's
+    give-back step: the AMP's last command took it there, but the planner did not tick)."""
     declared: Point | None = None
     declared_all: tuple[Point, ...] = ()
     declared_at: dict[Point, float] = field(default_factory=dict)

@@ -103,6 +103,7 @@ def simulate_phased(
     world = World(params, np.array([[x0, y0]]), h0)
     world.warm_up()
     source = Point(*params.source_xy_m)
+    area = mission.op_area_geometry()
     waypoints = [mission.to_xy(w) for w in spec.waypoints]
     link = SimVehicleLink(world, spec, waypoints, faults)
     planner = planner or Planner(mission)
@@ -141,6 +142,8 @@ def simulate_phased(
         values: dict[str, Any] = {"t": t, "x": tx, "y": ty, "x_est": ex, "y_est": ey}
         if session.t_amp_start is not None and ended is None:
             run.closest_m = min(run.closest_m, math.hypot(tx - source.x, ty - source.y))
+            # every step, the give-back one too (a review: a row-less step had been left out)
+            run.outside_m = max(run.outside_m, area.distance_outside(tx, ty))
             if ticked:
                 _record_amp(run, planner, t, values, world, plume_grid)
         if ended is None:

@@ -302,7 +302,7 @@ def summarise(
                         else None),
         unchecked=report.get("unchecked"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
-        farthest_outside_m=_farthest_outside(mission, true),
+        farthest_outside_m=max(_farthest_outside(mission, true), run.outside_m),
         T_M=_maintain_time(run) if mission.evaluation.criterion == "maintain" else None,
         path_m=path_m,
         start_to_source_m=straight,

@@ -244,3 +244,11 @@ def test_move_to_field_without_a_start_is_told() -> None:
     without = load(GOOD.replace("start: [50, 10]\n", "").replace("  - move_to_field: {}\n", ""))
     assert not [w for _, w in without.advisories() if "no start" in w]
     assert not [w for _, w in load(GOOD).advisories() if "no start" in w]
+
+
+def test_a_mission_without_safety_is_told() -> None:
+    """A review removed safety and flew out to the give-back 30 m outside, validated silently."""
+    none = load(GOOD.replace("  - safety: {}\n", ""))
+    ((loc, why),) = [(loc, why) for loc, why in none.advisories() if "no safety" in why]
+    assert loc == ("behaviours",) and "give-back 30 m outside" in why, why
+    assert not [w for _, w in load(GOOD).advisories() if "no safety" in w]

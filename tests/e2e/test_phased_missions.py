@@ -9,16 +9,21 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
+import numpy as np
 import pytest
 
 from cptbt.batch.phased import PhasedRun, simulate_phased
-from cptbt.batch.scenario import to_sim_params
+from cptbt.batch.scenario import Environment, to_sim_params
 from cptbt.batch.sim_link import LinkFaults
 from cptbt.cli.inspect_cmds import load
+from cptbt.loader import loads_mission
 from cptbt.mission import MissionBase
-from cptbt.types import Point
+from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.planner import Planner
+from cptbt.registry import BehaviourSpec, load_entry_points
+from cptbt.types import Command, Percept, Point
 
 ROOT = Path(__file__).resolve().parents[2]
 MSN010 = load(str(ROOT / "missions" / "tro2006_msn010.yaml"))
@@ -177,3 +182,43 @@ def test_cptbt_run_reports_phases_and_geodetic_positions(tmp_path: Path) -> None
     assert true["lon"] == pytest.approx(-(118 + 32.248 / 60), abs=1e-7)
     assert {"x", "y", "north", "east", "lat", "lon"} <= set(s["declared_source"])
     assert {"x", "y", "north", "east", "lat", "lon"} <= set(s["start"])  # the take-over point
+
+
+class Straight(PlanBehaviour):
+    """Find-plume that heads one way, walls or not (a review's, to leave the OpArea)."""
+
+    family: ClassVar[str] = "find_plume"
+    variant: ClassVar[str] = "straight"
+    Params: ClassVar[type[BehaviourParams]] = BehaviourParams
+
+    def decide(self, p: Percept) -> Command | None:
+        return self.command(-90.0)
+
+
+def test_farthest_outside_counts_the_give_back_step(tmp_path: Path) -> None:
+    """A review's AMP, with no safety and a find-plume heading out, was given back 30 m outside
+    the OpArea; the summary said 25.8 m: the give-back step, where the AMP's last command had
+    taken the vehicle (27.3 m, true), records no row and was left out."""
+    from cptbt.batch.summary import summarise
+
+    text = (ROOT / "missions" / "tro2006_msn007.yaml").read_text(encoding="utf-8")
+    text = text.replace("  - safety: {variant: oparea}\n", "").replace(
+        "find_plume: {variant: billiard, dtheta_up_deg: 125, dtheta_down_deg: 60}",
+        "find_plume: {variant: straight}")
+    registry = load_entry_points()  # a registry of its own: the default one is shared
+    registry.register(BehaviourSpec.of(Straight))
+    mission = loads_mission(text, "out.yaml", registry, Environment)
+    params = to_sim_params(mission)
+    run, _, wall = simulate_phased(mission, params, trace=True,
+                                   planner=Planner(mission, registry))
+    assert run.amp.outcome is not None and run.amp.outcome.value == "relinquished"
+    s = summarise(run.amp, mission, Point(*params.source_xy_m), 7, wall)
+    trace = run.amp.trace
+    assert trace is not None
+    area = mission.op_area_geometry()
+    t = np.asarray(trace["t"])
+    amp = (t >= (run.t_amp_start or 0.0)) & (t <= run.amp.t_end + 1e-9)  # the AMP's steps
+    far = area.distance_outside_array(np.asarray(trace["x"])[amp],
+                                      np.asarray(trace["y"])[amp]).max()
+    assert s.farthest_outside_m == pytest.approx(float(far), abs=1e-9)
+    assert s.farthest_outside_m > 25.0
