@@ -17,7 +17,7 @@ from __future__ import annotations
 import copy
 import math
 import reprlib
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -284,6 +284,9 @@ def check_behaviour(
     - no leaf changed its class's data (a list appended to, an attribute set on the class),
       looked for after every tick: such state is shared by every instance, so one run leaks
       into the next run of a worker;
+    - its ``Params`` is frozen (the settings are read-only, as the mission gave them);
+    - a reacquire-plume variant has output only while out of the plume, a maintain-plume
+      variant only while in it (``p.in_plume``): the slots' turns (SPEC §3);
     - every blackboard key the node wrote under its namespace was declared (registered by
       some client for writing): a write through ``Blackboard.storage`` bypasses the
       declared-keys contract that isolates nodes.
@@ -298,6 +301,10 @@ def check_behaviour(
     """
     if isinstance(spec, type):
         spec = BehaviourSpec.of(spec)
+    assert spec.params.model_config.get("frozen"), (
+        f"{spec.key}: its Params ({spec.params.__name__}) is not frozen: a behaviour's "
+        "settings are read-only, as the mission gave them (model_config frozen=True, as "
+        "BehaviourParams has)")
     rng = np.random.default_rng(seed)
     params = params if params is not None else spec.params()
     area = square_area(100.0)
@@ -343,6 +350,18 @@ def check_behaviour(
         )
 
 
+_WHEN: dict[str, tuple[Callable[[Percept], bool], str]] = {
+    "reacquire_plume": (lambda p: not p.in_plume,
+                        "a reacquire variant has output while in the plume (p.in_plume): "
+                        "maintain-plume's time; have output only once contact is lost"),
+    "maintain_plume": (lambda p: p.in_plume,
+                       "a maintain variant has output out of the plume (not p.in_plume): "
+                       "reacquire's time; have output only while p.in_plume"),
+}
+"""When a TRO slot's variant may have output (SPEC §3): the families whose turn the
+perception's contact state decides."""
+
+
 def _closed_loop(key: str, harness: TreeHarness, node: py_trees.behaviour.Behaviour,
                  script: ScriptedPerception, ticks: int, rng: np.random.Generator,
                  max_speed_mps: float, area: OpArea,
@@ -372,6 +391,12 @@ def _closed_loop(key: str, harness: TreeHarness, node: py_trees.behaviour.Behavi
         if tk.status == Status.RUNNING:
             cmd = tk.command
             assert cmd is not None, f"{where}: RUNNING without a command"
+            # the slot's rule of when it has output (README; a review's reacquire variant
+            # drove in the plume and passed)
+            rule = _WHEN.get(key.split(".")[0])
+            if rule is not None:
+                allowed, why = rule
+                assert allowed(p), f"{where}: {why}"
             assert math.isfinite(cmd.heading_deg) and -180 < cmd.heading_deg <= 180, where
             assert 0 < cmd.speed_mps <= max_speed_mps, f"{where}: speed {cmd.speed_mps}"
         else:

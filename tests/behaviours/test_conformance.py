@@ -151,8 +151,8 @@ def test_the_class_data_message_names_the_tick_and_gives_its_advice_first() -> N
     from cptbt.node import PlanBehaviour
     from cptbt.types import Command, Percept
 
-    class LongHistory(PlanBehaviour):  # not a find-plume, which waits for the field
-        family: ClassVar[str] = "reacquire_plume"
+    class LongHistory(PlanBehaviour):  # a family of its own: no slot's rule of when it drives
+        family: ClassVar[str] = "survey"
         variant: ClassVar[str] = "long_history"
         seen: ClassVar[list[float]] = [0.0] * 5000
 
@@ -164,7 +164,7 @@ def test_the_class_data_message_names_the_tick_and_gives_its_advice_first() -> N
     with pytest.raises(AssertionError) as err:
         check_behaviour(LongHistory)
     text = str(err.value).splitlines()[0]
-    assert text.startswith("reacquire_plume.long_history tick 6 (t=3.0): a leaf changed its "
+    assert text.startswith("survey.long_history tick 6 (t=3.0): a leaf changed its "
                            "class's "
                            "data: class-level state is shared by every instance"), text
     assert ("LongHistory.seen changed (was 5000 items, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ...], "
@@ -239,7 +239,7 @@ def test_state_not_reset_names_only_what_differs_shortened() -> None:
     from cptbt.types import Command, Percept
 
     class Forgets(PlanBehaviour):
-        family: ClassVar[str] = "reacquire_plume"
+        family: ClassVar[str] = "survey"
         variant: ClassVar[str] = "forgets"
 
         def initialise(self) -> None:
@@ -254,8 +254,66 @@ def test_state_not_reset_names_only_what_differs_shortened() -> None:
     with pytest.raises(AssertionError) as err:
         check_behaviour(Forgets)
     text = str(err.value)
-    assert text.startswith("reacquire_plume.forgets: state not reset after pre-emption (reset "
+    assert text.startswith("survey.forgets: state not reset after pre-emption (reset "
                            "it in initialise(), or name it in persistent_state if it is kept "
                            "on purpose): trail 10 items, (")
     assert "after a run, () fresh" in text and "steady" not in text, text
     assert len(text) < 300, text
+
+
+def test_the_check_holds_each_slot_to_its_turn() -> None:
+    """README: a reacquire variant has output only once contact is lost, a maintain variant
+    only while in the plume. A review's reacquire drove in the plume too and passed."""
+    from typing import ClassVar
+
+    from cptbt.node import PlanBehaviour
+    from cptbt.types import Command, Percept
+
+    class Always(PlanBehaviour):
+        family: ClassVar[str] = "reacquire_plume"
+        variant: ClassVar[str] = "always"
+
+        def decide(self, p: Percept) -> Command | None:
+            return self.command(0.0)
+
+    with pytest.raises(AssertionError, match=r"reacquire_plume\.always tick \d+ .*: a "
+                       r"reacquire variant has output while in the plume \(p\.in_plume\)"):
+        check_behaviour(Always)
+
+    class Lingers(PlanBehaviour):
+        family: ClassVar[str] = "maintain_plume"
+        variant: ClassVar[str] = "lingers"
+
+        def decide(self, p: Percept) -> Command | None:
+            return None if p.last_detection is None else self.command(0.0)
+
+    with pytest.raises(AssertionError, match="a maintain variant has output out of the plume"):
+        check_behaviour(Lingers)
+
+
+def test_the_check_asks_for_frozen_settings() -> None:
+    """README: a variant's Params is frozen (its settings read-only, as the mission gave
+    them); a review's unfrozen one passed."""
+    from typing import ClassVar
+
+    from pydantic import ConfigDict
+
+    from cptbt.node import BehaviourParams, PlanBehaviour
+    from cptbt.types import Command, Percept
+
+    class Loose(BehaviourParams):
+        model_config = ConfigDict(**{**BehaviourParams.model_config, "frozen": False})
+
+    class Plain(PlanBehaviour):
+        family: ClassVar[str] = "survey"
+        variant: ClassVar[str] = "plain"
+        Params: ClassVar[type[BehaviourParams]] = Loose
+
+        def decide(self, p: Percept) -> Command | None:
+            return self.command(0.0)
+
+    with pytest.raises(AssertionError, match=r"survey\.plain: its Params \(Loose\) is not "
+                       "frozen"):
+        check_behaviour(Plain)
+    Plain.Params = BehaviourParams
+    check_behaviour(Plain)  # frozen: passes
