@@ -227,11 +227,28 @@ def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
                 origin[(spec.family, spec.variant)] = ep.value
         except DuplicateBehaviourError as exc:
             first = origin.get(_key_of(item))
-            raise RegistryError(f"entry point {ep.value}: {exc}"
-                                + (f" (first by entry point {first})" if first else "")) from exc
+            if first is None:
+                raise RegistryError(f"entry point {ep.value}: {exc}") from exc
+            # the plug-in named, not the built-in (entry points are read in name order, so a
+            # review's plug-in came first and the built-in was told as the one at fault)
+            ours = [v for v in (first, ep.value) if _builtin(v)]
+            theirs = [v for v in (first, ep.value) if not _builtin(v)]
+            family, variant = _key_of(item)
+            if ours and theirs:
+                raise RegistryError(
+                    f"entry point {theirs[0]} registers {family}.{variant}, a built-in's "
+                    f"name (cptbt's {ours[0]}): give the plug-in's variant a name of its "
+                    "own") from exc
+            raise RegistryError(f"behaviour {family}.{variant} is registered by both entry "
+                                f"point {first} and {ep.value}: rename one") from exc
         except (RegistryError, TypeError) as exc:
             raise RegistryError(f"entry point {ep.value}: {exc}") from exc
     return registry
+
+
+def _builtin(entry_point_value: str) -> bool:
+    """Whether an entry point's object is cptbt's own (``cptbt.behaviours...:BEHAVIOURS``)."""
+    return entry_point_value.split(":")[0].split(".")[0] == "cptbt"
 
 
 def _key_of(item: object) -> tuple[str, str]:

@@ -21,7 +21,7 @@ from cptbt.loader import (
 )
 from cptbt.mission import Loc, MissionBase, dotted
 from cptbt.planner import Planner
-from cptbt.registry import default_registry, package_of
+from cptbt.registry import default_registry, misspelt_slot, package_of
 from cptbt.schema import mission_json_schema
 from cptbt.tree import render_ascii, render_dot
 
@@ -259,7 +259,9 @@ def cmd_behaviours(args: argparse.Namespace) -> int:
         return text.replace("``", "")
 
     for family in registry.families():
-        print(f"{family}")
+        slot = misspelt_slot(family)  # a review's plug-in family "find_plum" was listed silently
+        print(f"{family}" + (f"  (not a TRO slot: one slip from {slot}; misspelt?)"
+                             if slot else ""))
         for spec in registry.variants(family):
             mark = " (default)" if spec.default else ""
             print(textwrap.fill(f"{spec.variant}{mark}: {plain(spec.summary)}", 100,

@@ -60,10 +60,23 @@ def test_a_name_taken_twice_names_both_entry_points(
     # sorted by name: the built-in reacquire variants ("a") first, then the plug-in ("b")
     _points(monkeypatch, ("a", "cptbt.behaviours.reacquire:BEHAVIOURS"),
             ("b", f"{plugin}:CLASH"))
+    told = (f"entry point {plugin}:CLASH registers reacquire_plume.cloverleaf, a built-in's "
+            "name (cptbt's cptbt.behaviours.reacquire:BEHAVIOURS): give the plug-in's variant "
+            "a name of its own")
     with pytest.raises(RegistryError) as exc:
         load_entry_points()
-    assert str(exc.value) == (f"entry point {plugin}:CLASH: behaviour "
-                              "reacquire_plume.cloverleaf is registered twice (first by entry "
-                              "point cptbt.behaviours.reacquire:BEHAVIOURS)"), str(exc.value)
+    assert str(exc.value) == told, str(exc.value)
+    # the plug-in read first (a review's entry point sorted before the built-in's): the
+    # plug-in is still the one named, not the built-in
+    _points(monkeypatch, ("a", f"{plugin}:CLASH"),
+            ("b", "cptbt.behaviours.reacquire:BEHAVIOURS"))
+    with pytest.raises(RegistryError) as exc:
+        load_entry_points()
+    assert str(exc.value) == told, str(exc.value)
+    # two plug-ins: both named
+    _points(monkeypatch, ("a", f"{plugin}:GOOD"), ("b", f"{plugin}:GOOD"))
+    with pytest.raises(RegistryError, match=rf"reacquire_plume.mine is registered by both entry "
+                                            rf"point {plugin}:GOOD and {plugin}:GOOD: rename"):
+        load_entry_points()
     _points(monkeypatch, ("a", f"{plugin}:GOOD"))
     assert {s.variant for s in load_entry_points().specs()} == {"mine"}

@@ -277,3 +277,25 @@ def test_a_simulator_command_that_cannot_import_says_why(
                           "(ImportError: cannot import name '__version__' from 'cptbt')")
     assert "invalid choice" not in err and len(err.strip().splitlines()) == 1
     assert cli.main(["validate", MISSION]) == 0  # the planner's commands still work
+
+
+def test_behaviours_tells_a_plug_in_family_one_slip_from_a_slot(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A review's plug-in family "find_plum" was listed as a family of its own, silently."""
+    from typing import ClassVar
+
+    from cptbt.node import PlanBehaviour
+    from cptbt.registry import load_entry_points
+
+    class Mower(PlanBehaviour):
+        family: ClassVar[str] = "find_plum"
+        variant: ClassVar[str] = "lawnmower"
+
+    registry = load_entry_points()
+    registry.register(Mower)
+    monkeypatch.setattr(inspect_cmds, "default_registry", lambda: registry)
+    assert cli.main(["behaviours"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "find_plum  (not a TRO slot: one slip from find_plume; misspelt?)" in lines
+    assert "find_plume" in lines  # the slot itself, unmarked
