@@ -29,7 +29,6 @@ Writes ``benchmarks/results/infotaxis_study.md``; the studies go to ``--work``.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import platform
 import statistics
@@ -38,7 +37,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from cptbt.batch.report import by_configuration, protocol, wilson
+from cptbt.batch.report import by_configuration, mcnemar, protocol, wilson
 from cptbt.batch.store import load_results
 from cptbt.cli import main as cptbt
 
@@ -113,15 +112,6 @@ def paired(a: Rows, b: Rows, name_a: str, name_b: str) -> list[str]:
             f"the source in {counts[(True, True)]}, only {name_a} in {only_a}, only {name_b} "
             f"in {only_b}, neither in {counts[(False, False)]} (exact McNemar test on the "
             f"discordant pairs: p = {mcnemar(only_a, only_b):.2f})."]
-
-
-def mcnemar(b: int, c: int) -> float:
-    """Two-sided exact McNemar p-value: the discordant pairs against a fair coin."""
-    n, k = b + c, min(b, c)
-    if n == 0:
-        return 1.0
-    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2**n
-    return min(1.0, 2 * tail)
 
 
 def failures(rows: Rows, name: str) -> list[str]:

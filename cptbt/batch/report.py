@@ -126,6 +126,10 @@ class Protocol:
     d0_over_d3: float
 
 
+PERCENTILE_RUNS = {90: 10, 99: 100}
+"""The successful runs a tail percentile needs before the tables give it."""
+
+
 def protocol(rows: Rows) -> Protocol:
     """The evaluation protocol's numbers over ``rows`` (one configuration); NaN where empty."""
     n = len(rows)
@@ -136,6 +140,10 @@ def protocol(rows: Rows) -> Protocol:
     mean = float(ok.mean()) if ok.size else math.nan
     sem = float(ok.std(ddof=1) / math.sqrt(ok.size)) if ok.size > 1 else math.nan
     q = np.percentile(ok, [50, 90, 99]) if ok.size else np.full(3, math.nan)
+    # a percentile from fewer runs than it needs is the largest run (a review read a "99th
+    # percentile" of 4 runs): given from 10 successes (90th) and 100 (99th)
+    q[1] = q[1] if ok.size >= PERCENTILE_RUNS[90] else math.nan
+    q[2] = q[2] if ok.size >= PERCENTILE_RUNS[99] else math.nan
     eff = [float(r["path_efficiency"]) for r in rows if r.get("success")
            and r.get("path_efficiency") is not None and math.isfinite(r["path_efficiency"])]
     d03 = [float(r["D0"]) / float(r["D3"]) for r in rows
@@ -236,7 +244,8 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
     frame = geometry.ne_frame if geometry is not None else None
     grouped, notes = compared(rows, planned_runs)
     groups: dict[str, Rows] = defaultdict(list, grouped)
-    written: list[Path | None] = [_tables(groups, out / "tables.md", frame, notes)]
+    written: list[Path | None] = [_tables(groups, out / "tables.md", frame, notes,
+                                          study_header(_study_json(out), len(groups)))]
     if not figures:
         return [p for p in written if p is not None]
     plt = pyplot()
@@ -248,6 +257,105 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
         written.append(_rates(groups, out / "success_and_false_declarations.png", plt))
     written.append(_distributions(groups, out / "error_and_td_share.png", plt))
     return [p for p in written if p is not None]
+
+
+def mcnemar(b: int, c: int) -> float:
+    """Two-sided exact McNemar p-value: the discordant pairs against a fair coin."""
+    n, k = b + c, min(b, c)
+    if n == 0:
+        return 1.0
+    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2**n
+    return min(1.0, 2 * tail)
+
+
+def paired_table(groups: dict[str, Rows]) -> list[str]:
+    """Each configuration against the first of its world, run by run (a review: the runs are
+    paired, the tables compared only each configuration's own intervals).
+
+    Runs pair by (replicate, start): the same plume, start and vehicle noise. Configurations
+    that differ in a swept simulator setting (``environment.*``) fly other worlds and are not
+    paired; each is set against the first configuration of its own world. Success: the runs
+    only one of the two succeeded in, with the exact McNemar p on them; time: the mean paired
+    difference over the runs both succeeded in, with its standard error.
+    """
+    if len(groups) < 2:
+        return []
+    world_keys = sorted({k for rows in groups.values() for r in rows[:1] for k in r
+                         if k.startswith("environment.")})
+
+    def world(rows: Rows) -> tuple[Any, ...]:
+        return tuple(rows[0].get(k) for k in world_keys) if rows else ()
+
+    first: dict[tuple[Any, ...], str] = {}
+    for label, rows in groups.items():
+        first.setdefault(world(rows), label)
+    lines = ["", "## Paired comparisons", "",
+             "Each configuration against the first "
+             + ("of its world (the same swept simulator settings)" if world_keys else "")
+             + ", run by run on the same plume, start and vehicle noise: the runs only one "
+             "of the two succeeded in (exact McNemar p on those), and the mean time difference "
+             "over the runs both succeeded in (this minus the first, ± SE).", "",
+             "| configuration | against | pairs | succeeded only here / only there | McNemar p "
+             "| time difference (s) | both succeeded |",
+             "|---|---|---:|---:|---:|---:|---:|"]
+    for label, rows in groups.items():
+        base = first[world(rows)]
+        if base == label:
+            continue
+        there = {(r.get("replicate"), r.get("start")): r for r in groups[base]}
+        pairs = [(r, there[k]) for r in rows
+                 if (k := (r.get("replicate"), r.get("start"))) in there]
+        here_only = sum(bool(a.get("success")) and not b.get("success") for a, b in pairs)
+        there_only = sum(bool(b.get("success")) and not a.get("success") for a, b in pairs)
+        d = np.array([_time_to_source(a) - _time_to_source(b) for a, b in pairs
+                      if a.get("success") and b.get("success")], dtype=float)
+        d = d[np.isfinite(d)]
+        se = float(d.std(ddof=1) / math.sqrt(d.size)) if d.size > 1 else math.nan
+        diff = f"{_fmt(float(d.mean()) if d.size else None)} ± {_fmt(se)}"
+        lines.append(f"| {label} | {base} | {len(pairs)} | {here_only} / {there_only} "
+                     f"| {mcnemar(here_only, there_only):.2g} | {diff} | {d.size} |")
+    return lines
+
+
+def _study_json(folder: Path) -> dict[str, Any]:
+    """The study's ``study.json`` in ``folder`` (empty when there is none, or it is unreadable:
+    tables written elsewhere, by ``cptbt plot --out``, say)."""
+    try:
+        data = json.loads((folder / "study.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
+    """What was flown, from the study's record: the mission, seed, starts and replicates, the
+    sweeps, whether the runs are paired, and the sweeps' notes (a review found tables.md
+    silent on all of it; the notes went to the terminal only). Empty without a record."""
+    if not meta.get("mission"):
+        return []
+    starts, reps = len(meta.get("starts") or []), meta.get("runs_per_start")
+    limit = meta.get("time_limit_s")
+    lines = ["## What was flown", "",
+             f"- Mission `{meta['mission']}` ({meta.get('mission_name', '')}), root seed "
+             f"{meta.get('root_seed')}; {starts} start{'s' * (starts != 1)} × {reps} "
+             f"replicate{'s' * (reps != 1)} per configuration, {configurations} "
+             f"configuration{'s' * (configurations != 1)}; time limit "
+             + (f"{limit:g} s." if isinstance(limit, (int, float)) else "the mission's.")]
+    sweeps = meta.get("sweeps") or {}
+    lines.append("- Swept: " + "; ".join(f"`{k}` = {', '.join(map(str, v))}"
+                                         for k, v in sweeps.items()) + "."
+                 if sweeps else "- One configuration: the mission as written.")
+    world = [k for k in sweeps if "environment." in k]
+    lines.append("- Paired: replicate r flies the same plume in every configuration and start i "
+                 "the same vehicle noise, so configurations are compared run by run"
+                 + (" (but not across a swept simulator setting's values: note below)."
+                    if world else "."))
+    if meta.get("until_sem") is not None:
+        lines.append(f"- Adaptive: replicates added {meta.get('runs_per_round')} at a time until "
+                     "the largest relative SEM of a mean time to source was at most "
+                     f"{meta['until_sem']:g} (or {meta.get('max_runs_per_start')} per start).")
+    lines += [f"- Note: {note}" for note in meta.get("notes") or []]
+    return [*lines, ""]
 
 
 def td_share(row: dict[str, Any]) -> float | None:
@@ -337,13 +445,13 @@ def _declared_cell(row: dict[str, Any], frame: PlanningFrame | None = None) -> s
 
 
 def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = None,
-            notes: Sequence[str] = ()) -> Path:
+            notes: Sequence[str] = (), header: Sequence[str] = ()) -> Path:
     every = [r for rows in groups.values() for r in rows]
     criterion = _criterion(every)
     mean_col, max_col = _DISTANCE_COLUMNS.get(criterion, _DISTANCE_COLUMNS["declaration"])
     # A study whose runs cannot declare has no false declarations to count: "—", not 0.
     declares = criterion == "declaration" or any(r.get("t3") is not None for r in every)
-    lines = ["# Study results", ""]
+    lines = ["# Study results", "", *header]
     lines += [line for note in notes for line in (f"**{note}**", "")]
     failed = errors_note(every)
     if failed:
@@ -383,8 +491,11 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
     if is_maintain_study(every):  # nothing declared: TRO's tables say nothing
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         return path
+    lines += paired_table(groups)
     lines += ["", "## Evaluation protocol", "",
-              "Times to source over the successful runs (a failure counts in P(fail) only); "
+              "Times to source over the successful runs (a failure counts in P(fail) only; "
+              f"the 90th and 99th percentiles from {PERCENTILE_RUNS[90]} and "
+              f"{PERCENTILE_RUNS[99]} of them, — before); "
               "path efficiency = straight line from the start to the true source / true path "
               "flown to success; D0/D3 the mean of each declaration's ratio of TRO's D0 and D3 "
               "(SPEC §11; not the ratio of the means, and not a column of TRO Table IV, which "
@@ -419,7 +530,8 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
             share = td_share(r)
             lines.append(
                 f"| r{r['replicate']}s{r['start']} | {_place(r['start_x'], r['start_y'], frame)} "
-                f"| {_declared_cell(r, frame)} | {_fmt(r.get('error_m'))} "
+                f"| {_declared_cell(r, frame)} | {_fmt(r.get('error_m'))}"
+                f"{' (false)' if r.get('false_declaration') else ''} "
                 f"| {_fmt(r.get('T_F'))} | {_fmt(r.get('T_T'))} "
                 f"| {_fmt(r.get('T_D'))} | {_fmt(share * 100 if share is not None else None)}% "
                 f"| {_fmt(r.get('D0'))} | {_fmt(r.get('D1'))} | {_fmt(r.get('D2'))} "

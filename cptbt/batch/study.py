@@ -107,6 +107,20 @@ def apply_setting(data: dict[str, Any], path: str, value: Any) -> None:
     raise ValueError(f"sweep path {path!r}: the mission has no {head!r} behaviour")
 
 
+def study_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
+    """What a reader of the study must know of its sweeps: the settings a swept variant drops
+    (:func:`variant_sweep_notes`), and that a swept simulator setting changes the world, so
+    its values do not fly the same plumes (a review swept three, told nothing)."""
+    notes = variant_sweep_notes(mission, sweeps)
+    world = [p for s in sweeps for p in s.paths if p.startswith("environment.")]
+    if world:
+        notes.append(f"{', '.join(world)} {'is' if len(world) == 1 else 'are'} swept: "
+                     "a simulator setting changes the world itself, so replicate r is not "
+                     "the same plume at each value: compare those values over replicates, "
+                     "not pair by pair")
+    return notes
+
+
 def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
     """What a ``<family>.variant`` sweep drops: the behaviour's settings in the mission that a
     swept variant flies otherwise, one note per such variant.
@@ -166,11 +180,14 @@ def config_label(coords: dict[str, Any], mission: str) -> str:
     Each swept setting is named by its last key (``speed_mps=1``), a variant by its family
     (``reacquire_plume=three_point``: "variant=three_point" left a reader to guess whose); where
     two sweeps share a name (``maintain_plume.speed_mps`` and ``find_plume.speed_mps``) both
-    keep their full path, so no label can be read two ways.
+    keep their full path, so no label can be read two ways. A simulator setting keeps its whole
+    path (``environment.flow_speed_mps=0.2``: a review read ``flow_speed_mps`` beside the
+    vehicle's speeds, and such a sweep changes the world, not the AMP).
     """
     if not coords:
         return mission
-    short = {path: _last_keys(path) for path in coords}
+    short = {path: path if path.startswith("environment.") else _last_keys(path)
+             for path in coords}
     clash = {name for name in short.values() if list(short.values()).count(name) > 1}
     return ", ".join(f"{path if short[path] in clash else short[path]}={value}"
                      for path, value in coords.items())

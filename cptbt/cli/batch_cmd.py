@@ -18,7 +18,7 @@ from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import environment_of, to_sim_params
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
-from cptbt.batch.study import GroupTask, Study, Sweep, grid_starts, log_sample
+from cptbt.batch.study import GroupTask, Study, Sweep, grid_starts, log_sample, study_notes
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
 from cptbt.cli.batch_sweeps import study_configs
@@ -281,6 +281,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         "planner": _planner_record(configs, len(starts), str(args.mission)),
         "seeding": "SeedSequence(root_seed, spawn_key=(replicate, 0)) for the plume; "
                    "(replicate, 1, start) for each vehicle",
+        "notes": study_notes(mission, sweeps),
     }
     if adaptive:
         metadata |= {"until_sem": args.until_sem, "runs_per_round": runs_per_start,

@@ -11,7 +11,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from cptbt.batch.study import Config, Sweep, configurations, variant_sweep_notes
+from cptbt.batch.study import Config, Sweep, configurations, study_notes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import mission_text, study_sweeps, warn_swept
 from cptbt.loader import parse_yaml
@@ -40,7 +40,7 @@ def study_configs(args: argparse.Namespace,
         configs = configurations(mission, sweeps, args.mission, lines)
     except ValueError as exc:
         raise UsageError(f"batch: {exc}") from None
-    for note in variant_sweep_notes(mission, sweeps):
+    for note in study_notes(mission, sweeps):
         print(f"cptbt: note: {note}", file=sys.stderr)
     if not args.quiet:
         warn_swept(mission, configs if sweeps else [], args.mission)

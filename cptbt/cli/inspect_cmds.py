@@ -198,7 +198,7 @@ def _check_study_sweeps(mission: MissionBase, path: str) -> None:
     sweeps = study_sweeps(mission)
     if not sweeps or environment_model() is None:  # the core alone: no study is flown here
         return
-    from cptbt.batch.study import configurations, variant_sweep_notes
+    from cptbt.batch.study import configurations, study_notes
 
     lines = parse_yaml(mission_text(path), path)[1]
     try:
@@ -206,7 +206,7 @@ def _check_study_sweeps(mission: MissionBase, path: str) -> None:
     except ValueError as exc:
         where = lines.get(("study", "sweeps"), lines.get(("study",), 1))
         raise MissionError([f"{path}:{where}: study.sweeps: {exc}"]) from None
-    for note in variant_sweep_notes(mission, sweeps):
+    for note in study_notes(mission, sweeps):
         print(f"{path}: note: {note}", file=sys.stderr)
     warn_swept(mission, configs, path, own=False)
 

@@ -108,3 +108,13 @@ def test_a_cap_that_cannot_hold_is_a_usage_error(tmp_path: Path, extra: list[str
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and fragment in err[0]
     assert not out.exists()
+
+
+def test_a_tail_percentile_needs_the_runs_to_have_one() -> None:
+    """A review read a "99th percentile" of 4 runs (the largest of them): the 90th is given
+    from 10 successes, the 99th from 100."""
+    few = protocol(rows([float(t) for t in range(1, 10)]))  # 9 successes
+    assert math.isnan(few.p90_s) and math.isnan(few.p99_s) and few.median_s == 5.0
+    ten = protocol(rows([float(t) for t in range(1, 11)]))
+    assert ten.p90_s == pytest.approx(np.percentile(np.arange(1, 11), 90))
+    assert math.isnan(ten.p99_s)

@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from cptbt.batch.report import StudyGeometry, compared, td_share, wilson, write_report
@@ -133,7 +134,8 @@ def test_a_run_that_declared_several_points_lists_each_with_its_own_error(
                  "declared_points": json.dumps([[98.0, 2.0, 2.0]])}
     write_report([row, one, searching], tmp_path)
     table = (tmp_path / "tables.md").read_text()
-    assert ("| (100.0, 5.0) 2.5 m; (40.0, -30.0) 21.0 m; (160.0, 20.0) 4.0 m | 21.0 |"
+    # a false declaration is marked where its error is (a review read it as any other row)
+    assert ("| (100.0, 5.0) 2.5 m; (40.0, -30.0) 21.0 m; (160.0, 20.0) 4.0 m | 21.0 (false) |"
             in table), table
     assert "| (99.0, 1.0) | 1.5 |" in table, table
     assert "| (98.0, 2.0) | 1.5 |" in table, table  # ended searching for more: no declared_source
@@ -287,7 +289,10 @@ def test_config_label_names_each_setting_unambiguously() -> None:
     # Two sweeps ending in the same key would both read "speed_mps=...": full paths instead.
     two = {"maintain_plume.speed_mps": 1.0, "find_plume.speed_mps": 2.0, "environment.seed": 3}
     assert config_label(two, "msn") == (
-        "maintain_plume.speed_mps=1.0, find_plume.speed_mps=2.0, seed=3")
+        "maintain_plume.speed_mps=1.0, find_plume.speed_mps=2.0, environment.seed=3")
+    # a simulator setting keeps its path (a review read flow_speed_mps as the vehicle's)
+    assert config_label({"environment.flow_speed_mps": 0.2}, "msn") == \
+        "environment.flow_speed_mps=0.2"
 
 
 def test_rates_chart_gives_each_swept_setting_a_line_and_room(tmp_path: Path,
@@ -480,3 +485,45 @@ def test_td_share_is_of_the_time_from_t0() -> None:
     assert td_share({**row, "T_total": None}) == pytest.approx(211.0 / 485.0)
     assert td_share({**BASE, "t3": 40.0, "T_D": 10.0}) == pytest.approx(0.25)
     assert td_share({**BASE, "t3": 40.0}) is None
+
+
+def test_paired_comparisons_count_discordant_runs_within_a_world() -> None:
+    """A review: the runs are paired but the tables compared only each configuration's own
+    intervals. Each configuration is set against the first of its world, run by run."""
+    from cptbt.batch.report import mcnemar, paired_table
+
+    def run(config: str, rep: int, ok: bool, t3: float, flow: float) -> dict[str, Any]:
+        return {**BASE, "configuration": config, "replicate": rep, "start": 0,
+                "start_x": 0.0, "success": ok, "t3": t3 if ok else None,
+                "environment.flow_speed_mps": flow}
+
+    groups = {
+        "a": [run("a", r, r != 3, 100.0, 0.1) for r in range(6)],
+        "b": [run("b", r, r not in (0, 1), 90.0 + r, 0.1) for r in range(6)],
+        "c": [run("c", r, True, 50.0, 0.2) for r in range(6)],  # another world: the first there
+    }
+    lines = paired_table(groups)
+    rows = [line for line in lines if line.startswith("| b ")]
+    assert len(rows) == 1 and not [line for line in lines if line.startswith("| c ")]
+    # b succeeded alone in run 3, a alone in 0 and 1; both in 2, 4, 5: b - a = -8, -6, -5
+    assert rows[0] == (f"| b | a | 6 | 1 / 2 | {mcnemar(1, 2):.2g} | "
+                       f"{np.mean([-8.0, -6.0, -5.0]):.1f} ± "
+                       f"{np.std([-8.0, -6.0, -5.0], ddof=1) / np.sqrt(3):.1f} | 3 |")
+    assert mcnemar(0, 0) == 1.0 and mcnemar(0, 6) == pytest.approx(2 / 64)
+    assert paired_table({"a": groups["a"]}) == []
+
+
+def test_tables_say_what_was_flown(tmp_path: Path) -> None:
+    """A review found tables.md silent on the mission, seed, starts, pairing and the sweeps'
+    notes (which went to the terminal only)."""
+    (tmp_path / "study.json").write_text(json.dumps({
+        "mission": "missions/x.yaml", "mission_name": "x", "root_seed": 7,
+        "starts": [[0, 0], [1, 0]], "runs_per_start": 3, "time_limit_s": None,
+        "sweeps": {"environment.flow_speed_mps": [0.1, 0.2]},
+        "notes": ["environment.flow_speed_mps is swept: not the same plume"]}))
+    write_report(line_rows(), tmp_path, figures=False)
+    text = (tmp_path / "tables.md").read_text(encoding="utf-8")
+    assert "- Mission `missions/x.yaml` (x), root seed 7; 2 starts × 3 replicates" in text
+    assert "- Swept: `environment.flow_speed_mps` = 0.1, 0.2." in text
+    assert "not across a swept simulator setting's values" in text
+    assert "- Note: environment.flow_speed_mps is swept: not the same plume" in text
