@@ -273,18 +273,22 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
     radius = next((float(r["success_radius_m"]) for rows in judged.values() for r in rows
                    if r.get("success_radius_m") is not None), None)
     top = max([v for vals in err.values() for v in vals] + [radius or 0.0, 1.0])
-    edges = np.linspace(0.0, top * 1.02, 31)  # one set of bins for every configuration
+    # Fewer, wider bins as configurations share them: four side by side in 30 bins were a
+    # pixel wide each, under their white edges (a review saw an empty error panel)
+    many = max(1, sum(1 for k in judged if err[k] or share[k]))
+    edges = np.linspace(0.0, top * 1.02, max(8, 30 // many) + 1)  # one set for every config
     # Several configurations: their bars side by side in each bin (filled bars at alpha 0.6
     # blended into colours no configuration has, and outlines of equal height hid each other:
     # two reviews); the colours follow the configurations whether or not a panel has them all.
     colours = {k: f"C{i}" for i, k in enumerate(judged)}
-    for ax, values, bins in ((a1, err, edges), (a2, share, np.linspace(0.0, 1.0, 21))):
+    for ax, values, bins in ((a1, err, edges),
+                             (a2, share, np.linspace(0.0, 1.0, max(8, 20 // many) + 1))):
         have = [k for k in judged if values[k]]
         if have:
             # edged: runs in adjacent bins had drawn as one wide block (a review read 3 as 1)
             ax.hist([values[k] for k in have], bins=bins, color=[colours[k] for k in have],
                     label=[f"{k} (n = {len(values[k])})" for k in have], edgecolor="white",
-                    linewidth=0.8)
+                    linewidth=0.8 if many <= 2 else 0.4)
     if radius is not None:
         a1.axvline(radius, color="#d62728", ls="--", lw=1, label=f"success radius {radius:g} m")
     # Several true sources: a run's error_m is its worst declared source's, and T_D and t3
@@ -297,12 +301,19 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
     a1.set_title("How far off the declared sources were" if several
                  else "How far off the declared source was", fontsize=10)
     a2.set_title("Share of the mission spent declaring (T_D)", fontsize=10)  # fits the panel
+    entries: dict[str, Any] = {}  # one legend for both panels: each configuration once
     for ax in (a1, a2):
         ax.set_ylabel("runs")
         ax.yaxis.get_major_locator().set_params(integer=True)  # counts: no 0.25-run ticks
-        if ax.get_legend_handles_labels()[0]:  # under the panel: inside, it sat on the radius
-            ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2,
-                      frameon=False)
+        for handle, text in zip(*ax.get_legend_handles_labels(), strict=True):
+            entries.setdefault(text, handle)
+    if entries:  # under the panels, long labels wrapped (two sweeps' labels had run off the
+        # page and over each other, a legend per panel: a review)
+        width = max(len(t) for t in entries)
+        ncol = 1 if width > 70 else 2
+        fig.legend(list(entries.values()),
+                   [textwrap.fill(t, 100 if ncol == 1 else 60) for t in entries],
+                   loc="outside lower center", ncol=ncol, fontsize=7, frameon=False)
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path

@@ -447,9 +447,13 @@ def test_the_study_figures_say_what_each_panel_and_bar_is(tmp_path: Path,
     bars = [p for p in fig.axes[0].patches if p.get_height() > 0]
     assert bars and all(p.get_linewidth() > 0 for p in bars)  # adjacent bins told apart
     fig.canvas.draw()
+    (legend,) = fig.legends  # one for both panels, each configuration once (a review saw
+    box = legend.get_window_extent()  # two legends run over each other and off the page)
     for ax in fig.axes:
-        legend = ax.get_legend().get_window_extent()
-        assert legend.y1 <= ax.bbox.y0  # below the plot area
+        assert box.y1 <= ax.bbox.y0  # below the plot areas
+    assert fig.bbox.x0 <= box.x0 and box.x1 <= fig.bbox.x1  # on the page
+    texts = [t.get_text() for t in legend.get_texts()]
+    assert len(texts) == len(set(texts)) == len(with_radius) + 1  # + the success radius
     groups: dict[str, list[dict[str, Any]]] = {}
     for r in maintain_rows():
         beta = r["configuration"].split("beta1_deg=")[1]
