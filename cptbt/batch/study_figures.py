@@ -196,7 +196,7 @@ def _line(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
         per = f"{ns[0]}" if len(ns) == 1 else f"{ns[0]}–{ns[-1]}"
         line = ax.plot(pos, mean, "o-", ms=3, label=f"{label} (n = {per} per start)")
         ax.fill_between(pos, mean - se, mean + se, color=line[0].get_color(), alpha=0.25, lw=0)
-    ax.set_xlabel(f"start {axis} (m), {fixed}")
+    ax.set_xlabel(f"start {axis} (m, planning frame), {fixed}")  # as the map says (a review)
     ax.set_ylabel("mean time to source (s) ± 1 SE;\na failure counts as the time it ran")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
