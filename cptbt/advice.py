@@ -106,9 +106,12 @@ def start_advice(mission: MissionBase) -> list[Problem]:
         return []
     at = (("start",) if "start" in mission.model_fields_set
           else ("behaviours", families.index("move_to_field"), "move_to_field"))
-    return [(at, "the mission has no start: under cptbt run move_to_field has no goal and "
-             "the vehicle starts at home (a study's --grid or --starts gives each run a start "
-             "of its own)")]
+    return [(at, f"{NO_START}: under cptbt run move_to_field has no goal and the vehicle "
+             "starts at home (a study's --grid or --starts gives each run a start of its own)")]
+
+
+NO_START = "the mission has no start"
+"""The start advisory's opening: a study, whose runs each have a start, leaves it out."""
 
 
 def family_advice(mission: MissionBase) -> list[Problem]:

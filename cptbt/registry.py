@@ -239,6 +239,9 @@ def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
                     f"entry point {theirs[0]} registers {family}.{variant}, a built-in's "
                     f"name (cptbt's {ours[0]}): give the plug-in's variant a name of its "
                     "own") from exc
+            if first == ep.value:
+                raise RegistryError(f"entry point {first} registers {family}.{variant} twice"
+                                    ) from exc
             raise RegistryError(f"behaviour {family}.{variant} is registered by both entry "
                                 f"point {first} and {ep.value}: rename one") from exc
         except (RegistryError, TypeError) as exc:

@@ -17,6 +17,7 @@ import numpy as np
 from cptbt.batch.figures import pyplot
 from cptbt.batch.maintain_report import is_maintain_study, maintain_figure, maintain_table
 from cptbt.batch.outcome import ERROR_OUTCOME
+from cptbt.batch.study import changes_world
 from cptbt.frames import PlanningFrame
 
 Rows = list[dict[str, Any]]
@@ -260,11 +261,14 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
 
 
 def mcnemar(b: int, c: int) -> float:
-    """Two-sided exact McNemar p-value: the discordant pairs against a fair coin."""
+    """Two-sided exact McNemar p-value: the discordant pairs against a fair coin (summed in
+    floats from logarithms: exact integers took seconds for thousands of runs, a review)."""
     n, k = b + c, min(b, c)
     if n == 0:
         return 1.0
-    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2**n
+    log_half = n * math.log(0.5)
+    tail = sum(math.exp(math.lgamma(n + 1) - math.lgamma(i + 1) - math.lgamma(n - i + 1)
+                        + log_half) for i in range(k + 1))
     return min(1.0, 2 * tail)
 
 
@@ -281,7 +285,7 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
     if len(groups) < 2:
         return []
     world_keys = sorted({k for rows in groups.values() for r in rows[:1] for k in r
-                         if k.startswith("environment.")})
+                         if changes_world(k)})
 
     def world(rows: Rows) -> tuple[Any, ...]:
         return tuple(rows[0].get(k) for k in world_keys) if rows else ()
@@ -289,9 +293,12 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
     first: dict[tuple[Any, ...], str] = {}
     for label, rows in groups.items():
         first.setdefault(world(rows), label)
+    if len(first) == len(groups):  # every configuration a world of its own: none pairs
+        return []
     lines = ["", "## Paired comparisons", "",
-             "Each configuration against the first "
-             + ("of its world (the same swept simulator settings)" if world_keys else "")
+             "Each configuration against the first"
+             + (" of its world (the same swept settings of the simulated world)"
+                if world_keys else "")
              + ", run by run on the same plume, start and vehicle noise: the runs only one "
              "of the two succeeded in (exact McNemar p on those), and the mean time difference "
              "over the runs both succeeded in (this minus the first, ± SE).", "",
@@ -335,21 +342,23 @@ def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
         return []
     starts, reps = len(meta.get("starts") or []), meta.get("runs_per_start")
     limit = meta.get("time_limit_s")
+    flown = (f"{starts} start{'s' * (starts != 1)} × {reps} replicate{'s' * (reps != 1)} per "
+             "configuration, " if starts and isinstance(reps, int) else "")
     lines = ["## What was flown", "",
              f"- Mission `{meta['mission']}` ({meta.get('mission_name', '')}), root seed "
-             f"{meta.get('root_seed')}; {starts} start{'s' * (starts != 1)} × {reps} "
-             f"replicate{'s' * (reps != 1)} per configuration, {configurations} "
+             f"{meta.get('root_seed')}; {flown}{configurations} "
              f"configuration{'s' * (configurations != 1)}; time limit "
              + (f"{limit:g} s." if isinstance(limit, (int, float)) else "the mission's.")]
     sweeps = meta.get("sweeps") or {}
     lines.append("- Swept: " + "; ".join(f"`{k}` = {', '.join(map(str, v))}"
                                          for k, v in sweeps.items()) + "."
                  if sweeps else "- One configuration: the mission as written.")
-    world = [k for k in sweeps if "environment." in k]
-    lines.append("- Paired: replicate r flies the same plume in every configuration and start i "
-                 "the same vehicle noise, so configurations are compared run by run"
-                 + (" (but not across a swept simulator setting's values: note below)."
-                    if world else "."))
+    world = [k for k in sweeps if any(changes_world(p) for p in k.split("+"))]
+    if configurations > 1:
+        lines.append("- Paired: replicate r flies the same plume in every configuration and "
+                     "start i the same vehicle noise, so configurations are compared run by run"
+                     + (" (but not across the values of a setting of the simulated world: note "
+                        "below)." if world else "."))
     if meta.get("until_sem") is not None:
         lines.append(f"- Adaptive: replicates added {meta.get('runs_per_round')} at a time until "
                      "the largest relative SEM of a mean time to source was at most "

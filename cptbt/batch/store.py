@@ -4,12 +4,13 @@ A group's rows reach disk all at once, by writing a temporary file, syncing it a
 so an interrupted or crashed study keeps every finished group and none half-written. While a
 group flies (on this machine), each of its runs is appended to the group's journal as soon as it
 ends, so the runs an interruption finds done are kept too: a resume flies only the rest of the
-group (a run's seeds are its own, so it is the same run) and writes the group's part whole. Each
-part also carries its group's identity, the study's fingerprint (``integrity``) and a checksum
-of its rows, in the Parquet key-value metadata (or a ``.json`` sidecar beside a CSV part). A
-resume keeps only the parts that pass every check and re-runs the others, saying why: a part
-that is empty, truncated or garbage, changed since it was written, copied from another study, or
-written by other code is never mixed into the results.
+group (a run's seeds are its own, so it is the same run: every column but ``wall_time_s``, the
+group's wall time to that run's end shared over its runs, a measure of the machine) and writes
+the group's part whole. Each part also carries its group's identity, the study's fingerprint
+(``integrity``) and a checksum of its rows, in the Parquet key-value metadata (or a ``.json``
+sidecar beside a CSV part). A resume keeps only the parts that pass every check and re-runs the
+others, saying why: a part that is empty, truncated or garbage, changed since it was written,
+copied from another study, or written by other code is never mixed into the results.
 """
 
 from __future__ import annotations
@@ -227,8 +228,8 @@ def journal_line(tag: str, key: str, row: dict[str, Any]) -> str:
 
 
 def _plain(value: Any) -> Any:
-    item = getattr(value, "item", None)  # a numpy scalar
-    return item() if callable(item) else str(value)
+    as_list = getattr(value, "tolist", None)  # a numpy scalar or array
+    return as_list() if callable(as_list) else str(value)
 
 
 @dataclass

@@ -107,15 +107,30 @@ def apply_setting(data: dict[str, Any], path: str, value: Any) -> None:
     raise ValueError(f"sweep path {path!r}: the mission has no {head!r} behaviour")
 
 
+SAME_WORLD = ("environment.fluorometer.", "environment.adcp.", "environment.navigation.",
+              "environment.vehicle.", "environment.launch")
+"""Simulator settings of the vehicle and its sensors: the plume and flow are drawn alike
+whatever they are (the vehicle's noise has its own stream)."""
+
+
+def changes_world(path: str) -> bool:
+    """Whether a swept setting changes the simulated world (the flow and plume replicate r
+    flies): a simulator setting other than the vehicle's and its sensors', or the OpArea (the
+    flow field is laid over it). A review found an OpArea sweep paired as the same plume and
+    a sensor sweep refused as another world."""
+    return (path.startswith("environment.") and not path.startswith(SAME_WORLD)) or \
+        path.startswith("op_area.")
+
+
 def study_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
     """What a reader of the study must know of its sweeps: the settings a swept variant drops
-    (:func:`variant_sweep_notes`), and that a swept simulator setting changes the world, so
+    (:func:`variant_sweep_notes`), and that a setting of the simulated world changes it, so
     its values do not fly the same plumes (a review swept three, told nothing)."""
     notes = variant_sweep_notes(mission, sweeps)
-    world = [p for s in sweeps for p in s.paths if p.startswith("environment.")]
+    world = [p for s in sweeps for p in s.paths if changes_world(p)]
     if world:
         notes.append(f"{', '.join(world)} {'is' if len(world) == 1 else 'are'} swept: "
-                     "a simulator setting changes the world itself, so replicate r is not "
+                     "a setting of the simulated world changes it, so replicate r is not "
                      "the same plume at each value: compare those values over replicates, "
                      "not pair by pair")
     return notes

@@ -287,7 +287,7 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
         if have:
             # edged: runs in adjacent bins had drawn as one wide block (a review read 3 as 1)
             ax.hist([values[k] for k in have], bins=bins, color=[colours[k] for k in have],
-                    label=[f"{k} (n = {len(values[k])})" for k in have], edgecolor="white",
+                    label=list(have), edgecolor="white",
                     linewidth=0.8 if many <= 2 else 0.4)
     if radius is not None:
         a1.axvline(radius, color="#d62728", ls="--", lw=1, label=f"success radius {radius:g} m")
@@ -306,6 +306,11 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
         ax.set_ylabel("runs")
         ax.yaxis.get_major_locator().set_params(integer=True)  # counts: no 0.25-run ticks
         for handle, text in zip(*ax.get_legend_handles_labels(), strict=True):
+            if text in judged:  # a configuration: with its counts in each panel
+                n_err, n_share = len(err[text]), len(share[text])
+                text += (f" (n = {n_err})" if n_err == n_share or not n_share
+                         else f" (n = {n_share})" if not n_err
+                         else f" (n = {n_err} errors, {n_share} T_D shares)")
             entries.setdefault(text, handle)
     if entries:  # under the panels, long labels wrapped (two sweeps' labels had run off the
         # page and over each other, a legend per panel: a review)

@@ -120,6 +120,23 @@ def worker_code(task: GroupTask) -> str:
     return code_identity(task.flies or None)
 
 
+def _open_journal(path: Path) -> Any:
+    """A journal opened to append, after ending a line a kill tore (the next line would
+    otherwise join it and be lost with it: a review)."""
+    f = path.open("a", encoding="utf-8")
+    try:
+        with path.open("rb") as old:
+            old.seek(0, os.SEEK_END)
+            if old.tell():
+                old.seek(-1, os.SEEK_END)
+                if old.read(1) != b"\n":
+                    f.write("\n")
+    except OSError:
+        f.close()
+        raise
+    return f
+
+
 def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None,
               on_end: Callable[[int, VehicleRun, MissionBase, Point], None] | None = None
               ) -> tuple[MissionBase, list[VehicleRun], Point, float]:
@@ -243,11 +260,12 @@ class Journal:
         from cptbt.batch.store import journal_line
 
         try:
+            line = journal_line(self.task.journal_tag, self.task.key, row)
             if self.file is None:
-                self.file = open(self.task.journal, "a", encoding="utf-8")  # noqa: SIM115
-            self.file.write(journal_line(self.task.journal_tag, self.task.key, row))
+                self.file = _open_journal(Path(self.task.journal))
+            self.file.write(line)
             self.file.flush()  # in the page cache: a killed process keeps it
-        except OSError:
+        except (OSError, ValueError, TypeError):  # a full disk; a row JSON cannot hold
             self.task = dataclasses.replace(self.task, journal="")
 
     def close(self) -> None:
@@ -267,6 +285,12 @@ def failed_rows(task: GroupTask, exc: Exception) -> list[dict[str, Any]]:
     text = f"{type(exc).__name__}: {exc}".splitlines()[0][:300]
     if where is not None:
         text += f" (at {Path(where.filename).name}:{where.lineno})"
+    return error_rows(task, text)
+
+
+def error_rows(task: GroupTask, text: str) -> list[dict[str, Any]]:
+    """:func:`failed_rows` with the error's text given: the rows of a group's starts when the
+    group stopped on the error ``text``."""
     try:
         name = loads_mission(task.mission_yaml, f"group {task.key}", default_registry(),
                              Environment).name

@@ -109,7 +109,13 @@ def warn_swept(mission: MissionBase, configs: list[Config], source: str,
     lines (``FILE:LINE: path: warning:``) if some configuration keeps them (not those every
     sweep overrides; ``own=False``: none, they were printed already), then each swept
     configuration's others, one ``FILE [sweep ...]: path: warning:`` line each."""
-    shown = advisories_of(mission)
+    from cptbt.advice import NO_START
+
+    def flown(advice: list[tuple[Loc, str]]) -> list[tuple[Loc, str]]:
+        # every run of a study has a start of its own: no word of the mission's (a review)
+        return [(loc, msg) for loc, msg in advice if not msg.startswith(NO_START)]
+
+    shown = flown(advisories_of(mission))
     if not configs:
         if own:
             print_advisories(source, shown)
@@ -119,7 +125,7 @@ def warn_swept(mission: MissionBase, configs: list[Config], source: str,
     for c in configs:
         m = c.mission
         sweep = ", ".join(f"{k}={v}" for k, v in c.coords.items())
-        for loc, msg in advisories_of(m):
+        for loc, msg in flown(advisories_of(m)):
             if (loc, msg) in shown:
                 kept.add((loc, msg))
             else:

@@ -454,6 +454,13 @@ def test_the_study_figures_say_what_each_panel_and_bar_is(tmp_path: Path,
     assert fig.bbox.x0 <= box.x0 and box.x1 <= fig.bbox.x1  # on the page
     texts = [t.get_text() for t in legend.get_texts()]
     assert len(texts) == len(set(texts)) == len(with_radius) + 1  # + the success radius
+    # counts that differ between the panels: still one entry, saying both (a review saw the
+    # configuration twice, once with each count)
+    uneven = {k: [*v, {**v[0], "T_D": None}] for k, v in with_radius.items()}
+    assert _distributions(uneven, tmp_path / "d3.png", pyplot()) is not None
+    (legend,) = seen[-1].legends
+    texts = [t.get_text().replace("\n", " ") for t in legend.get_texts()]
+    assert texts[0] == "variant=v0 (n = 5 errors, 4 T_D shares)", texts
     groups: dict[str, list[dict[str, Any]]] = {}
     for r in maintain_rows():
         beta = r["configuration"].split("beta1_deg=")[1]
@@ -525,9 +532,24 @@ def test_tables_say_what_was_flown(tmp_path: Path) -> None:
         "starts": [[0, 0], [1, 0]], "runs_per_start": 3, "time_limit_s": None,
         "sweeps": {"environment.flow_speed_mps": [0.1, 0.2]},
         "notes": ["environment.flow_speed_mps is swept: not the same plume"]}))
-    write_report(line_rows(), tmp_path, figures=False)
+    rows = [{**r, "configuration": f"flow_speed_mps={v}", "environment.flow_speed_mps": v}
+            for v in (0.1, 0.2) for r in line_rows()]
+    write_report(rows, tmp_path, figures=False)
     text = (tmp_path / "tables.md").read_text(encoding="utf-8")
     assert "- Mission `missions/x.yaml` (x), root seed 7; 2 starts × 3 replicates" in text
     assert "- Swept: `environment.flow_speed_mps` = 0.1, 0.2." in text
-    assert "not across a swept simulator setting's values" in text
+    assert "not across the values of a setting of the simulated world" in text
+    assert "## Paired comparisons" not in text  # each value a world of its own: none pairs
     assert "- Note: environment.flow_speed_mps is swept: not the same plume" in text
+
+
+def test_pairing_follows_what_changes_the_world() -> None:
+    """A review: an OpArea sweep (the flow is laid over it) was paired as the same plume, and
+    a sensor sweep (its noise has the vehicle's own stream) refused as another world."""
+    from cptbt.batch.study import changes_world
+
+    assert changes_world("environment.flow_speed_mps") and changes_world("op_area.corners")
+    assert changes_world("environment.plume.release_rate_hz")
+    assert not changes_world("environment.fluorometer.noise_std")
+    assert not changes_world("environment.navigation.drift_std_m")
+    assert not changes_world("declare_source.variant")

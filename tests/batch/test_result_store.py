@@ -408,3 +408,53 @@ def test_a_journal_keeps_only_sound_lines_of_its_own_group(tmp_path: Path) -> No
     assert resume.partial == {task.key: kept} and resume.runs == 2
     store.write_group(task, rows)  # the group's part, written whole, retires its journal
     assert not path.exists()
+
+
+def test_a_journal_survives_arrays_and_a_torn_line_before_it(tmp_path: Path) -> None:
+    """A review: a row holding a numpy array failed the whole group (JSON cannot hold it);
+    a line appended after one a kill tore joined it and was lost with it."""
+    import numpy as np
+
+    from cptbt.batch.store import journal_line
+    from cptbt.batch.worker import _open_journal
+
+    store = opened(tmp_path, "parquet")
+    task = tasks(replicates=1, starts=2)[0]
+    rows = rows_of(task)
+    line = journal_line(store.fingerprint, task.key, {**rows[1], "extra": np.array([1.0, 2.0])})
+    assert json.loads(line)["row"]["extra"] == [1.0, 2.0]
+    path = store.journal_path(task.key)
+    torn = journal_line(store.fingerprint, task.key, rows[0])
+    path.write_text(torn[: len(torn) // 2], encoding="utf-8")  # killed mid-line
+    with _open_journal(path) as f:
+        f.write(line)
+    assert [r["start"] for r in store.journal_rows(task)] == [1]
+
+
+def test_a_resumed_group_that_meets_an_error_is_error_rows_whole(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review: the rest of an interrupted group met a bug; uninterrupted every run of the
+    group is an error row, resumed the runs kept from before had stayed successes."""
+    from cptbt.batch import runner
+    from cptbt.batch.outcome import ERROR_OUTCOME
+    from cptbt.batch.store import journal_line
+    from cptbt.batch.worker import error_rows
+
+    store = opened(tmp_path, "parquet")
+    task = tasks(replicates=1, starts=4)[0]
+    kept = rows_of(task)[:2]
+    store.journal_path(task.key).write_text(
+        "".join(journal_line(store.fingerprint, task.key, r) for r in kept), encoding="utf-8")
+    flown: list[tuple[int, ...]] = []
+
+    def meets_a_bug(t: GroupTask) -> list[dict[str, Any]]:
+        flown.append(t.ids)
+        return error_rows(t, "ZeroDivisionError: boom (at mine.py:3)")
+
+    monkeypatch.setattr(runner, "run_group", meets_a_bug)
+    runner.run_study([task], store, quiet=True)
+    assert flown == [(2, 3)]  # the rest alone
+    rows = store.rows([task])
+    assert [r["start"] for r in rows] == [0, 1, 2, 3]
+    assert all(r["outcome"] == ERROR_OUTCOME and not r["success"] for r in rows)
+    assert {r["error"] for r in rows} == {"ZeroDivisionError: boom (at mine.py:3)"}

@@ -28,6 +28,8 @@ class Mine(PlanBehaviour):
 BAD = (NotABehaviour,)
 CLASH = (Clover,)
 GOOD = (Mine,)
+ALSO = (Mine,)
+TWICE = (Mine, Mine)
 '''
 
 
@@ -74,9 +76,13 @@ def test_a_name_taken_twice_names_both_entry_points(
         load_entry_points()
     assert str(exc.value) == told, str(exc.value)
     # two plug-ins: both named
-    _points(monkeypatch, ("a", f"{plugin}:GOOD"), ("b", f"{plugin}:GOOD"))
+    _points(monkeypatch, ("a", f"{plugin}:GOOD"), ("b", f"{plugin}:ALSO"))
     with pytest.raises(RegistryError, match=rf"reacquire_plume.mine is registered by both entry "
-                                            rf"point {plugin}:GOOD and {plugin}:GOOD: rename"):
+                                            rf"point {plugin}:GOOD and {plugin}:ALSO: rename"):
+        load_entry_points()
+    _points(monkeypatch, ("a", f"{plugin}:TWICE"))  # one list naming it twice
+    with pytest.raises(RegistryError, match=rf"^entry point {plugin}:TWICE registers "
+                                            r"reacquire_plume.mine twice$"):
         load_entry_points()
     _points(monkeypatch, ("a", f"{plugin}:GOOD"))
     assert {s.variant for s in load_entry_points().specs()} == {"mine"}

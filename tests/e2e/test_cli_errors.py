@@ -299,3 +299,19 @@ def test_behaviours_tells_a_plug_in_family_one_slip_from_a_slot(
     lines = capsys.readouterr().out.splitlines()
     assert "find_plum  (not a TRO slot: one slip from find_plume; misspelt?)" in lines
     assert "find_plume" in lines  # the slot itself, unmarked
+
+
+def test_a_study_is_not_told_its_mission_has_no_start(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The no-start warning is for cptbt run; a study's runs each have a start (a review saw
+    it under --grid 1x1)."""
+    root = Path(__file__).resolve().parents[2]
+    text = (root / "missions" / "tro2006_msn007.yaml").read_text(encoding="utf-8")
+    path = tmp_path / "nostart.yaml"
+    path.write_text("\n".join(line for line in text.splitlines()
+                              if not line.startswith("start:")) + "\n", encoding="utf-8")
+    mission = inspect_cmds.load(str(path), warn=False)
+    assert any("no start" in msg for _, msg in mission.advisories())
+    inspect_cmds.warn_swept(mission, [], str(path))
+    assert "no start" not in capsys.readouterr().err
