@@ -37,7 +37,8 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from cptbt.batch.report import by_configuration, mcnemar, protocol, wilson
+from cptbt.batch.comparison import mcnemar
+from cptbt.batch.report import by_configuration, protocol, wilson
 from cptbt.batch.store import load_results
 from cptbt.cli import main as cptbt
 

@@ -14,10 +14,16 @@ from typing import Any
 
 import numpy as np
 
+from cptbt.batch.comparison import (
+    fmt,
+    paired_table,
+    study_header,
+    study_json,
+    time_to_source,
+)
 from cptbt.batch.figures import pyplot
 from cptbt.batch.maintain_report import is_maintain_study, maintain_figure, maintain_table
 from cptbt.batch.outcome import ERROR_OUTCOME
-from cptbt.batch.study import changes_world
 from cptbt.frames import PlanningFrame
 
 Rows = list[dict[str, Any]]
@@ -29,28 +35,10 @@ def _config_label(row: dict[str, Any]) -> str:
     return str(label) if label else str(row.get("mission", "study"))
 
 
-def _time_to_source(row: dict[str, Any]) -> float:
-    """Time to success (declaration, or the oracle's arrival); NaN for failures."""
-    if not row.get("success"):
-        return math.nan
-    t3 = row.get("t3")
-    return float(t3) if t3 is not None else float(row.get("sim_time_s") or math.nan)
-
-
 def _search_time(row: dict[str, Any]) -> float:
     """AB Fig. 6's measure: time to source, a failure counting as the time it ran (the limit)."""
-    t = _time_to_source(row)
+    t = time_to_source(row)
     return t if math.isfinite(t) else float(row.get("sim_time_s") or math.nan)
-
-
-def _fmt(v: Any, digits: int = 1) -> str:
-    if v is None or (isinstance(v, float) and math.isnan(v)):
-        return "—"
-    if not isinstance(v, float):
-        return str(v)
-    text = f"{v:.{digits}f}"
-    # a start on an axis, turned into the planning frame, is -0.0 or -1e-15: 0.0, not -0.0
-    return text[1:] if text.startswith("-") and not text.strip("-0.") else text
 
 
 @dataclass(frozen=True)
@@ -134,7 +122,7 @@ PERCENTILE_RUNS = {90: 10, 99: 100}
 def protocol(rows: Rows) -> Protocol:
     """The evaluation protocol's numbers over ``rows`` (one configuration); NaN where empty."""
     n = len(rows)
-    t = np.array([_time_to_source(r) for r in rows], dtype=float)
+    t = np.array([time_to_source(r) for r in rows], dtype=float)
     ok = t[np.isfinite(t)]
     fails = n - int(np.count_nonzero([bool(r.get("success")) for r in rows]))
     lo, hi = wilson(fails, n)
@@ -178,10 +166,10 @@ def protocol_table(groups: dict[str, Rows]) -> list[str]:
         lo, hi = pr.p_fail_ci
         lines.append(
             f"| {label} | {pr.runs} | {pr.p_fail:.1%} ({lo:.1%}–{hi:.1%}) "
-            f"| {_fmt(pr.mean_s)} ± {_fmt(pr.sem_s)} | {_fmt(pr.rel_sem, 3)} "
-            f"| {_fmt(pr.median_s)} | {_fmt(pr.p90_s)} | {_fmt(pr.p99_s)} "
-            f"| {_fmt(pr.efficiency, 2)} / {_fmt(pr.efficiency_median, 2)} "
-            f"| {_fmt(pr.d0_over_d3, 2)} |")
+            f"| {fmt(pr.mean_s)} ± {fmt(pr.sem_s)} | {fmt(pr.rel_sem, 3)} "
+            f"| {fmt(pr.median_s)} | {fmt(pr.p90_s)} | {fmt(pr.p99_s)} "
+            f"| {fmt(pr.efficiency, 2)} / {fmt(pr.efficiency_median, 2)} "
+            f"| {fmt(pr.d0_over_d3, 2)} |")
     return lines
 
 
@@ -222,9 +210,13 @@ def compared(rows: Rows, planned_runs: int | None = None) -> tuple[dict[str, Row
 
 
 def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
-                 figures: bool = True, planned_runs: int | None = None) -> list[Path]:
+                 figures: bool = True, planned_runs: int | None = None,
+                 study: dict[str, Any] | None = None) -> list[Path]:
     """Write every figure and table that means something for the study; the paths written
     (without ``figures``, the tables alone: matplotlib is not needed).
+
+    ``study`` is the study's record (``study.json``; default: the one in ``out``), which
+    heads ``tables.md`` with what was flown.
 
     Configurations that flew different runs (an interrupted study) are compared on the runs
     they share (:func:`paired`); with ``planned_runs`` (the study's plan), fewer rows than
@@ -246,7 +238,8 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
     grouped, notes = compared(rows, planned_runs)
     groups: dict[str, Rows] = defaultdict(list, grouped)
     written: list[Path | None] = [_tables(groups, out / "tables.md", frame, notes,
-                                          study_header(_study_json(out), len(groups)))]
+                                          study_header(study if study is not None
+                                                       else study_json(out), len(groups)))]
     if not figures:
         return [p for p in written if p is not None]
     plt = pyplot()
@@ -258,113 +251,6 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
         written.append(_rates(groups, out / "success_and_false_declarations.png", plt))
     written.append(_distributions(groups, out / "error_and_td_share.png", plt))
     return [p for p in written if p is not None]
-
-
-def mcnemar(b: int, c: int) -> float:
-    """Two-sided exact McNemar p-value: the discordant pairs against a fair coin (summed in
-    floats from logarithms: exact integers took seconds for thousands of runs, a review)."""
-    n, k = b + c, min(b, c)
-    if n == 0:
-        return 1.0
-    log_half = n * math.log(0.5)
-    tail = sum(math.exp(math.lgamma(n + 1) - math.lgamma(i + 1) - math.lgamma(n - i + 1)
-                        + log_half) for i in range(k + 1))
-    return min(1.0, 2 * tail)
-
-
-def paired_table(groups: dict[str, Rows]) -> list[str]:
-    """Each configuration against the first of its world, run by run (a review: the runs are
-    paired, the tables compared only each configuration's own intervals).
-
-    Runs pair by (replicate, start): the same plume, start and vehicle noise. Configurations
-    that differ in a swept simulator setting (``environment.*``) fly other worlds and are not
-    paired; each is set against the first configuration of its own world. Success: the runs
-    only one of the two succeeded in, with the exact McNemar p on them; time: the mean paired
-    difference over the runs both succeeded in, with its standard error.
-    """
-    if len(groups) < 2:
-        return []
-    world_keys = sorted({k for rows in groups.values() for r in rows[:1] for k in r
-                         if changes_world(k)})
-
-    def world(rows: Rows) -> tuple[Any, ...]:
-        return tuple(rows[0].get(k) for k in world_keys) if rows else ()
-
-    first: dict[tuple[Any, ...], str] = {}
-    for label, rows in groups.items():
-        first.setdefault(world(rows), label)
-    if len(first) == len(groups):  # every configuration a world of its own: none pairs
-        return []
-    lines = ["", "## Paired comparisons", "",
-             "Each configuration against the first"
-             + (" of its world (the same swept settings of the simulated world)"
-                if world_keys else "")
-             + ", run by run on the same plume, start and vehicle noise: the runs only one "
-             "of the two succeeded in (exact McNemar p on those), and the mean time difference "
-             "over the runs both succeeded in (this minus the first, ± SE).", "",
-             "| configuration | against | pairs | succeeded only here / only there | McNemar p "
-             "| time difference (s) | both succeeded |",
-             "|---|---|---:|---:|---:|---:|---:|"]
-    for label, rows in groups.items():
-        base = first[world(rows)]
-        if base == label:
-            continue
-        there = {(r.get("replicate"), r.get("start")): r for r in groups[base]}
-        pairs = [(r, there[k]) for r in rows
-                 if (k := (r.get("replicate"), r.get("start"))) in there]
-        here_only = sum(bool(a.get("success")) and not b.get("success") for a, b in pairs)
-        there_only = sum(bool(b.get("success")) and not a.get("success") for a, b in pairs)
-        d = np.array([_time_to_source(a) - _time_to_source(b) for a, b in pairs
-                      if a.get("success") and b.get("success")], dtype=float)
-        d = d[np.isfinite(d)]
-        se = float(d.std(ddof=1) / math.sqrt(d.size)) if d.size > 1 else math.nan
-        diff = f"{_fmt(float(d.mean()) if d.size else None)} ± {_fmt(se)}"
-        lines.append(f"| {label} | {base} | {len(pairs)} | {here_only} / {there_only} "
-                     f"| {mcnemar(here_only, there_only):.2g} | {diff} | {d.size} |")
-    return lines
-
-
-def _study_json(folder: Path) -> dict[str, Any]:
-    """The study's ``study.json`` in ``folder`` (empty when there is none, or it is unreadable:
-    tables written elsewhere, by ``cptbt plot --out``, say)."""
-    try:
-        data = json.loads((folder / "study.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-    return data if isinstance(data, dict) else {}
-
-
-def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
-    """What was flown, from the study's record: the mission, seed, starts and replicates, the
-    sweeps, whether the runs are paired, and the sweeps' notes (a review found tables.md
-    silent on all of it; the notes went to the terminal only). Empty without a record."""
-    if not meta.get("mission"):
-        return []
-    starts, reps = len(meta.get("starts") or []), meta.get("runs_per_start")
-    limit = meta.get("time_limit_s")
-    flown = (f"{starts} start{'s' * (starts != 1)} × {reps} replicate{'s' * (reps != 1)} per "
-             "configuration, " if starts and isinstance(reps, int) else "")
-    lines = ["## What was flown", "",
-             f"- Mission `{meta['mission']}` ({meta.get('mission_name', '')}), root seed "
-             f"{meta.get('root_seed')}; {flown}{configurations} "
-             f"configuration{'s' * (configurations != 1)}; time limit "
-             + (f"{limit:g} s." if isinstance(limit, (int, float)) else "the mission's.")]
-    sweeps = meta.get("sweeps") or {}
-    lines.append("- Swept: " + "; ".join(f"`{k}` = {', '.join(map(str, v))}"
-                                         for k, v in sweeps.items()) + "."
-                 if sweeps else "- One configuration: the mission as written.")
-    world = [k for k in sweeps if any(changes_world(p) for p in k.split("+"))]
-    if configurations > 1:
-        lines.append("- Paired: replicate r flies the same plume in every configuration and "
-                     "start i the same vehicle noise, so configurations are compared run by run"
-                     + (" (but not across the values of a setting of the simulated world: note "
-                        "below)." if world else "."))
-    if meta.get("until_sem") is not None:
-        lines.append(f"- Adaptive: replicates added {meta.get('runs_per_round')} at a time until "
-                     "the largest relative SEM of a mean time to source was at most "
-                     f"{meta['until_sem']:g} (or {meta.get('max_runs_per_start')} per start).")
-    lines += [f"- Note: {note}" for note in meta.get("notes") or []]
-    return [*lines, ""]
 
 
 def td_share(row: dict[str, Any]) -> float | None:
@@ -438,7 +324,7 @@ def _place(x: Any, y: Any, frame: PlanningFrame | None) -> str:
     """A planning point as the tables give it: ``(x, y)``, or ``(N, E)`` in ``frame``."""
     if frame is not None and x is not None and y is not None:
         x, y = frame.xy_to_ne(float(x), float(y))
-    return f"({_fmt(x)}, {_fmt(y)})"
+    return f"({fmt(x)}, {fmt(y)})"
 
 
 def _declared_cell(row: dict[str, Any], frame: PlanningFrame | None = None) -> str:
@@ -447,7 +333,7 @@ def _declared_cell(row: dict[str, Any], frame: PlanningFrame | None = None) -> s
     text = row.get("declared_points")
     points = json.loads(text) if isinstance(text, str) and text else []
     if len(points) > 1:
-        return "; ".join(f"{_place(x, y, frame)} {_fmt(e)} m" for x, y, e in points)
+        return "; ".join(f"{_place(x, y, frame)} {fmt(e)} m" for x, y, e in points)
     if points:  # also a run that ended still searching for more (no declared_source)
         return _place(points[0][0], points[0][1], frame)
     return _place(row.get("declared_source_x"), row.get("declared_source_y"), frame)
@@ -482,7 +368,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
                         "declared point within the radius and none is false; the error is the "
                         "worst declared point's, to its nearest true source.", ""]
     for label, rows in groups.items():
-        t = np.array([_time_to_source(r) for r in rows])
+        t = np.array([time_to_source(r) for r in rows])
         ok = t[np.isfinite(t)]
         err = [r["error_m"] for r in rows if r.get("error_m") is not None]
         wins = sum(bool(r["success"]) for r in rows)
@@ -493,10 +379,10 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
         lines.append(
             f"| {label} | {len(rows)} | {wins / len(rows):.1%} ({lo:.1%}–{hi:.1%}) {found}"
             f"| {false if declares else '—'} "
-            f"| {_fmt(float(ok.mean()) if ok.size else None)} "
-            f"| {_fmt(float(ok.std(ddof=1)) if ok.size > 1 else None)} "
-            f"| {_fmt(_mean([_search_time(r) for r in rows]))} "
-            f"| {_fmt(_mean(err))} | {_fmt(max(err) if err else None)} |")
+            f"| {fmt(float(ok.mean()) if ok.size else None)} "
+            f"| {fmt(float(ok.std(ddof=1)) if ok.size > 1 else None)} "
+            f"| {fmt(_mean([_search_time(r) for r in rows]))} "
+            f"| {fmt(_mean(err))} | {fmt(max(err) if err else None)} |")
     if is_maintain_study(every):  # nothing declared: TRO's tables say nothing
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         return path
@@ -539,19 +425,19 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
             share = td_share(r)
             lines.append(
                 f"| r{r['replicate']}s{r['start']} | {_place(r['start_x'], r['start_y'], frame)} "
-                f"| {_declared_cell(r, frame)} | {_fmt(r.get('error_m'))}"
+                f"| {_declared_cell(r, frame)} | {fmt(r.get('error_m'))}"
                 f"{' (false)' if r.get('false_declaration') else ''} "
-                f"| {_fmt(r.get('T_F'))} | {_fmt(r.get('T_T'))} "
-                f"| {_fmt(r.get('T_D'))} | {_fmt(share * 100 if share is not None else None)}% "
-                f"| {_fmt(r.get('D0'))} | {_fmt(r.get('D1'))} | {_fmt(r.get('D2'))} "
-                f"| {_fmt(r.get('D3'))} | {_fmt(r.get('D1_over_D0'), 2)} |")
+                f"| {fmt(r.get('T_F'))} | {fmt(r.get('T_T'))} "
+                f"| {fmt(r.get('T_D'))} | {fmt(share * 100 if share is not None else None)}% "
+                f"| {fmt(r.get('D0'))} | {fmt(r.get('D1'))} | {fmt(r.get('D2'))} "
+                f"| {fmt(r.get('D3'))} | {fmt(r.get('D1_over_D0'), 2)} |")
         keys = ("error_m", "T_F", "T_T", "T_D", "D0", "D1", "D2", "D3", "D1_over_D0")
         means = {k: _mean([r.get(k) for r in declared]) for k in keys}
         share = _mean([td_share(r) for r in declared])
         lines.append(
-            f"| mean of {len(declared)} declared | | | {_fmt(means['error_m'])} "
-            f"| {_fmt(means['T_F'])} | {_fmt(means['T_T'])} | {_fmt(means['T_D'])} "
-            f"| {_fmt(share * 100)}% | {_fmt(means['D0'])} | {_fmt(means['D1'])} "
-            f"| {_fmt(means['D2'])} | {_fmt(means['D3'])} | {_fmt(means['D1_over_D0'], 2)} |")
+            f"| mean of {len(declared)} declared | | | {fmt(means['error_m'])} "
+            f"| {fmt(means['T_F'])} | {fmt(means['T_T'])} | {fmt(means['T_D'])} "
+            f"| {fmt(share * 100)}% | {fmt(means['D0'])} | {fmt(means['D1'])} "
+            f"| {fmt(means['D2'])} | {fmt(means['D3'])} | {fmt(means['D1_over_D0'], 2)} |")
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path

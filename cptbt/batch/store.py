@@ -1,16 +1,13 @@
 """Study results on disk: one part file per finished group, written atomically, checked on resume.
 
 A group's rows reach disk all at once, by writing a temporary file, syncing it and renaming it,
-so an interrupted or crashed study keeps every finished group and none half-written. While a
-group flies (on this machine), each of its runs is appended to the group's journal as soon as it
-ends, so the runs an interruption finds done are kept too: a resume flies only the rest of the
-group (a run's seeds are its own, so it is the same run: every column but ``wall_time_s``, the
-group's wall time to that run's end shared over its runs, a measure of the machine) and writes
-the group's part whole. Each part also carries its group's identity, the study's fingerprint
-(``integrity``) and a checksum of its rows, in the Parquet key-value metadata (or a ``.json``
-sidecar beside a CSV part). A resume keeps only the parts that pass every check and re-runs the
-others, saying why: a part that is empty, truncated or garbage, changed since it was written,
-copied from another study, or written by other code is never mixed into the results.
+so an interrupted or crashed study keeps every finished group and none half-written; the runs a
+group under way had finished are kept in its journal (:mod:`cptbt.batch.journal`). Each part
+also carries its group's identity, the study's fingerprint (``integrity``) and a checksum of
+its rows, in the Parquet key-value metadata (or a ``.json`` sidecar beside a CSV part). A
+resume keeps only the parts that pass every check and re-runs the others, saying why: a part
+that is empty, truncated or garbage, changed since it was written, copied from another study,
+or written by other code is never mixed into the results.
 """
 
 from __future__ import annotations
@@ -30,6 +27,7 @@ import yaml
 
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import fingerprint, rows_checksum
+from cptbt.batch.journal import JOURNAL_SUFFIX, read_journal
 from cptbt.batch.study import GroupTask
 from cptbt.mission import Loc, dotted
 
@@ -214,24 +212,6 @@ DEFAULT_FORMAT = "parquet" if pq is not None else "csv"
 SUFFIX = _FORMATS[DEFAULT_FORMAT].suffix
 
 
-JOURNAL_SUFFIX = ".runs.jsonl"
-"""A group's journal: the rows of its runs finished so far, one JSON line each, appended by the
-worker as each run ends and removed once the group's part is written."""
-
-
-def journal_line(tag: str, key: str, row: dict[str, Any]) -> str:
-    """One journal line: the row, its group, the study's fingerprint and the row's checksum
-    (a torn or edited line is never taken for a run)."""
-    plain = json.loads(json.dumps(row, default=_plain))
-    return json.dumps({"study": tag, "group": key, "sha256": rows_checksum([plain]),
-                       "row": plain}) + "\n"
-
-
-def _plain(value: Any) -> Any:
-    as_list = getattr(value, "tolist", None)  # a numpy scalar or array
-    return as_list() if callable(as_list) else str(value)
-
-
 @dataclass
 class Resume:
     """What a results folder already holds of a study."""
@@ -353,27 +333,7 @@ class ResultStore:
         """The rows of ``task``'s runs its journal holds, one per start, in start order; lines
         torn by a kill, edited, of another study or group, or of a start not in the task are
         left out (those runs are flown again)."""
-        path = self.journal_path(task.key)
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError):
-            return []
-        ids = set(task.ids)
-        rows: dict[int, dict[str, Any]] = {}
-        for line in text.splitlines():
-            try:
-                entry = json.loads(line)
-                row = entry["row"]
-                start = row["start"]
-                ok = (entry["study"] == self.fingerprint and entry["group"] == task.key
-                      and entry["sha256"] == rows_checksum([row])
-                      and row.get("config") == task.config
-                      and row.get("replicate") == task.replicate)
-            except (ValueError, TypeError, KeyError):
-                continue
-            if ok and start in ids:
-                rows.setdefault(start, row)
-        return [rows[i] for i in sorted(rows)]
+        return read_journal(self.journal_path(task.key), self.fingerprint, task)
 
     def check(self, tasks: Sequence[GroupTask]) -> Resume:
         """Which groups are finished on disk, which parts must be re-run and why, and the

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import ctypes
-import dataclasses
 import json
 import os
 import signal
@@ -18,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.integrity import code_identity
+from cptbt.batch.journal import JournalFile
 from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.scenario import (
     Environment,
@@ -118,23 +118,6 @@ def worker_code(task: GroupTask) -> str:
     """The code identity this process has for a task's study (over the behaviours the whole
     study flies, as the study's own was computed)."""
     return code_identity(task.flies or None)
-
-
-def _open_journal(path: Path) -> Any:
-    """A journal opened to append, after ending a line a kill tore (the next line would
-    otherwise join it and be lost with it: a review)."""
-    f = path.open("a", encoding="utf-8")
-    try:
-        with path.open("rb") as old:
-            old.seek(0, os.SEEK_END)
-            if old.tell():
-                old.seek(-1, os.SEEK_END)
-                if old.read(1) != b"\n":
-                    f.write("\n")
-    except OSError:
-        f.close()
-        raise
-    return f
 
 
 def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None,
@@ -239,40 +222,29 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
 
 
 class Journal:
-    """A group's runs, each made a row as soon as it ends and appended to the task's journal
-    file (``GroupTask.journal``), so that an interrupted group keeps them (a review's Ctrl-C
-    lost up to a group's worth, 99 runs of a 10 x 10 grid). A journal that cannot be written
-    is given up, silently: the group's part is written whole when it ends all the same."""
+    """A group's runs, each made a row as soon as it ends and, with ``GroupTask.journal``,
+    appended to the study's journal of the group (:class:`~cptbt.batch.journal.JournalFile`),
+    so that an interrupted group keeps them (a review's Ctrl-C lost up to a group's worth, 99
+    runs of a 10 x 10 grid)."""
 
     def __init__(self, task: GroupTask) -> None:
         self.task = task
         self.rows: dict[int, dict[str, Any]] = {}
-        self.file: Any = None
+        self.file = JournalFile(task.journal, task.journal_tag, task.key) if task.journal \
+            else None
         self.t0 = time.perf_counter()
 
     def ended(self, k: int, run: VehicleRun, mission: MissionBase, source: Point) -> None:
         """Run ``k`` of the group is over: its row, kept and journalled."""
         wall = (time.perf_counter() - self.t0) / len(self.task.starts)
-        row = row_of(self.task, k, run, mission, source, wall)
-        self.rows[k] = row
-        if not self.task.journal:
-            return
-        from cptbt.batch.store import journal_line
-
-        try:
-            line = journal_line(self.task.journal_tag, self.task.key, row)
-            if self.file is None:
-                self.file = _open_journal(Path(self.task.journal))
-            self.file.write(line)
-            self.file.flush()  # in the page cache: a killed process keeps it
-        except (OSError, ValueError, TypeError):  # a full disk; a row JSON cannot hold
-            self.task = dataclasses.replace(self.task, journal="")
+        self.rows[k] = row_of(self.task, k, run, mission, source, wall)
+        if self.file is not None:
+            self.file.write(self.rows[k])
 
     def close(self) -> None:
         """Close the journal file (the study removes it once the group's part is written)."""
         if self.file is not None:
             self.file.close()
-            self.file = None
 
 
 def failed_rows(task: GroupTask, exc: Exception) -> list[dict[str, Any]]:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import re
@@ -23,6 +22,7 @@ from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
 from cptbt.cli.batch_sweeps import study_configs
 from cptbt.cli.inspect_cmds import load
+from cptbt.cli.plot_cmd import cmd_plot, saved_study
 from cptbt.mission import MissionBase
 from cptbt.study_spec import StudySpec
 
@@ -286,7 +286,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     if adaptive:
         metadata |= {"until_sem": args.until_sem, "runs_per_round": runs_per_start,
                      "max_runs_per_start": max_runs}
-    before = _saved_study(Path(args.out)) if Path(args.out).is_dir() else {}
+    before = saved_study(Path(args.out)) if Path(args.out).is_dir() else {}
     if args.log_runs and not args.restart and before.get("runs_per_start") not in (
             None, runs_per_start):
         raise UsageError(f"batch: --log-runs with --runs-per-start {runs_per_start} in a folder "
@@ -443,34 +443,3 @@ def _plots(results: Path, out: Path, quiet: bool, geometry: StudyGeometry | None
     if not quiet:
         for path in written:
             print(f"  wrote {path}")
-
-
-def _saved_study(results: Path) -> dict[str, Any]:
-    """The study's ``study.json`` (empty if there is none or it cannot be read)."""
-    meta = (results if results.is_dir() else results.parent) / "study.json"
-    try:
-        data = json.loads(meta.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-    return data if isinstance(data, dict) else {}
-
-
-def _saved_geometry(results: Path) -> StudyGeometry | None:
-    """The geometry a study saved in its ``study.json`` (None if there is none)."""
-    return StudyGeometry.from_data(_saved_study(results).get("geometry"))
-
-
-def cmd_plot(args: argparse.Namespace) -> int:
-    """Rebuild a study's figures and Markdown tables from its results table."""
-    results = Path(args.results)
-    rows = load_results(results)  # before making any folder: a bad input writes nothing
-    out = Path(args.out) if args.out else (results if results.is_dir() else results.parent)
-    from cptbt.batch.report import compared, write_report
-
-    planned = _saved_study(results).get("total_runs")
-    planned = planned if isinstance(planned, int) and not isinstance(planned, bool) else None
-    for note in compared(rows, planned)[1]:  # said before the tables that carry it
-        print(f"cptbt plot: warning: {note}", file=sys.stderr)
-    for path in write_report(rows, out, _saved_geometry(results), planned_runs=planned):
-        print(f"  wrote {path}")
-    return 0

@@ -324,7 +324,7 @@ def test_rates_chart_gives_each_swept_setting_a_line_and_room(tmp_path: Path,
 def test_places_print_without_a_negative_zero_and_say_their_frame(tmp_path: Path) -> None:
     """A review saw a start typed on an axis in N-E metres printed as (-50.0, -0.0), with
     nothing saying the table is in the planning frame."""
-    from cptbt.batch.report import _fmt
+    from cptbt.batch.comparison import fmt as _fmt
 
     assert [_fmt(v) for v in (-0.0, -1e-15, -0.5, 2.0)] == ["0.0", "0.0", "-0.5", "2.0"]
     write_report(line_rows(), tmp_path)
@@ -501,7 +501,7 @@ def test_td_share_is_of_the_time_from_t0() -> None:
 def test_paired_comparisons_count_discordant_runs_within_a_world() -> None:
     """A review: the runs are paired but the tables compared only each configuration's own
     intervals. Each configuration is set against the first of its world, run by run."""
-    from cptbt.batch.report import mcnemar, paired_table
+    from cptbt.batch.comparison import mcnemar, paired_table
 
     def run(config: str, rep: int, ok: bool, t3: float, flow: float) -> dict[str, Any]:
         return {**BASE, "configuration": config, "replicate": rep, "start": 0,

@@ -387,7 +387,7 @@ def test_the_fast_kernel_tier_is_another_code_identity() -> None:
 def test_a_journal_keeps_only_sound_lines_of_its_own_group(tmp_path: Path) -> None:
     """The runs an interrupted group finished come back from its journal; a line torn by a
     kill, edited, of another study or group, or a start flown twice, does not."""
-    from cptbt.batch.store import journal_line
+    from cptbt.batch.journal import journal_line
 
     store = opened(tmp_path, "parquet")
     task = tasks(replicates=2, starts=4)[1]
@@ -415,8 +415,8 @@ def test_a_journal_survives_arrays_and_a_torn_line_before_it(tmp_path: Path) -> 
     a line appended after one a kill tore joined it and was lost with it."""
     import numpy as np
 
-    from cptbt.batch.store import journal_line
-    from cptbt.batch.worker import _open_journal
+    from cptbt.batch.journal import journal_line
+    from cptbt.batch.journal import open_journal as _open_journal
 
     store = opened(tmp_path, "parquet")
     task = tasks(replicates=1, starts=2)[0]
@@ -436,8 +436,8 @@ def test_a_resumed_group_that_meets_an_error_is_error_rows_whole(
     """A review: the rest of an interrupted group met a bug; uninterrupted every run of the
     group is an error row, resumed the runs kept from before had stayed successes."""
     from cptbt.batch import runner
+    from cptbt.batch.journal import journal_line
     from cptbt.batch.outcome import ERROR_OUTCOME
-    from cptbt.batch.store import journal_line
     from cptbt.batch.worker import error_rows
 
     store = opened(tmp_path, "parquet")

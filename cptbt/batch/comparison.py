@@ -1,0 +1,146 @@
+"""Comparing a study's configurations: what was flown, and each against the first, run by run.
+
+The paired comparisons (:func:`paired_table`) and the header saying what a study flew
+(:func:`study_header`, from its ``study.json``) of ``tables.md``; :func:`mcnemar` for the
+discordant runs; and the two measures every table shares, :func:`time_to_source` and the cell
+format :func:`fmt`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cptbt.batch.study import changes_world
+
+Rows = list[dict[str, Any]]
+
+
+def fmt(v: Any, digits: int = 1) -> str:
+    """A table cell: a number to ``digits`` places, "—" for none (None or NaN)."""
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "—"
+    if not isinstance(v, float):
+        return str(v)
+    text = f"{v:.{digits}f}"
+    # a start on an axis, turned into the planning frame, is -0.0 or -1e-15: 0.0, not -0.0
+    return text[1:] if text.startswith("-") and not text.strip("-0.") else text
+
+
+def time_to_source(row: dict[str, Any]) -> float:
+    """Time to success (declaration, or the oracle's arrival); NaN for failures."""
+    if not row.get("success"):
+        return math.nan
+    t3 = row.get("t3")
+    return float(t3) if t3 is not None else float(row.get("sim_time_s") or math.nan)
+
+
+def mcnemar(b: int, c: int) -> float:
+    """Two-sided exact McNemar p-value: the discordant pairs against a fair coin (summed in
+    floats from logarithms: exact integers took seconds for thousands of runs, a review)."""
+    n, k = b + c, min(b, c)
+    if n == 0:
+        return 1.0
+    log_half = n * math.log(0.5)
+    tail = sum(math.exp(math.lgamma(n + 1) - math.lgamma(i + 1) - math.lgamma(n - i + 1)
+                        + log_half) for i in range(k + 1))
+    return min(1.0, 2 * tail)
+
+
+def paired_table(groups: dict[str, Rows]) -> list[str]:
+    """Each configuration against the first of its world, run by run (a review: the runs are
+    paired, the tables compared only each configuration's own intervals).
+
+    Runs pair by (replicate, start): the same plume, start and vehicle noise. Configurations
+    that differ in a swept simulator setting (``environment.*``) fly other worlds and are not
+    paired; each is set against the first configuration of its own world. Success: the runs
+    only one of the two succeeded in, with the exact McNemar p on them; time: the mean paired
+    difference over the runs both succeeded in, with its standard error.
+    """
+    if len(groups) < 2:
+        return []
+    world_keys = sorted({k for rows in groups.values() for r in rows[:1] for k in r
+                         if changes_world(k)})
+
+    def world(rows: Rows) -> tuple[Any, ...]:
+        return tuple(rows[0].get(k) for k in world_keys) if rows else ()
+
+    first: dict[tuple[Any, ...], str] = {}
+    for label, rows in groups.items():
+        first.setdefault(world(rows), label)
+    if len(first) == len(groups):  # every configuration a world of its own: none pairs
+        return []
+    lines = ["", "## Paired comparisons", "",
+             "Each configuration against the first"
+             + (" of its world (the same swept settings of the simulated world)"
+                if world_keys else "")
+             + ", run by run on the same plume, start and vehicle noise: the runs only one "
+             "of the two succeeded in (exact McNemar p on those), and the mean time difference "
+             "over the runs both succeeded in (this minus the first, ± SE).", "",
+             "| configuration | against | pairs | succeeded only here / only there | McNemar p "
+             "| time difference (s) | both succeeded |",
+             "|---|---|---:|---:|---:|---:|---:|"]
+    for label, rows in groups.items():
+        base = first[world(rows)]
+        if base == label:
+            continue
+        there = {(r.get("replicate"), r.get("start")): r for r in groups[base]}
+        pairs = [(r, there[k]) for r in rows
+                 if (k := (r.get("replicate"), r.get("start"))) in there]
+        here_only = sum(bool(a.get("success")) and not b.get("success") for a, b in pairs)
+        there_only = sum(bool(b.get("success")) and not a.get("success") for a, b in pairs)
+        d = np.array([time_to_source(a) - time_to_source(b) for a, b in pairs
+                      if a.get("success") and b.get("success")], dtype=float)
+        d = d[np.isfinite(d)]
+        se = float(d.std(ddof=1) / math.sqrt(d.size)) if d.size > 1 else math.nan
+        diff = f"{fmt(float(d.mean()) if d.size else None)} ± {fmt(se)}"
+        lines.append(f"| {label} | {base} | {len(pairs)} | {here_only} / {there_only} "
+                     f"| {mcnemar(here_only, there_only):.2g} | {diff} | {d.size} |")
+    return lines
+
+
+def study_json(folder: Path) -> dict[str, Any]:
+    """The study's ``study.json`` in ``folder`` (empty when there is none, or it is unreadable:
+    tables written elsewhere, by ``cptbt plot --out``, say)."""
+    try:
+        data = json.loads((folder / "study.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
+    """What was flown, from the study's record: the mission, seed, starts and replicates, the
+    sweeps, whether the runs are paired, and the sweeps' notes (a review found tables.md
+    silent on all of it; the notes went to the terminal only). Empty without a record."""
+    if not meta.get("mission"):
+        return []
+    starts, reps = len(meta.get("starts") or []), meta.get("runs_per_start")
+    limit = meta.get("time_limit_s")
+    flown = (f"{starts} start{'s' * (starts != 1)} × {reps} replicate{'s' * (reps != 1)} per "
+             "configuration, " if starts and isinstance(reps, int) else "")
+    lines = ["## What was flown", "",
+             f"- Mission `{meta['mission']}` ({meta.get('mission_name', '')}), root seed "
+             f"{meta.get('root_seed')}; {flown}{configurations} "
+             f"configuration{'s' * (configurations != 1)}; time limit "
+             + (f"{limit:g} s." if isinstance(limit, (int, float)) else "the mission's.")]
+    sweeps = meta.get("sweeps") or {}
+    lines.append("- Swept: " + "; ".join(f"`{k}` = {', '.join(map(str, v))}"
+                                         for k, v in sweeps.items()) + "."
+                 if sweeps else "- One configuration: the mission as written.")
+    world = [k for k in sweeps if any(changes_world(p) for p in k.split("+"))]
+    if configurations > 1:
+        lines.append("- Paired: replicate r flies the same plume in every configuration and "
+                     "start i the same vehicle noise, so configurations are compared run by run"
+                     + (" (but not across the values of a setting of the simulated world: note "
+                        "below)." if world else "."))
+    if meta.get("until_sem") is not None:
+        lines.append(f"- Adaptive: replicates added {meta.get('runs_per_round')} at a time until "
+                     "the largest relative SEM of a mean time to source was at most "
+                     f"{meta['until_sem']:g} (or {meta.get('max_runs_per_start')} per start).")
+    lines += [f"- Note: {note}" for note in meta.get("notes") or []]
+    return [*lines, ""]
