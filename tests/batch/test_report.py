@@ -553,3 +553,26 @@ def test_pairing_follows_what_changes_the_world() -> None:
     assert not changes_world("environment.fluorometer.noise_std")
     assert not changes_world("environment.navigation.drift_std_m")
     assert not changes_world("declare_source.variant")
+
+
+def test_plot_elsewhere_heads_its_tables_with_the_study(tmp_path: Path) -> None:
+    """cptbt plot --out DIR read the study's record in DIR, which has none: it is read beside
+    the results."""
+    pytest.importorskip("pyarrow")
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from cptbt.cli import main
+
+    study = tmp_path / "study"
+    study.mkdir()
+    rows = line_rows()
+    cols = list(dict.fromkeys(k for r in rows for k in r))
+    pq.write_table(pa.Table.from_pylist([{c: r.get(c) for c in cols} for r in rows]),
+                   study / "results.parquet")
+    (study / "study.json").write_text(json.dumps({
+        "mission": "missions/x.yaml", "mission_name": "x", "root_seed": 7,
+        "starts": [[10, 0], [50, 0]], "runs_per_start": 2, "sweeps": {}}))
+    assert main(["plot", str(study), "--out", str(tmp_path / "elsewhere")]) == 0
+    text = (tmp_path / "elsewhere" / "tables.md").read_text(encoding="utf-8")
+    assert "- Mission `missions/x.yaml` (x), root seed 7; 2 starts × 2 replicates" in text
