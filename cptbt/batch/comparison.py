@@ -56,9 +56,10 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
     paired, the tables compared only each configuration's own intervals).
 
     Runs pair by (replicate, start): the same plume, start and vehicle noise. Configurations
-    that differ in a swept simulator setting (``environment.*``) fly other worlds and are not
-    paired; each is set against the first configuration of its own world. Success: the runs
-    only one of the two succeeded in, with the exact McNemar p on them; time: the mean paired
+    that differ in a swept setting of the simulated world (``changes_world``: the flow, the
+    plume, the OpArea; not the vehicle or its sensors) fly other worlds and are not paired;
+    each is set against the first configuration of its own world. Success: the runs only one
+    of the two succeeded in, with the exact McNemar p on them; time: the mean paired
     difference over the runs both succeeded in, with its standard error.
     """
     if len(groups) < 2:
