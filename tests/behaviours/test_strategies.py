@@ -16,6 +16,9 @@ from pydantic import ValidationError
 
 from cptbt.behaviours.strategies import (
     BEHAVIOURS,
+    ConstantBetaCast,
+    ConstantBetaMaintain,
+    ConstantBetaParams,
     StrategyICast,
     StrategyIICast,
     StrategyIIICast,
@@ -173,6 +176,31 @@ def test_strategy_2_maintain_alone_flips_only_when_the_cast_was_running() -> Non
     check(h, percepts[:4], [(13, 180.0), (14, 145.0), (15, 145.0), (16, 145.0)])
     write_key(ns, "casting", True)
     check(h, percepts[17:], [(30, 180.0), (31, -145.0)])
+
+
+def test_constant_beta_pair_holds_beta_through_detections_and_flips_on_reacquisition() -> None:
+    # AB eq. 4 / Fig. 3: beta is held on detecting cycles too (Strategy II's test above goes
+    # straight upflow, 180, on 1.3-1.5 and 3.0). Contact 1 entered at 1.3 heading 90 → sign -1:
+    #   1.3-2.5 (detections at 1.3-1.5, then within λ): 180 - 35 = 145; 2.6-2.9 cast (eq. 5):
+    #   180 + 90 = 270 ≡ -90. Contact 2 at 3.0 while casting: the sign flips to +1:
+    #   3.0-4.0: 215 ≡ -145; 4.1-7.0 cast: 90; 7.1 give up. Contact 3 at 7.2 after giving up:
+    #   sign from the entry heading -90 → +1: -145.
+    ns = fresh_namespace()
+    h = TreeHarness(pair(ConstantBetaMaintain(namespace=ns), ConstantBetaCast(namespace=ns)))
+    expected = span(10, 12, None) + span(13, 25, 145.0)
+    expected += [*span(26, 29, -90.0), *span(30, 40, -145.0), *span(41, 70, 90.0)]
+    expected += [(71, None), (72, -145.0), (73, -145.0)]
+    percepts = script(range(10, 74), {13, 14, 15, 30, 72}, {72: -90.0, 73: -90.0})
+    check(h, percepts, expected)
+    assert h.get("beta_sign") == 1 and h.get("cast_sign") == 1
+
+
+def test_constant_beta_zero_is_straight_upflow_and_beta_is_bounded() -> None:
+    ns = fresh_namespace()
+    h = TreeHarness(ConstantBetaMaintain(ConstantBetaParams(beta_deg=0.0), namespace=ns))
+    check(h, script(range(13, 17), {13}, {}), span(13, 16, 180.0))
+    with pytest.raises(ValidationError):
+        ConstantBetaParams(beta_deg=95.0)
 
 
 def test_strategy_3_pair_beta_schedule_and_flip() -> None:
