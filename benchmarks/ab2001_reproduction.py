@@ -185,6 +185,7 @@ def grid_section(grids: dict[str, list[Row]], fig_dir: Path, judged: bool = True
         lines.append(f"\n- {CONFIGS[key].label}: {100 * s:.1f} % is {verdict}; per plume "
                      f"realisation (100 starts each) success ranges {rep[0]:.0f}–{rep[-1]:.0f} % "
                      f"(median {statistics.median(rep):.0f} %).")
+    lines += grid_paired(grids)
     xs = sorted({float(r["start_x"]) for rows in grids.values() for r in rows})
     lines += ["", "By start column (x of the grid cell centres; the source is at x = 20):", "",
               "| reading | " + " | ".join(f"{x:.0f}" for x in xs) + " |",
@@ -200,6 +201,35 @@ def grid_section(grids: dict[str, list[Row]], fig_dir: Path, judged: bool = True
             f"{statistics.fmean(map(time_or_limit, by_x[x])):.0f}" for x in xs) + " |")
     _grid_figure(grids, fig_dir / "fig11_grid.png", judged)
     lines += ["", "![Fig. 11 reproduction](fig11_grid.png)", ""]
+    return lines
+
+
+def grid_paired(grids: dict[str, list[Row]], base: str = "III_last") -> list[str]:
+    """Each grid reading against ``base`` run by run (same start cell, same plume): success by
+    McNemar on the discordant runs, time (failure = 300 s) as the mean paired difference with
+    its SE over plume realisations (a review: "III beats I" had rested on overlapping SEs)."""
+    from cptbt.batch.comparison import mcnemar
+
+    if base not in grids or len(grids) < 2:
+        return []
+
+    def cell(r: Row) -> tuple[float, float, int]:
+        return float(r["start_x"]), float(r["start_y"]), int(r["replicate"])
+
+    ref = {cell(r): r for r in grids[base]}
+    lines = ["", f"Paired against {CONFIGS[base].label}, run by run (same start, same plume):",
+             "", "| reading | pairs | only it succeeded | only the base succeeded | McNemar p "
+             "| time − base (failure = 300 s) |", "|---|---|---|---|---|---|"]
+    for key, rows in grids.items():
+        if key == base:
+            continue
+        pairs = [(r, ref[cell(r)]) for r in rows if cell(r) in ref]
+        only_it = sum(bool(a["success"]) and not bool(b["success"]) for a, b in pairs)
+        only_base = sum(bool(b["success"]) and not bool(a["success"]) for a, b in pairs)
+        d, d_se = clustered_mean_se([time_or_limit(a) - time_or_limit(b) for a, b in pairs],
+                                    [int(a["replicate"]) for a, _ in pairs])
+        lines.append(f"| {CONFIGS[key].label} | {len(pairs)} | {only_it} | {only_base} "
+                     f"| {mcnemar(only_it, only_base):.2g} | {d:+.1f} ± {d_se:.1f} s |")
     return lines
 
 
