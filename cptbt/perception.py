@@ -31,6 +31,18 @@ MAX_CLOCK_JUMP_S = 3600.0
 stamp (corrected as a step back is), not as that much elapsed time: no mission runs this long
 without a cycle."""
 
+MAX_STAMP_S = 1e12
+"""A time stamp larger than this in magnitude (some 31,700 years) is taken as a missing one: its
+float spacing is coarse enough to break the planner's timers (a review: a *first* stamp of 1e20
+froze the clock, 1e20 + 1 == 1e20, and one of 1e17 ran it 16 times fast, since the leap check
+needs an earlier cycle). Epoch seconds (1.7e9) keep sub-microsecond spacing."""
+
+
+def usable_stamp(t: float) -> bool:
+    """Whether a time stamp can be elapsed time: finite and within :data:`MAX_STAMP_S`."""
+    return math.isfinite(t) and abs(t) <= MAX_STAMP_S
+
+
 MAX_FIX_OUTSIDE_M = 1e6
 """A navigation fix more than this outside the OpArea (1000 km: beyond any AUV mission's reach
 of its area, and the planning frame's flat-earth geometry) is a broken message, not a position."""
@@ -90,8 +102,8 @@ class Perception:
       as 9.97e36, spikes) are dropped; the windowed vector mean is summed afresh each cycle with
       :func:`math.fsum`, so no sample outlives its window and no running sum loses precision;
     - position: a non-finite fix keeps the previous estimate;
-    - time: the planner runs on its own monotonic clock. A cycle whose time stamp is not finite,
-      repeats, or steps back is taken as one nominal period after the previous cycle, and later
+    - time: the planner runs on its own monotonic clock. A cycle whose time stamp is not finite
+      (or beyond :data:`MAX_STAMP_S`, the first cycle's too), repeats, or steps back is taken as one nominal period after the previous cycle, and later
       time stamps are shifted by the same amount (a clock step is a correction, not elapsed
       time), so timers never run backwards and the planner is never silenced; a forward jump is
       elapsed time and ages every timer, up to :data:`MAX_CLOCK_JUMP_S`: a longer one is a
@@ -143,7 +155,7 @@ class Perception:
 
     def _clock(self, t: float) -> float:
         """A sample's time on the planner's clock (the vehicle's, shifted by past steps back)."""
-        if not math.isfinite(t):
+        if not usable_stamp(t):
             return self._t_prev if math.isfinite(self._t_prev) else 0.0
         return t + self._offset
 
@@ -229,14 +241,15 @@ class Perception:
 
     def _cycle_time(self, t: float) -> float:
         """This cycle's time on the monotonic planner clock (see the class docstring)."""
-        now = t + self._offset if math.isfinite(t) else -math.inf
+        usable = usable_stamp(t)
+        now = t + self._offset if usable else -math.inf
         # A leap beyond MAX_CLOCK_JUMP_S is not elapsed time but a corrupt or re-based stamp:
         # one of 1e300 had frozen the clock (1e300 + 1 == 1e300) and held a detection "now"
         # for good (a review). It is corrected as a step back is; later stamps shift by it.
         leap = math.isfinite(self._t_prev) and now - self._t_prev > MAX_CLOCK_JUMP_S
         if now <= self._t_prev or leap:  # not finite, repeated, stepped back or leapt ahead
             target = self._t_prev + self._period if math.isfinite(self._t_prev) else 0.0
-            if math.isfinite(t):
+            if usable:
                 self._offset += target - now
             self.clock_corrections += 1
             log.info("cycle time %g s is not after the previous cycle (%g s on the planner "

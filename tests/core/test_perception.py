@@ -267,6 +267,33 @@ def test_one_absurd_time_stamp_neither_freezes_nor_leaps_the_clock(stamp: float)
     assert p.clock_corrections >= 1
 
 
+@pytest.mark.parametrize("first", [1e300, 1e20, 1e17, 1e16])
+def test_an_absurd_first_time_stamp_neither_freezes_nor_races_the_clock(first: float) -> None:
+    # A review: the leap check needs an earlier cycle, so a *first* stamp of 1e20 or 1e300 froze
+    # the clock (t0 + k == t0): the flow window stayed empty, the planner silent for 600 cycles,
+    # and one detection in_plume for good; 1e17 ran it 16 times fast (one float step a cycle).
+    p = Perception(square_area(100), PerceptionSettings(lambda_s=8.5, flow_window_s=100))
+    p.set_pose(Pose(50, 0, 0))
+    times = []
+    for k in range(60):
+        t = first + k
+        p.add_flow(t, 0.1, 0.0)
+        if k == 5:
+            p.add_sample(t, 1.0)
+        times.append(p.cycle(t).t)
+    steps = [b - a for a, b in itertools.pairwise(times)]
+    assert all(d == pytest.approx(1.0) for d in steps), steps
+    assert p.latest is not None and not p.latest.in_plume  # lost 8.5 s after the detection
+    assert p.latest.flow is not None and p.latest.flow.toward_deg == pytest.approx(0.0)
+
+
+def test_epoch_seconds_are_elapsed_time() -> None:
+    p = Perception(square_area(100))
+    p.set_pose(Pose(50, 0, 0))
+    assert [p.cycle(1.7e9 + k).t for k in range(3)] == [1.7e9, 1.7e9 + 1, 1.7e9 + 2]
+    assert p.clock_corrections == 0
+
+
 def test_a_forward_jump_within_an_hour_is_elapsed_time() -> None:
     p = Perception(square_area(100))
     p.set_pose(Pose(50, 0, 0))
