@@ -9,6 +9,8 @@ beyond which the vehicle ignores a command. The AMP's own time limit is the miss
 
 from __future__ import annotations
 
+import math
+
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 Coord = tuple[float, float]
@@ -29,15 +31,18 @@ class VehicleLimits(BaseModel):
             raise ValueError("min_speed_mps must not exceed max_speed_mps")
         return self
 
-    def refusal(self, speed_mps: float, depth_m: float | None) -> str | None:
+    def refusal(self, speed_mps: float, depth_m: float | None, heading_deg: float = 0.0
+                ) -> str | None:
         """Why a heading/speed/depth command would be refused, or None if it is accepted."""
+        if not math.isfinite(heading_deg):
+            return f"heading {heading_deg:g} deg not finite"
         if not self.min_speed_mps <= speed_mps <= self.max_speed_mps:
             return (
                 f"speed {speed_mps:g} m/s outside [{self.min_speed_mps:g}, "
                 f"{self.max_speed_mps:g}] m/s"
             )
-        if depth_m is not None and depth_m > self.max_depth_m:
-            return f"depth {depth_m:g} m beyond the maximum {self.max_depth_m:g} m"
+        if depth_m is not None and not 0.0 <= depth_m <= self.max_depth_m:
+            return f"depth {depth_m:g} m outside [0, {self.max_depth_m:g}] m"
         return None
 
 

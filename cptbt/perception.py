@@ -103,9 +103,10 @@ class Perception:
       :func:`math.fsum`, so no sample outlives its window and no running sum loses precision;
     - position: a non-finite fix keeps the previous estimate;
     - time: the planner runs on its own monotonic clock. A cycle whose time stamp is not finite
-      (or beyond :data:`MAX_STAMP_S`, the first cycle's too), repeats, or steps back is taken as one nominal period after the previous cycle, and later
-      time stamps are shifted by the same amount (a clock step is a correction, not elapsed
-      time), so timers never run backwards and the planner is never silenced; a forward jump is
+      (or beyond :data:`MAX_STAMP_S`, the first cycle's too), repeats, or steps back is taken
+      as one nominal period after the previous cycle, and later time stamps are shifted by the
+      same amount (a clock step is a correction, not elapsed time), so timers never run
+      backwards and the planner is never silenced; a forward jump is
       elapsed time and ages every timer, up to :data:`MAX_CLOCK_JUMP_S`: a longer one is a
       corrupt or re-based stamp, corrected as a step back is.
 

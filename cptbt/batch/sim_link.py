@@ -136,7 +136,7 @@ class SimVehicleLink:
         elif isinstance(msg, OverrideRelease) and self.mode == "override":
             self._leave_override(t, "released")
         elif isinstance(msg, HeadingSpeedCommand) and self.mode == "override":
-            reason = self.spec.limits.refusal(msg.speed_mps, msg.depth_m)
+            reason = self.spec.limits.refusal(msg.speed_mps, msg.depth_m, msg.heading_deg)
             if reason is not None:
                 self._inbox.append(CommandRefused(t, msg, reason))
                 return

@@ -150,7 +150,15 @@ def _num(d: dict[str, Any], key: str, optional: bool = False) -> Any:
         return None
     if isinstance(v, bool) or not isinstance(v, int | float):
         raise ProtocolError("invalid", f"{d.get('type')}: {key} must be a number")
-    return float(v)
+    # A literal beyond the float range (1e400 reads as inf, a 400-digit integer overflows):
+    # a non-finite number as NaN/Infinity are (a review: such fields had been decoded).
+    try:
+        f = float(v)
+    except OverflowError:
+        f = math.inf
+    if not math.isfinite(f):
+        raise ProtocolError("malformed", f"{d.get('type')}: non-finite number {key}")
+    return f
 
 
 def _int(d: dict[str, Any], key: str) -> int:

@@ -76,6 +76,13 @@ def test_the_schema_and_the_parser_reject_the_same_lines(line: bytes, validator)
     (b"[1, 2]", "malformed"),
     (b'{"v":1,"seq":1,"type":"sample","t_s":NaN,"value":1}', "malformed"),
     (b'{"v":1,"seq":1,"type":"sample","t_s":1,"value":Infinity}', "malformed"),
+    # Literals beyond the float range (a review: 1e400 read as inf and was decoded):
+    (b'{"v":1,"seq":1,"type":"sample","t_s":1e400,"value":1}', "malformed"),
+    (b'{"v":1,"seq":1,"type":"nav","t_s":1,"x_m":-1e400,"y_m":0,"heading_deg":0,'
+     b'"speed_mps":1,"depth_m":0,"mode":"mission","waypoints_reached":0}', "malformed"),
+    (b'{"v":1,"seq":1,"type":"flow","t_s":1,"vx_mps":1' + b"0" * 400 + b',"vy_mps":0}',
+     "malformed"),
+    (b'{"v":1,"seq":1,"type":"command","heading_deg":1e400,"speed_mps":1.5}', "malformed"),
     (b"[" * 100000, "oversized"),
     (b'{"v":2,"seq":1,"type":"take"}', "version"),
     (b'{"v":1,"seq":1,"type":"hello"}', "unknown_type"),

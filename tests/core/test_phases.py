@@ -229,6 +229,12 @@ def test_limits_and_spec_validation() -> None:
     assert lim.refusal(2.8, 50) is None
     assert lim.refusal(0.1, None) is not None
     assert lim.refusal(1.0, 50.5) is not None
+    # A review: the simulated front seat took an infinite heading and a depth above the surface.
+    assert lim.refusal(1.0, 0.0, heading_deg=-179.0) is None
+    assert lim.refusal(1.0, None, heading_deg=math.inf) is not None
+    assert lim.refusal(1.0, None, heading_deg=math.nan) is not None
+    assert lim.refusal(1.0, -50.0) is not None and lim.refusal(1.0, -math.inf) is not None
+    assert lim.refusal(math.nan, None) is not None
     with pytest.raises(ValueError):
         MissionASpec(waypoints=[(0, 0)], amp_enable_s=1, amp_enable_waypoint=0)
     with pytest.raises(ValueError):
