@@ -45,7 +45,7 @@ class MoveToField(PlanBehaviour):
         """Head for the start point until reached or blocked."""
         assert self.context is not None
         start = self.context.start
-        if self.bb.field_reached:
+        if self.bb.field_reached or not p.pose.located:  # no position yet: no bearing
             return None
         if start is None or p.pose.point.distance_to(start) <= self.params.arrive_radius_m:
             self.bb.field_reached = True
@@ -74,7 +74,7 @@ class ReturnHome(PlanBehaviour):
     def decide(self, p: Percept) -> Command | None:
         """Head home while asked to; report arrival."""
         assert self.context is not None
-        if not self.bb.go_home:
+        if not self.bb.go_home or not p.pose.located:  # no position yet: no bearing
             return None
         home: Point = self.context.home
         if p.pose.point.distance_to(home) <= self.params.arrive_radius_m:

@@ -87,6 +87,8 @@ class OpAreaSafety(PlanBehaviour):
         assert self.context is not None
         a = self.context.op_area
         x, y = p.pose.x, p.pose.y
+        if not p.pose.located:  # before the first navigation fix: nowhere to turn back from
+            return None
         active = self.status == Status.RUNNING
         if self.bb.homeward and a.distance_outside(self.context.home.x, self.context.home.y) > 0:
             if active:

@@ -43,6 +43,11 @@ class Pose:
         """The position alone."""
         return Point(self.x, self.y)
 
+    @property
+    def located(self) -> bool:
+        """Whether there is a position (none before the first navigation fix)."""
+        return math.isfinite(self.x) and math.isfinite(self.y)
+
 
 @dataclass(frozen=True, slots=True)
 class Command:
