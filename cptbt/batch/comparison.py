@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from cptbt.batch.study import changes_world
+from cptbt.policy import RELINQUISH_OUTSIDE_M
 
 Rows = list[dict[str, Any]]
 
@@ -145,3 +146,39 @@ def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
                      f"{meta['until_sem']:g} (or {meta.get('max_runs_per_start')} per start).")
     lines += [f"- Note: {note}" for note in meta.get("notes") or []]
     return [*lines, ""]
+
+
+OUTSIDE_NOTED_M = 0.05
+"""A run is said to have left the OpArea when its true track went farther outside than this
+(as ``cptbt run`` says it)."""
+
+
+def excursions(rows: Rows) -> tuple[int, float, float]:
+    """Runs that left the OpArea, the farthest any went (m), and the share of the AMP's time
+    safety drove over all runs (the family time columns: the share of what the tree did)."""
+    far = [float(r.get("farthest_outside_m") or 0.0) for r in rows]
+    out = sum(f > OUTSIDE_NOTED_M for f in far)
+    amp = sum(float(v or 0.0) for r in rows for k, v in r.items()
+              if k.startswith("time_") and k.endswith("_s") and "." not in k)
+    safety = sum(float(r.get("time_safety_s") or 0.0) for r in rows)
+    return out, max(far, default=0.0), safety / amp if amp > 0 else math.nan
+
+
+def excursion_table(groups: dict[str, Rows]) -> list[str]:
+    """``tables.md``'s account of the runs that left the OpArea (a review: a study whose every
+    run went 5-14 m outside said nothing of it outside ``results.parquet``); none when no run
+    left it."""
+    counts = {label: excursions(rows) for label, rows in groups.items()}
+    if not any(n for n, _, _ in counts.values()):
+        return []
+    lines = ["", "## Left the OpArea", "",
+             "Runs whose true track went outside the OpArea while the AMP drove "
+             f"(`farthest_outside_m`; the AMP gives control back "
+             f"{RELINQUISH_OUTSIDE_M:g} m out, TRO II), the "
+             "farthest, and the share of the AMP's time the safety behaviour drove.", "",
+             "| configuration | runs outside | farthest outside (m) | safety drove |",
+             "|---|---:|---:|---:|"]
+    for label, (n, far, share) in counts.items():
+        lines.append(f"| {label} | {n} of {len(groups[label])} | {fmt(far)} "
+                     f"| {fmt(100 * share)}% |")
+    return lines

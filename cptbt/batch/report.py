@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from cptbt.batch.comparison import (
+    excursion_table,
     fmt,
     paired_table,
     study_header,
@@ -383,6 +384,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
             f"| {fmt(float(ok.std(ddof=1)) if ok.size > 1 else None)} "
             f"| {fmt(_mean([_search_time(r) for r in rows]))} "
             f"| {fmt(_mean(err))} | {fmt(max(err) if err else None)} |")
+    lines += excursion_table(groups)
     if is_maintain_study(every):  # nothing declared: TRO's tables say nothing
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         return path

@@ -20,6 +20,7 @@ from cptbt.batch.sim_advice import (
     noise_advice,
     pace_advice,
     plain,
+    source_wall_advice,
     turn_guard_advice,
 )
 from cptbt.coercions import coercions
@@ -241,11 +242,13 @@ def advisories(mission: MissionBase) -> list[Problem]:
                                  pace_advice, turn_guard_advice)
                 for a in advice(mission, params)]
         out += launch_turn_advice(mission, params, launch_pose(mission))
-    if mission.evaluation.criterion != "declaration":
-        return out
     try:
         truth = true_sources(mission)
     except (ValueError, TypeError):  # an unusable place is a problem, reported as one
+        return out
+    if params is not None:
+        out += source_wall_advice(mission, params, truth)
+    if mission.evaluation.criterion != "declaration":
         return out
     if len(truth) < 2:
         return out

@@ -12,6 +12,7 @@ from decimal import Decimal
 from cptbt.mission import MissionBase, Problem
 from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.sim.world import EnvironmentParams
+from cptbt.types import Point
 
 NOISE_ALARMS_PER_S = 1e-3
 """A simulated fluorometer whose noise alone would make more false detections than this in
@@ -256,6 +257,10 @@ def launch_turn_advice(mission: MissionBase, params: EnvironmentParams,
                   f"{toward % 360.0:.0f}°), or start nearer to it")]
 
 
+SOURCE_WALL_RADII = 2.0
+"""A source closer to an OpArea wall than this many of the vehicle's turning radii is warned of
+(:func:`source_wall_advice`)."""
+
 TURN_GUARD_RADII = 10.0
 """An OpArea narrower than this many of the vehicle's turning radii, without
 ``turn_guard_radius_m``, is warned of."""
@@ -279,3 +284,54 @@ def turn_guard_advice(mission: MissionBase, params: EnvironmentParams) -> list[P
              f"outside, and safety takes over (4% of the time on a 50-m box); "
              f"turn_guard_radius_m: {plain(r)} starts such turns on the side that keeps the "
              "turning circle inside (1%; missions/small_oparea.yaml)")]
+
+
+def source_wall_advice(mission: MissionBase, params: EnvironmentParams,
+                       sources: list[Point]) -> list[Problem]:
+    """A source whose plume leaves the OpArea at once, or one near a wall (a review: a source
+    3 m inside a corner of a 200-m box validated ``ok``; 6 runs went 4.9-14 m outside while
+    reacquiring about it, 4.9-8.3 m with a 7.5-m ``turn_guard_radius_m``).
+
+    Near a wall: closer than two turning radii. Measured on a 200-m box, the TRO planner of
+    ``missions/tro2006_msn007.yaml``, the source at a depth d inside the up-flow wall, 8 runs
+    a depth (runs outside / farthest / share of the AMP's time safety drove): d = 3 m 8 / 8.7 m
+    / 4.7%; 8 m 8 / 11.5 m / 4.4%; 13 m 7 / 5.7 m / 1.3%; 20 m 3 / 2.7 m / 0%; 30 m 1 / 0.8 m
+    / 0%. The vehicle overshoots the source up-flow by up to λ at speed and turns there.
+
+    The plume's length inside is measured along the mean flow from the source to the wall it
+    leaves by: detections outside the OpArea are ignored (TRO V), so a plume that leaves within
+    two turning radii is hardly there to be found. Only for a vehicle that turns at a radius
+    (the simulator's ``turn_radius`` heading mode; AB's searchers turn otherwise); the near-wall
+    warning only without ``turn_guard_radius_m`` (a mission that set it has seen to its walls,
+    as :func:`turn_guard_advice` holds).
+    """
+    if params.vehicle.heading_mode != "turn_radius":
+        return []
+    area = mission.op_area_geometry()
+    r = params.vehicle.turning_radius_m
+    reach = SOURCE_WALL_RADII * r
+    flow = math.radians(params.flow.mean_dir_deg)
+    ux, uy = math.cos(flow), math.sin(flow)
+    out: list[Problem] = []
+    for j, s in enumerate(sources):
+        key = ("environment", "source") if j == 0 else ("environment", "extra_sources", j - 1)
+        if not area.contains(s.x, s.y):
+            continue  # refused elsewhere
+        inside = min(((area.xmax if ux > 0 else area.xmin) - s.x) / ux if ux else math.inf,
+                     ((area.ymax if uy > 0 else area.ymin) - s.y) / uy if uy else math.inf)
+        if params.flow.mean_speed_mps > 0 and inside < reach:
+            out.append((key, f"the mean flow carries this source's plume out of the OpArea "
+                        f"{inside:.1f} m down-flow of it: detections outside the OpArea are "
+                        "ignored (TRO V), so there is hardly a plume to find and track; move "
+                        "the source up-flow, or the OpArea's down-flow wall out"))
+            continue
+        depth = area.depth_inside(s.x, s.y)
+        if depth < reach and mission.turn_guard_radius_m is None:
+            out.append((key, f"{depth:.1f} m from an OpArea wall, under two of the simulated "
+                        f"vehicle's {plain(r)}-m turning radii: the turns about the source "
+                        "carry the vehicle outside and safety takes over (8 runs 3-8 m from "
+                        "the up-flow wall: every one outside, up to 11.5 m); "
+                        f"turn_guard_radius_m: {plain(r)} shortens those turns (5-8 m against "
+                        "5-14 m with a source 3 m inside a corner), or place the source "
+                        "farther in"))
+    return out

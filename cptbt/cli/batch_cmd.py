@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from cptbt import __version__
+from cptbt.batch.comparison import excursions
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
@@ -371,6 +372,10 @@ def cmd_batch(args: argparse.Namespace) -> int:
         print(f"{runs} mission{'s' * (runs != 1)} ({resumed} groups resumed from disk{also}): "
               f"{outcome}; {pace}")
         print(f"  wrote {table}")
+        left, far, _ = excursions(load_results(table))
+        if left:  # a review: every run 5-14 m outside, and the summary said only "success"
+            print(f"  {left} of {runs} run{'s' * (runs != 1)} left the OpArea, the farthest "
+                  f"{far:.1f} m outside (tables.md: \"Left the OpArea\")")
         if args.log_runs:
             logged = sorted((Path(args.out) / "logs").glob("*.mcap"))
             n_logs = sum(len(t.log_ids) for t in tasks)

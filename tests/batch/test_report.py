@@ -576,3 +576,24 @@ def test_plot_elsewhere_heads_its_tables_with_the_study(tmp_path: Path) -> None:
     assert main(["plot", str(study), "--out", str(tmp_path / "elsewhere")]) == 0
     text = (tmp_path / "elsewhere" / "tables.md").read_text(encoding="utf-8")
     assert "- Mission `missions/x.yaml` (x), root seed 7; 2 starts × 2 replicates" in text
+
+
+def test_tables_say_which_runs_left_the_oparea(tmp_path: Path) -> None:
+    """A review: every run of a corner-source study went 5-14 m outside, and neither the
+    summary nor tables.md said so (only results.parquet)."""
+    rows = grid_rows()
+    for r in rows:
+        inside = r["config"] == 0 or r["start"] != 1
+        r |= {"farthest_outside_m": 0.0 if inside else 4.0 + r["replicate"],
+              "time_safety_s": 0.0 if inside else 30.0, "time_find_plume_s": 270.0,
+              "time_safety.oparea_s": 0.0 if inside else 30.0}  # a leaf column: not summed
+    write_report(rows, tmp_path)
+    table = (tmp_path / "tables.md").read_text()
+    assert "## Left the OpArea" in table
+    # config 1: start 1's three runs went 4, 5, 6 m out; safety drove 90 of 12 * 270 + 90 s
+    assert "| variant=v0 | 0 of 12 | 0.0 | 0.0% |" in table
+    assert f"| variant=v1 | 3 of 12 | 6.0 | {100 * 90 / (12 * 270 + 90):.1f}% |" in table
+    for r in rows:
+        r["farthest_outside_m"] = 0.01  # under the 0.05 m cptbt run says nothing of
+    write_report(rows, tmp_path)
+    assert "Left the OpArea" not in (tmp_path / "tables.md").read_text()

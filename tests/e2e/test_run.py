@@ -169,3 +169,19 @@ def test_the_summary_says_how_far_outside_the_oparea_the_vehicle_went() -> None:
     inside = mission.model_copy(update={"time_limit_s": 20.0})
     (run,), _, wall = simulate(inside, params, [launch_pose(inside)])
     assert summarise(run, inside, Point(*params.source_xy_m), 7, wall).farthest_outside_m == 0.0
+
+
+def test_the_way_in_from_a_start_placed_outside_is_not_an_excursion() -> None:
+    """A review's start 20 m outside the box (``allow_outside: [start]``) printed "left the
+    OpArea: at most 19.8 m": the way in is the mission's. Once in, leaving counts again."""
+    from cptbt.batch.summary import _farthest_outside
+
+    mission = load_mission(ROOT / "missions/small_oparea.yaml", default_registry(), Environment)
+    a = mission.op_area_geometry()
+    y = 0.5 * (a.ymin + a.ymax)
+    way_in = np.array([[a.xmin - 20.0, y], [a.xmin - 5.0, y], [a.xmin + 5.0, y]])
+    assert _farthest_outside(mission, way_in) == 0.0
+    out_again = np.vstack([way_in, [[a.xmax + 3.0, y], [a.xmax - 1.0, y]]])
+    assert _farthest_outside(mission, out_again) == pytest.approx(3.0)
+    never_in = np.array([[a.xmin - 20.0, y], [a.xmin - 26.0, y], [a.xmin - 10.0, y]])
+    assert _farthest_outside(mission, never_in) == pytest.approx(6.0)  # 6 m farther out
