@@ -125,7 +125,8 @@ def test_command_watchdog_when_the_link_goes_silent() -> None:
 
 @pytest.mark.parametrize(
     "change, reason",
-    [({"amp_depth_m": 150.0}, "depth 150 m outside [0, 100] m"), ({"speed": 3.0}, "speed 3 m/s outside")],
+    [({"amp_depth_m": 150.0}, "depth 150 m outside [0, 100] m"),
+     ({"speed": 3.0}, "speed 3 m/s outside")],
 )
 def test_refused_commands_are_recorded_and_starve_the_watchdog(
     change: dict[str, float], reason: str
