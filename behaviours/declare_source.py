@@ -184,6 +184,10 @@ class RecentBoxDeclare(SourceDeclaration):
     Reading chosen: OMAE gives no declared location for this rule; the box centre is TRO's. The
     rule waits for ``points`` points. It does not need the flow. OMAE reports that it never
     declared in the field (the box stays long along the flow); it is kept for comparison.
+    Simulated, that depends on the behaviours around it: with OMAE's own
+    (``missions/omae2003.yaml``: counter-turning tracking, three-point reacquire) it declared
+    in 4 of 60 runs; with TRO's cloverleaf, which brings the vehicle back over the same
+    lost-contact point, in every run (``benchmarks/results/omae_rules.md``).
     """
 
     variant: ClassVar[str] = "recent_box"
