@@ -202,7 +202,11 @@ class _Billiard(PlanBehaviour):
 
 
 class BilliardFindPlume(_Billiard):
-    """Billiard-ball find-plume of TRO IV-A: ``theta = flow_dir + s*dtheta`` (SPEC §4a).
+    """Billiard-ball find-plume of TRO IV-A: ``theta = ref + s*dtheta`` (SPEC §4a).
+
+    ``ref`` is the ``reference``: the OpArea's axis by default (its direction nearer the flow),
+    or the flow itself (``reference: flow``, the letter of TRO IV-A's ``flow_dir``); the module
+    docstring says why and what each gives.
 
     s makes the cross-flow motion take the sign of ``eta`` (sign(0) = +1), eta being recomputed
     only when the vehicle leaves through a cross-flow side; ``dtheta`` becomes ``dtheta_down``

@@ -134,7 +134,8 @@ class CounterTurnTrack(PlanBehaviour):
 
     Heads ``F + 180 + s·B``. For L s after a detection s holds; each further L s without a
     detection reverses it (the counter-turn); after ``T_w`` s without a detection (the mission's
-    ``perception.lambda_s``; OMAE's reading: ``2L`` = 17 s) contact is lost and the behaviour
+    ``perception.lambda_s``; OMAE gives no value, ``missions/omae2003.yaml`` reads it as
+    ``2L`` = 17 s: our reading) contact is lost and the behaviour
     has no output. Writes s to ``beta_sign``. ``validate`` refuses ``lambda_s <= hold_s``: the
     tracker would lose contact before it ever counter-turns.
 

@@ -162,9 +162,11 @@ class CloverleafReacquire(_WaypointTour):
     1 and 2 up-flow at ``upflow ± 60°``, leaf 3 down-flow along ``flow_dir``; the up-flow leaf on
     the side of the last track-out offset goes first (see :meth:`_WaypointTour.triangle`).
 
-    Reading chosen: a leaf is C → tip → C, so the tour starts by returning to C and consecutive
-    leaves share C: ``C, a, C, b, C, c, C`` and so on, ending at C. The tips are fixed by the
-    flow estimate at activation. ``arrive_radius_m`` (3 m) is well under ``d_leaf`` so each
+    Reading chosen: the leaf's size. TRO Table I calls ``d_leaf`` the cloverleaf's "diameter",
+    TRO IV-C "the length of each leaf" (10-15 m); the length is taken: each tip lies
+    ``d_leaf`` from C. And a leaf is C → tip → C, so the tour starts by returning to C and
+    consecutive leaves share C: ``C, a, C, b, C, c, C`` and so on, ending at C. The tips are
+    fixed by the flow estimate at activation. ``arrive_radius_m`` (3 m) is well under ``d_leaf`` so each
     leaf is flown out and back; it must stay below the distance the vehicle can close on a
     waypoint while turning, or a waypoint can be orbited. A tip passed within
     ``pass_radius_m`` counts as reached (module docstring), C does not: every leaf returns to
