@@ -163,16 +163,16 @@ class CloverleafReacquire(_WaypointTour):
     the side of the last track-out offset goes first (see :meth:`_WaypointTour.triangle`).
 
     Reading chosen: the leaf's size. TRO Table I calls ``d_leaf`` the cloverleaf's "diameter",
-    TRO IV-C "the length of each leaf" (10-15 m); the length is taken: each tip lies
-    ``d_leaf`` from C. And a leaf is C → tip → C, so the tour starts by returning to C and
-    consecutive leaves share C: ``C, a, C, b, C, c, C`` and so on, ending at C. The tips are
-    fixed by the flow estimate at activation. ``arrive_radius_m`` (3 m) is well under
-    ``d_leaf`` so each leaf is flown out and back; it must stay below the distance the vehicle can close on a
-    waypoint while turning, or a waypoint can be orbited. A tip passed within
-    ``pass_radius_m`` counts as reached (module docstring), C does not: every leaf returns to
-    the last detection itself, which is what puts the leaves across the plume where it was
-    last seen (measured: letting C be passed too spread the lost-contact points enough that
-    one MSN007 run in 30 never declared).
+    TRO IV-C "the length of each leaf" (10-15 m); the length is taken: each tip lies ``d_leaf``
+    from C. And a leaf is C → tip → C, so the tour starts by returning to C and consecutive
+    leaves share C: ``C, a, C, b, C, c, C`` and so on, ending at C. The tips are fixed by the
+    flow estimate at activation. ``arrive_radius_m`` (3 m) is well under ``d_leaf`` so each leaf
+    is flown out and back; it must stay below the distance the vehicle can close on a waypoint
+    while turning, or a waypoint can be orbited. A tip passed within ``pass_radius_m`` counts as
+    reached (module docstring), C does not: every leaf returns to the last detection itself,
+    which is what puts the leaves across the plume where it was last seen (measured: letting C
+    be passed too spread the lost-contact points enough that one MSN007 run in 30 never
+    declared).
     """
 
     family: ClassVar[str] = "reacquire_plume"
