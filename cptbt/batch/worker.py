@@ -55,6 +55,12 @@ def init_worker(main_pid: int) -> None:
     # Ctrl-C reaches the whole process group: the main process alone handles it (it stops the
     # pool), so a worker waiting for work does not print a traceback.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # SIGTERM kills a worker outright: the main process turns its own SIGTERM into Ctrl-C
+    # (cli.argtypes.sigterm_as_interrupt), and a worker that inherited that handler stopped at
+    # random points when the whole group was sent SIGTERM (timeout, systemd, Slurm), could hold
+    # the pool's queue lock, and hung the study for good (a review); the main process stops the
+    # pool by SIGTERM too.
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if sys.platform.startswith("linux"):
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
