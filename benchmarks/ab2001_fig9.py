@@ -210,28 +210,37 @@ def plume_means(rows: list[Row], column: str, preset: str) -> tuple[float, float
     return statistics.fmean(means), statistics.stdev(means) / math.sqrt(len(means))
 
 
-def end_to_end(rows: list[Row], column: str, preset: str) -> tuple[float, float, int]:
-    """Mean ± SE of T_M at a curve's largest swept value minus at its smallest, paired by
-    plume (replicate): whether the curve moves at all, on the same plumes."""
-    by: dict[int, dict[float, float]] = defaultdict(dict)
+def slope_change(rows: list[Row], column: str, preset: str, scale: float = 1.0
+                 ) -> tuple[float, float, int]:
+    """How much a curve moves over its whole range: each plume's least-squares slope of T_M
+    against the largest |β| (all of the curve's values, ``column`` times ``scale``), times the
+    range; the mean over plumes ± its SE, and the number of plumes. (Its two ends alone had
+    called curves flat that fall beyond 2 SE over all their values: a review.)"""
+    by: dict[int, list[tuple[float, float]]] = defaultdict(list)
     for r in rows:
         if r["environment.preset"] == preset and r["T_M"] is not None:
-            by[int(r["replicate"])][float(r[column])] = float(r["T_M"])
-    values = {v for d in by.values() for v in d}
-    if len(values) < 2:
-        return math.nan, math.nan, 0
-    lo, hi = min(values), max(values)
-    diffs = [d[hi] - d[lo] for d in by.values() if lo in d and hi in d]
-    if len(diffs) < 2:
-        return math.nan, math.nan, len(diffs)
-    return (statistics.fmean(diffs), statistics.stdev(diffs) / math.sqrt(len(diffs)),
-            len(diffs))
+            by[int(r["replicate"])].append((float(r[column]) * scale, float(r["T_M"])))
+    changes = []
+    span = 0.0
+    for points in by.values():
+        xs = [x for x, _ in points]
+        if len(set(xs)) < 2:
+            continue
+        mx, my = statistics.fmean(xs), statistics.fmean(y for _, y in points)
+        sxx = sum((x - mx) ** 2 for x in xs)
+        slope = sum((x - mx) * (y - my) for x, y in points) / sxx
+        span = max(xs) - min(xs)
+        changes.append(slope * span)
+    if len(changes) < 2:
+        return math.nan, math.nan, len(changes)
+    return (statistics.fmean(changes), statistics.stdev(changes) / math.sqrt(len(changes)),
+            len(changes))
 
 
-def intermittency_section(curves: list[tuple[str, list[Row], str, str]]) -> list[str]:
+def intermittency_section(curves: list[tuple[str, list[Row], str, str, float]]) -> list[str]:
     """What bounds T_M here: the plume's intermittency at a fixed point, and whether each β
-    curve (label, rows, swept column, preset) moves from its first value to its last on the
-    same plumes (said as measured, not assumed: a review)."""
+    curve (label, rows, swept column, preset, scale to the largest |β|) moves over its range on
+    the same plumes (said as measured, not assumed: a review)."""
     lines = ["## What bounds T_M here", "",
              "A sensor held still at the best point of the cross-flow line 20 m down-flow of the "
              "source (x = 40; 4 plumes, 200 s, sampled every 0.25 s) sees:", ""]
@@ -242,20 +251,20 @@ def intermittency_section(curves: list[tuple[str, list[Row], str, str]]) -> list
                      f"each of which ends a contact whatever the heading; a spell starts every "
                      f"{cycle:.1f} s on average, so contact held at the plume's best point would "
                      f"last about {cycle / max(p_long, 1e-9):.0f} s.")
-    lines += ["", "Each β curve from its first value (β = 0) to its last (largest |β| 75°), "
-              "paired by plume (T_M at 75° − at 0°; flat when within 2 SE of zero):", ""]
+    lines += ["", "How much each β curve moves from 0° to 75° (each plume's least-squares "
+              "slope over all eleven values, times 75°; mean ± SE over the plumes; flat when "
+              "within 2 SE of zero):", ""]
     flat = 0
-    for label, rows, column, preset in curves:
-        d, se, n = end_to_end(rows, column, preset)
+    for label, rows, column, preset, scale in curves:
+        d, se, n = slope_change(rows, column, preset, scale)
         is_flat = abs(d) <= 2 * se
         flat += is_flat
         lines.append(f"- {preset.split('_')[1]} meander, {label}: {d:+.1f} ± {se:.1f} s "
                      f"(n = {n}): {'flat' if is_flat else 'falls' if d < 0 else 'rises'}")
     if curves and flat == len(curves):
-        lines += ["", "No β curve's ends differ by more than 2 SE: with AB's 3 filaments/s, "
-                  "λ = 1 s and a 1 s cast, gaps between filaments end most contacts whatever "
-                  "the crosswind angle, and the curves differ from each other by a second or "
-                  "two (above)."]
+        lines += ["", "No β curve moves by more than 2 SE: with AB's 3 filaments/s, λ = 1 s "
+                  "and a 1 s cast, gaps between filaments end most contacts whatever the "
+                  "crosswind angle."]
     lines += ["", "The speed panels: a faster cast can reacquire more often (it covers more "
               "cross-flow ground before T_W) and a faster in-plume leg can lose the plume "
               "sooner; these runs do not separate why.", ""]
@@ -360,11 +369,12 @@ def main() -> int:
                          f"the plume when using the time-varying β\" (timer {timer}): β(t) − "
                          f"constant β at the same largest |β| = {g:+.1f} ± {se:.1f} s (paired "
                          f"over β > 0, SE over n = {n} plumes): {verdict}.")
-        d, se, n = end_to_end(const, "maintain_plume.beta_deg", preset)
+        d, se, n = slope_change(const, "maintain_plume.beta_deg", preset)
         verdict = said(d - 2 * se > 0)
         lines.append(f"- {meander} meander, \"maintain time is increased by traveling at larger "
-                     f"crosswind angles\" (constant β): T_M at 75° − at 0° = {d:+.1f} ± "
-                     f"{se:.1f} s (paired, n = {n}): {verdict}.")
+                     f"crosswind angles\" (constant β): T_M's change from 0° to 75° (each "
+                     f"plume's slope over the curve) = {d:+.1f} ± {se:.1f} s (n = {n} plumes): "
+                     f"{verdict}.")
     (mean_l, se_l), (mean_s, se_s) = (plume_means(tv, "maintain_plume.beta1_deg", preset)
                                       for preset in PRESETS)
     gap, gap_se = mean_s - mean_l, math.hypot(se_s, se_l)
@@ -376,10 +386,11 @@ def main() -> int:
               "A verdict needs the difference beyond 2 SE.", ""]
     if judged:
         lines += intermittency_section([
-            (label, rows, column, preset) for preset in PRESETS for label, rows, column in (
-                ("β(t), timer last_detection (III)", tv, "maintain_plume.beta1_deg"),
-                ("β(t), timer contact (III)", tvc, "maintain_plume.beta1_deg"),
-                ("constant β (eq. 4)", const, "maintain_plume.beta_deg"))])
+            (label, rows, column, preset, scale) for preset in PRESETS
+            for label, rows, column, scale in (
+                ("β(t), timer last_detection (III)", tv, "maintain_plume.beta1_deg", 3.0),
+                ("β(t), timer contact (III)", tvc, "maintain_plume.beta1_deg", 3.0),
+                ("constant β (eq. 4)", const, "maintain_plume.beta_deg", 1.0))])
     lines += ["![AB Fig. 9's protocol](fig9.png)", ""]
     figure(panels, report / "fig9.png", runs)
     text = "\n".join(lines)
