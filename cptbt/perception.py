@@ -113,10 +113,15 @@ class Perception:
     Args:
         op_area: detections outside it are ignored (TRO V).
         settings: threshold, λ, flow window and flow gate (the mission's ``perception:``).
+        nominal_period_s: the planning period (the mission's ``1 / cycle_hz``), what a cycle
+            counts for until two usable stamps have measured it (a review: with every stamp
+            unusable, 10-Hz cycles had counted 1 s each).
     """
 
-    def __init__(self, op_area: OpArea, settings: PerceptionSettings | None = None) -> None:
+    def __init__(self, op_area: OpArea, settings: PerceptionSettings | None = None,
+                 nominal_period_s: float = 1.0) -> None:
         self.op_area = op_area
+        self.nominal_period_s = nominal_period_s
         self.settings = settings or PerceptionSettings()
         self.threshold = self.settings.threshold
         self.lambda_s = self.settings.lambda_s
@@ -135,7 +140,7 @@ class Perception:
         self._lost: tuple[Point, ...] = ()
         self._t_prev = -math.inf
         self._offset = 0.0
-        self._period = 1.0
+        self._period = self.nominal_period_s
         self.rejected_flow_samples = 0
         self.clock_corrections = 0
         self.stuck_samples = 0
@@ -253,8 +258,10 @@ class Perception:
             if usable:
                 self._offset += target - now
             self.clock_corrections += 1
-            log.info("cycle time %g s is not after the previous cycle (%g s on the planner "
-                     "clock): taken as %g s", t, self._t_prev, target)
+            why = ("is not after the previous cycle" if usable else
+                   f"is not a usable time stamp (not finite, or beyond {MAX_STAMP_S:g} s)")
+            log.info("cycle time %g s %s (%g s on the planner clock): taken as %g s", t, why,
+                     self._t_prev, target)
             now = target
         elif math.isfinite(self._t_prev):
             self._period = min(now - self._t_prev, 60.0)

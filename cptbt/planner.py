@@ -47,7 +47,8 @@ class Planner:
         self.registry = registry or default_registry()
         entries = mission.entries()
         self.op_area = mission.op_area_geometry()
-        self.perception = Perception(self.op_area, mission.perception)
+        self.perception = Perception(self.op_area, mission.perception,
+                                     nominal_period_s=1.0 / mission.cycle_hz)
         self.context = MissionContext(
             op_area=self.op_area,
             home=mission.to_xy(mission.home),

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.study import changes_world
 from cptbt.policy import RELINQUISH_OUTSIDE_M
 
@@ -153,11 +154,17 @@ OUTSIDE_NOTED_M = 0.05
 (as ``cptbt run`` says it)."""
 
 
+def left_oparea(farthest_outside_m: float) -> bool:
+    """Whether a run that went this far outside the OpArea is said to have left it."""
+    return farthest_outside_m >= OUTSIDE_NOTED_M
+
+
 def excursions(rows: Rows) -> tuple[int, float, float]:
     """Runs that left the OpArea, the farthest any went (m), and the share of the AMP's time
     safety drove over all runs (the family time columns: the share of what the tree did)."""
+    rows = [r for r in rows if r.get("outcome") != ERROR_OUTCOME]  # flew nothing to judge
     far = [float(r.get("farthest_outside_m") or 0.0) for r in rows]
-    out = sum(f > OUTSIDE_NOTED_M for f in far)
+    out = sum(left_oparea(f) for f in far)
     amp = sum(float(v or 0.0) for r in rows for k, v in r.items()
               if k.startswith("time_") and k.endswith("_s") and "." not in k)
     safety = sum(float(r.get("time_safety_s") or 0.0) for r in rows)
@@ -179,6 +186,7 @@ def excursion_table(groups: dict[str, Rows]) -> list[str]:
              "| configuration | runs outside | farthest outside (m) | safety drove |",
              "|---|---:|---:|---:|"]
     for label, (n, far, share) in counts.items():
-        lines.append(f"| {label} | {n} of {len(groups[label])} | {fmt(far)} "
-                     f"| {fmt(100 * share)}% |")
+        flown = sum(r.get("outcome") != ERROR_OUTCOME for r in groups[label])
+        lines.append(f"| {label} | {n} of {flown} | {fmt(far)} "
+                     f"| {'—' if math.isnan(share) else f'{100 * share:.1f}%'} |")
     return lines

@@ -301,9 +301,10 @@ def source_wall_advice(mission: MissionBase, params: EnvironmentParams,
     The plume's length inside is measured along the mean flow from the source to the wall it
     leaves by: detections outside the OpArea are ignored (TRO V), so a plume that leaves within
     two turning radii is hardly there to be found. Only for a vehicle that turns at a radius
-    (the simulator's ``turn_radius`` heading mode; AB's searchers turn otherwise); the near-wall
-    warning only without ``turn_guard_radius_m`` (a mission that set it has seen to its walls,
-    as :func:`turn_guard_advice` holds).
+    (the simulator's ``turn_radius`` heading mode; AB's searchers turn otherwise); with
+    ``turn_guard_radius_m`` too, which shortens the excursions but does not end them (a
+    review of the change: the 50-m box's guarded mission, its source 3 m inside a corner, 6 of
+    6 runs outside, up to 11.2 m).
     """
     if params.vehicle.heading_mode != "turn_radius":
         return []
@@ -311,7 +312,10 @@ def source_wall_advice(mission: MissionBase, params: EnvironmentParams,
     r = params.vehicle.turning_radius_m
     reach = SOURCE_WALL_RADII * r
     flow = math.radians(params.flow.mean_dir_deg)
-    ux, uy = math.cos(flow), math.sin(flow)
+    # a component below 1e-9 is along the other axis (cos 90° is 6e-17, not 0: a review's source
+    # on a wall, the flow along it, was told its plume left the OpArea at once)
+    ux, uy = (c if abs(c) > 1e-9 else 0.0 for c in (math.cos(flow), math.sin(flow)))
+    guard = mission.turn_guard_radius_m
     out: list[Problem] = []
     for j, s in enumerate(sources):
         key = ("environment", "source") if j == 0 else ("environment", "extra_sources", j - 1)
@@ -324,14 +328,16 @@ def source_wall_advice(mission: MissionBase, params: EnvironmentParams,
                         f"{inside:.1f} m down-flow of it: detections outside the OpArea are "
                         "ignored (TRO V), so there is hardly a plume to find and track; move "
                         "the source up-flow, or the OpArea's down-flow wall out"))
-            continue
         depth = area.depth_inside(s.x, s.y)
-        if depth < reach and mission.turn_guard_radius_m is None:
+        if depth < reach:
+            fix = (f"turn_guard_radius_m: {plain(r)} shortens those turns (5-8 m against 5-14 m "
+                   "with a source 3 m inside a corner)" if guard is None else
+                   "turn_guard_radius_m shortens those turns but does not keep them in (a "
+                   "source 3 m inside a corner of the 50-m box: 6 runs of 6 outside, up to "
+                   "11.2 m)")
             out.append((key, f"{depth:.1f} m from an OpArea wall, under two of the simulated "
                         f"vehicle's {plain(r)}-m turning radii: the turns about the source "
                         "carry the vehicle outside and safety takes over (8 runs 3-8 m from "
-                        "the up-flow wall: every one outside, up to 11.5 m); "
-                        f"turn_guard_radius_m: {plain(r)} shortens those turns (5-8 m against "
-                        "5-14 m with a source 3 m inside a corner), or place the source "
-                        "farther in"))
+                        f"the up-flow wall: every one outside, up to 11.5 m); {fix}, or place "
+                        "the source farther in"))
     return out

@@ -327,15 +327,16 @@ def _with_error(out: dict[str, float] | None, p: Point,
 def _farthest_outside(mission: MissionBase, true: NDArray[np.float64]) -> float:
     """How far outside the OpArea a true track went, m (0: it stayed inside), once it was in:
     the way in from a start placed outside (``allow_outside: [start]``) is the mission's, not
-    an excursion (a review's start 20 m out read "left the OpArea: 19.8 m"). A track that never
-    got in counts how much farther out than its start it went."""
+    an excursion (a review's start 20 m out read "left the OpArea: 19.8 m"); how much farther
+    out than its start it went before getting in is one (a detour), and so is all of a track
+    that never got in."""
     if not len(true):
         return 0.0
     far = mission.op_area_geometry().distance_outside_array(true[:, 0], true[:, 1])
     inside = np.flatnonzero(far == 0.0)
-    if not len(inside):
-        return float(max(np.nanmax(far) - far[0], 0.0))
-    return float(np.nanmax(far[inside[0]:], initial=0.0))
+    entry = int(inside[0]) if len(inside) else len(far)
+    detour = float(np.nanmax(far[:entry]) - far[0]) if entry else 0.0
+    return max(detour, float(np.nanmax(far[entry:], initial=0.0)), 0.0)
 
 
 def _maintain_time(run: VehicleRun) -> float | None:

@@ -6,6 +6,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from cptbt.batch.comparison import left_oparea
+
 
 def fresh_folder(base: Path) -> Path:
     """``base``, or ``base-2``, ``base-3``... : the first that does not exist."""
@@ -59,7 +61,7 @@ def place(d: dict[str, float]) -> str:
 def outside_line(s: dict[str, Any]) -> str | None:
     """How far outside the OpArea the vehicle went, when it left it (None: it did not)."""
     far = s.get("farthest_outside_m") or 0.0
-    if far < 0.05:
+    if not left_oparea(far):
         return None
     return f"  left the OpArea: at most {far:.1f} m outside it (true track)"
 

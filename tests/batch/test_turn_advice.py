@@ -101,6 +101,28 @@ def test_a_source_near_a_wall_or_whose_plume_leaves_the_oparea_is_told_of() -> N
     assert _walled("[43, -55]", flow=135) == []
     (msg,) = _walled("[118, -48]", flow=135)  # near the NW wall, plume into the box
     assert "m from an OpArea wall" in msg and "turn_guard_radius_m: 7.5" in msg, msg
-    assert _walled("[118, -48]", flow=135, guard=True) == []
-    (msg,) = _walled("[118, -48]", flow=315)  # the flow carries the plume out at once
-    assert "carries this source's plume out of the OpArea" in msg, msg
+    (msg,) = _walled("[118, -48]", flow=135, guard=True)  # the guard shortens, not ends, them
+    assert "does not keep them in" in msg, msg
+    out, near = _walled("[118, -48]", flow=315)  # the flow carries the plume out at once
+    assert "carries this source's plume out of the OpArea" in out, out
+    assert "m from an OpArea wall" in near, near
+
+
+def test_a_flow_along_a_wall_does_not_carry_the_plume_out() -> None:
+    """A review: cos 90° is 6e-17, not 0, so a source on a wall with the flow along it was
+    told its plume left the OpArea "0.0 m down-flow"."""
+    text = (ROOT / "missions/oblique_flow.yaml").read_text(encoding="utf-8")
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    a = mission.op_area_geometry()
+    params = to_sim_params(mission)
+    from cptbt.batch.sim_advice import source_wall_advice
+    from cptbt.types import Point
+
+    for direction in (0.0, 90.0, 180.0, 270.0):
+        flowing = params.model_copy(update={"flow": params.flow.model_copy(
+            update={"mean_dir_deg": direction})})
+        on_wall = Point(0.5 * (a.xmin + a.xmax), a.ymax)  # on the +y wall, mid-way along it
+        said = [m for _, m in source_wall_advice(mission, flowing, [on_wall])]
+        leaves = direction == 90.0  # toward +y: out through that wall at once
+        assert any("carries this source's plume out" in m for m in said) == leaves, said
+        assert any("0.0 m from an OpArea wall" in m for m in said), said

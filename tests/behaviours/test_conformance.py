@@ -40,6 +40,8 @@ def test_registry_holds_every_variant_of_the_papers() -> None:
         "reacquire_plume.strategy_1",
         "reacquire_plume.strategy_2",
         "reacquire_plume.strategy_3",
+        "maintain_plume.constant_beta",
+        "reacquire_plume.constant_beta",
         "declare_source.upflow_cluster",
         "declare_source.recent_box",
         "declare_source.upflow_spread",
@@ -105,6 +107,40 @@ def test_the_check_flies_a_behaviour_without_a_flow_estimate() -> None:
     with pytest.raises(AssertionError, match=r"needs_flow \(no flow estimate\) tick 0 .*: "
                        "raised AttributeError"):
         check_behaviour(NeedsFlow)
+
+
+def test_the_check_flies_a_behaviour_before_the_first_navigation_fix() -> None:
+    """A review: safety and move-to-field asked command() for NaN headings until the first fix,
+    and the check, whose pose was always known, passed them. A variant that heads for the start
+    unguarded fails in that run; the same guarded by ``p.pose.located`` passes."""
+    from typing import ClassVar
+
+    from cptbt.node import PlanBehaviour
+    from cptbt.types import Command, Percept
+
+    class HeadStart(PlanBehaviour):
+        family: ClassVar[str] = "move_to_field"
+        variant: ClassVar[str] = "head_start"
+
+        def decide(self, p: Percept) -> Command | None:
+            assert self.context is not None and self.context.start is not None
+            if self.bb.field_reached:
+                return None
+            if p.pose.point.distance_to(self.context.start) < 3.0:
+                self.bb.field_reached = True
+                return None
+            return self.command(p.pose.point.bearing_to(self.context.start))
+
+    class GuardedHeadStart(HeadStart):
+        variant: ClassVar[str] = "guarded_head_start"
+
+        def decide(self, p: Percept) -> Command | None:
+            return super().decide(p) if p.pose.located else None
+
+    with pytest.raises(AssertionError, match=r"head_start \(before the first navigation fix\) "
+                       r"tick 0 .*non-finite heading"):
+        check_behaviour(HeadStart)
+    check_behaviour(GuardedHeadStart)
 
 
 def test_the_check_fails_a_behaviour_that_keeps_state_on_its_class() -> None:

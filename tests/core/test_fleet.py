@@ -65,7 +65,8 @@ def test_parameter_variants(key: str, params: dict[str, object]) -> None:
     check_fleet_rule(spec, spec.params(**params), seed=5)
 
 
-@pytest.mark.parametrize("path", AB, ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", [*AB, ROOT / "missions" / "ab2001_fig9_constant.yaml"],
+                         ids=lambda p: p.stem)
 def test_whole_missions_tick_by_tick(path: Path) -> None:
     drove = check_fleet_mission(load(str(path)), seed=1)
     assert all(drove.get(name, 0) > 50 for name in drove if name)  # every leaf drove

@@ -287,6 +287,15 @@ def test_an_absurd_first_time_stamp_neither_freezes_nor_races_the_clock(first: f
     assert p.latest.flow is not None and p.latest.flow.toward_deg == pytest.approx(0.0)
 
 
+def test_unusable_stamps_count_the_planning_period() -> None:
+    # A review of the change: with every stamp beyond MAX_STAMP_S (epoch milliseconds sent as
+    # seconds) 10-Hz cycles counted 1 s each, ten times fast.
+    p = Perception(square_area(100), nominal_period_s=0.1)
+    p.set_pose(Pose(50, 0, 0))
+    times = [p.cycle(1.7e12 + 100 * k).t for k in range(5)]
+    assert times == pytest.approx([0.0, 0.1, 0.2, 0.3, 0.4])
+
+
 def test_epoch_seconds_are_elapsed_time() -> None:
     p = Perception(square_area(100))
     p.set_pose(Pose(50, 0, 0))

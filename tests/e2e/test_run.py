@@ -185,3 +185,6 @@ def test_the_way_in_from_a_start_placed_outside_is_not_an_excursion() -> None:
     assert _farthest_outside(mission, out_again) == pytest.approx(3.0)
     never_in = np.array([[a.xmin - 20.0, y], [a.xmin - 26.0, y], [a.xmin - 10.0, y]])
     assert _farthest_outside(mission, never_in) == pytest.approx(6.0)  # 6 m farther out
+    # a detour on the way in (a review of the change: it had scored 0)
+    detour = np.array([[a.xmin - 5.0, y], [a.xmin - 20.0, y], [a.xmin + 5.0, y]])
+    assert _farthest_outside(mission, detour) == pytest.approx(15.0)
