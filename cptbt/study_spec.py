@@ -17,6 +17,27 @@ Coord = tuple[float, float]
 MAX_STARTS = 100_000
 """Most starts a study may have (``cptbt.batch.study.MAX_STARTS``, the command line's bound)."""
 
+MAX_RUNS = 10_000_000
+"""Most runs a study may have, starts × replicates × configurations (a review's study within
+every other bound, 10^5 starts × 10^6 replicates, took 24 GB before flying a run; 10^7 runs is
+some 60 CPU-hours at the fleet planner's pace)."""
+
+MAX_GROUPS = 1_000_000
+"""Most groups (configurations × replicates) a study may have: each is a task held in memory
+before the study flies (about 0.5 GB at this bound)."""
+
+
+def study_size_problem(starts: int, runs_per_start: int, configs: int) -> str | None:
+    """Why a study of this size is refused (None: it is not)."""
+    runs, groups = starts * runs_per_start * configs, runs_per_start * configs
+    if runs > MAX_RUNS:
+        return (f"{starts} starts × {runs_per_start} replicates × {configs} configurations is "
+                f"{runs:,} runs, more than {MAX_RUNS:,}: split the study")
+    if groups > MAX_GROUPS:
+        return (f"{runs_per_start} replicates × {configs} configurations is {groups:,} groups, "
+                f"more than {MAX_GROUPS:,}: split the study")
+    return None
+
 
 class LineSpec(BaseModel):
     """Starts along the planning x axis at one y (AB Fig. 10: x from 0 to 100 m, y = 0)."""
@@ -83,4 +104,14 @@ class StudySpec(BaseModel):
         for path, values in self.sweeps.items():
             if not values:
                 raise ValueError(f"sweeps.{path}: no values")
+        configs = 1
+        for values in self.sweeps.values():
+            configs *= len(values)
+        starts = (self.grid[0] * self.grid[1] if self.grid is not None else
+                  len(self.starts) if self.starts is not None else
+                  int((self.line.x_to_m - self.line.x_from_m) / self.line.step_m) + 1
+                  if self.line is not None else 1)
+        too_big = study_size_problem(starts, self.runs_per_start, configs)
+        if too_big:
+            raise ValueError(too_big)
         return self

@@ -85,7 +85,9 @@ class Environment(BaseModel):
         default=0.0, ge=-360.0, le=360.0,
         description="Vehicle heading at t = 0 (mission-frame convention)"
     )
-    seed: int = Field(default=0, ge=0, description="Seed of every random draw of a run")
+    seed: int = Field(default=0, ge=0, lt=2**63,
+                      description="Seed of every random draw of a run (below 2**63: the "
+                      "results table stores it as a 64-bit integer)")
     dt_s: float | None = Field(default=None, gt=0, description="Vehicle step, s")
     plume_dt_s: float | None = Field(default=None, gt=0, description="Flow and plume step, s")
     warm_up_s: float | None = Field(default=None, ge=0, description="Plume spin-up, s")

@@ -413,8 +413,9 @@ class Study:
     def tasks(self, code: str = "") -> list[GroupTask]:
         """One task per configuration × replicate; ``code``: the code identity workers need."""
         flies = self.flies()
+        starts = tuple(self.starts)  # one tuple for every task: a copy each had cost gigabytes
         return [
-            GroupTask(c.index, r, c.mission_yaml, tuple(self.starts), self.root_seed,
+            GroupTask(c.index, r, c.mission_yaml, starts, self.root_seed,
                       self.heading_deg, self.time_limit_s, c.coords, code, self.start_mode,
                       flies=flies)
             for c in self.configs for r in range(self.runs_per_start)

@@ -11,6 +11,7 @@ import argparse
 import math
 import signal
 import threading
+from pathlib import Path
 from types import FrameType
 
 from cptbt.batch.study import MAX_STARTS, line_xs
@@ -42,6 +43,23 @@ def non_negative_int(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"{value} must be 0 or more")
     return value
+
+
+def seed(text: str) -> int:
+    """A seed: an integer from 0 to 2**63 - 1 (the results table stores it as a 64-bit
+    integer: a review's 2**63 flew a group, then failed writing it, on every resume)."""
+    value = non_negative_int(text)
+    if value >= 2**63:
+        raise argparse.ArgumentTypeError(f"{value} must be below 2**63")
+    return value
+
+
+def out_dir(text: str) -> str:
+    """A folder to write to, not empty (an unset shell variable, ``--out "$OUT"``, had written
+    a study into the current folder: a review)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty folder name: give a folder")
+    return text
 
 
 def finite_float(text: str) -> float:
@@ -124,6 +142,24 @@ def starts(text: str) -> list[Start]:
 
 class UsageError(Exception):
     """A command line that parsed but makes no sense (found after parsing); exit status 2."""
+
+
+def not_the_mission(option: str, path: str | None, mission: str | None) -> None:
+    """Refuse an output path that is the mission file the command reads (a review: ``cptbt tree
+    m.yaml --dot m.yaml`` and ``cptbt run m.yaml --log m.yaml`` replaced the mission, exit 0).
+
+    Raises:
+        UsageError: naming the option.
+    """
+    if not path or not mission:
+        return
+    out, src = Path(path), Path(mission)
+    same = out.resolve() == src.resolve()
+    if not same and out.exists() and src.exists():
+        same = out.samefile(src)  # a hard link, or another path to it
+    if same:
+        raise UsageError(f"{option} {path} is the mission file this command reads: writing it "
+                         "would replace the mission; give another file")
 
 
 def sigterm_as_interrupt() -> None:

@@ -25,7 +25,7 @@ from cptbt.cli.batch_sweeps import study_configs
 from cptbt.cli.inspect_cmds import load
 from cptbt.cli.plot_cmd import cmd_plot, saved_study
 from cptbt.mission import MissionBase
-from cptbt.study_spec import StudySpec
+from cptbt.study_spec import StudySpec, study_size_problem
 
 
 def _sweep(text: str) -> Sweep:
@@ -82,11 +82,12 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--max-runs-per-start", type=argtypes.positive_int, default=None, metavar="N",
                    help="with --until-sem: stop at N realisations per start even if the target "
                    "is not met (default: 50 times --runs-per-start, at most 10000)")
-    p.add_argument("--seed", type=argtypes.non_negative_int, default=None,
+    p.add_argument("--seed", type=argtypes.seed, default=None,
                    help="root seed (default: the mission's)")
     p.add_argument("--time-limit", type=argtypes.positive_float, default=None, metavar="S",
                    help="override the mission's time limit, s")
-    p.add_argument("--out", required=True, metavar="DIR", help="results folder")
+    p.add_argument("--out", required=True, type=argtypes.out_dir, metavar="DIR",
+                   help="results folder")
     p.add_argument("--workers", type=argtypes.positive_int, default=os.cpu_count() or 1,
                    help="local worker processes (default: all cores)")
     p.add_argument("--scheduler", metavar="ADDRESS",
@@ -261,6 +262,15 @@ def cmd_batch(args: argparse.Namespace) -> int:
                          f"first round's --runs-per-start {runs_per_start}")
     max_runs = (args.max_runs_per_start or min(10_000, 50 * runs_per_start)) if adaptive \
         else runs_per_start
+    too_big = study_size_problem(len(starts), max_runs, len(configs))
+    if too_big:  # before any task is built (a review's 10^11-run study took 24 GB first)
+        raise UsageError(f"batch: {too_big}")
+    cpus = os.cpu_count() or 1
+    if args.scheduler is None and args.workers > WORKERS_PER_CPU * cpus:
+        # a review's --workers 100000 forked 500 processes and the out-of-memory killer fired
+        print(f"cptbt: note: --workers {args.workers} is more than {WORKERS_PER_CPU} per CPU "
+              f"({cpus} here): {WORKERS_PER_CPU * cpus} workers", file=sys.stderr)
+        args.workers = WORKERS_PER_CPU * cpus
     # A replicate's rows do not depend on how many replicates the study has (each is seeded by
     # its number): the identity leaves the count out, so the same folder takes more runs per
     # start (its finished ones kept; a review expected it) and an adaptive study resumes
@@ -422,6 +432,10 @@ def _worst_rel_sem(rows: list[dict[str, Any]]) -> float:
         rel = protocol(group).rel_sem
         worst = max(worst, rel if math.isfinite(rel) else math.inf)
     return worst
+
+
+WORKERS_PER_CPU = 4
+"""Most local worker processes per CPU: more only wait for a core, each holding its memory."""
 
 
 def _next_replicates(n: int, rel_sem: float, target: float, step: int,

@@ -22,6 +22,13 @@ def study_configs(args: argparse.Namespace,
                   mission: MissionBase) -> tuple[list[Sweep], list[Config]]:
     """The study's sweeps and configurations, with the notes and warnings they call for."""
     own = study_sweeps(mission)
+    seen: dict[str, Sweep] = {}
+    for s in args.sweep:  # a path twice: the second had silently replaced the first (a review)
+        for path in s.paths:
+            if path in seen:
+                raise UsageError(f"batch: --sweep {path} is given twice ({_sweep_text(seen[path])}"
+                                 f" and {_sweep_text(s)}): give its values in one --sweep")
+            seen[path] = s
     sweeps: list[Sweep] = args.sweep or own
     dropped = _not_flown(own, args.sweep, lambda p: _fallback_value(mission, p)[0]) \
         if args.sweep else []

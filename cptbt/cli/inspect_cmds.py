@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel
 
+from cptbt.cli.argtypes import not_the_mission
 from cptbt.loader import (
     MissionError,
     format_errors,
@@ -227,6 +228,7 @@ TREE_KEY = (
 
 def cmd_tree(args: argparse.Namespace) -> int:
     """Print the arbitration tree a mission builds (highest priority first)."""
+    not_the_mission("--dot", args.dot, args.mission)
     mission = load(args.mission)
     planner = Planner(mission)
     try:

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from cptbt.cli.argtypes import not_the_mission
 from cptbt.cli.inspect_cmds import load
 from cptbt.phases import describe, to_dot
 
@@ -21,6 +22,7 @@ def add_parsers(sub: Any) -> None:
 
 def cmd_phases(args: argparse.Namespace) -> int:
     """Print the mission phases (states, transitions, triggers) and this mission's settings."""
+    not_the_mission("--dot", args.dot, args.mission)
     mission = load(args.mission)
     spec = mission.mission_a
     print(f"{mission.name}: mission phases (SPEC §9)")
@@ -43,7 +45,7 @@ def cmd_phases(args: argparse.Namespace) -> int:
         print("  outside_op_area: more than 30 m outside the OpArea")
         print(f"  watchdog_timeout: no accepted command for {spec.watchdog_s:g} s")
         print(f"  command_refused: speed outside [{lim.min_speed_mps:g}, {lim.max_speed_mps:g}]"
-              f" m/s or depth beyond {lim.max_depth_m:g} m")
+              f" m/s, depth outside [0, {lim.max_depth_m:g}] m, or a heading not finite")
     if args.dot:
         Path(args.dot).write_text(to_dot(), encoding="utf-8")
         print(f"wrote {args.dot}")

@@ -186,9 +186,9 @@ def add_parsers(sub: Any) -> None:
                    help="fly one row of a study again (a results folder from cptbt batch)")
     p.add_argument("--row", type=argtypes.non_negative_int, default=None, metavar="N",
                    help="with --from: the row of the results table (0-based)")
-    p.add_argument("--seed", type=argtypes.non_negative_int, default=None,
+    p.add_argument("--seed", type=argtypes.seed, default=None,
                    help="override the environment seed")
-    p.add_argument("--out", metavar="DIR", default=None,
+    p.add_argument("--out", metavar="DIR", default=None, type=argtypes.out_dir,
                    help="output folder (default: a new runs/<mission>-<digest>-seed<N>)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.add_argument("--no-figure", action="store_true", help="skip trajectory.png")
@@ -290,6 +290,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         return refly(args)
     if args.mission is None:
         raise UsageError("run: give a MISSION file (or --from RESULTS --row N)")
+    argtypes.not_the_mission("--log", getattr(args, "log", None), args.mission)
     mission = load(args.mission, simulate=True, warn=not args.quiet)
     params = to_sim_params(mission, args.seed)
     seed = params.seed

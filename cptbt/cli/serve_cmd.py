@@ -69,7 +69,8 @@ def add_parsers(sub: Any) -> None:
                    help="where to listen (port 0: any free port; printed on start)")
     f.add_argument("--clock-scale", type=argtypes.clock_scale, default=1.0, metavar="K",
                    help="fly K times faster than real time")
-    f.add_argument("--seed", type=int, default=None, help="override the environment seed")
+    f.add_argument("--seed", type=argtypes.seed, default=None,
+                   help="override the environment seed")
     f.add_argument("--drop", type=argtypes.probability, default=0.0, metavar="P",
                    help="lose each datagram, either way, with probability P")
     f.add_argument("--silent-from", type=argtypes.finite_float, default=None, metavar="T",
@@ -86,6 +87,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     """Run the AMP in real time against a vehicle: take control at Mission A's trigger, plan at
     the mission's rate, give back on declaring home, time limit, OpArea, watchdog, Ctrl-C, link
     loss or any internal error; then write summary.json like ``cptbt run``."""
+    argtypes.not_the_mission("--log", args.log, args.mission)
     mission = load(args.mission)
     if mission.mission_a is None:
         print(f"cptbt: {args.mission}: serve needs a mission_a section (the vehicle's own "

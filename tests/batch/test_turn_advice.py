@@ -101,8 +101,10 @@ def test_a_source_near_a_wall_or_whose_plume_leaves_the_oparea_is_told_of() -> N
     assert _walled("[43, -55]", flow=135) == []
     (msg,) = _walled("[118, -48]", flow=135)  # near the NW wall, plume into the box
     assert "m from an OpArea wall" in msg and "turn_guard_radius_m: 7.5" in msg, msg
-    (msg,) = _walled("[118, -48]", flow=135, guard=True)  # the guard shortens, not ends, them
+    # with a guard, within one turning radius (7.5 m): it shortens the turns, not ends them
+    (msg,) = _walled("[125, -44]", flow=135, guard=True)
     assert "does not keep them in" in msg, msg
+    assert _walled("[118, -48]", flow=135, guard=True) == []  # 8-15 m in: the guard's work
     out, near = _walled("[118, -48]", flow=315)  # the flow carries the plume out at once
     assert "carries this source's plume out of the OpArea" in out, out
     assert "m from an OpArea wall" in near, near

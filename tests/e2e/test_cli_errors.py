@@ -58,6 +58,16 @@ def one_line(res: subprocess.CompletedProcess[str], status: int) -> str:
     (["--time-limit", "-5"], "must be more than 0"),
     (["--time-limit", "0"], "must be more than 0"),
     (["--seed", "-1"], "argument --seed: -1 must be 0 or more"),
+    # a review: 2**63 flew a group, then failed writing it, on every resume
+    (["--seed", str(2**63)], f"argument --seed: {2**63} must be below 2**63"),
+    # a review: an unset shell variable (--out "$OUT") wrote the study into the current folder
+    (["--out", ""], "argument --out: an empty folder name"),
+    # a review: the second --sweep of a path had silently replaced the first
+    (["--sweep", "speed_mps=1", "--sweep", "speed_mps=2"],
+     "--sweep speed_mps is given twice (speed_mps=1 and speed_mps=2)"),
+    # a review: within every other bound, 10^11 runs took 24 GB before flying one
+    (["--grid", "1000x100", "--runs-per-start", "1000000"],
+     "100,000,000,000 runs, more than 10,000,000: split the study"),
     (["--y", "nan"], "must be a finite number"),
     (["--sweep", "speed_mps"], "expected PATH=V1,V2"),
     (["--scheduler-timeout", "0"], "must be more than 0"),
@@ -70,6 +80,31 @@ def test_bad_batch_argument_is_one_usage_line(
     line = one_line(res, 2)
     assert line.startswith("cptbt batch: error: ") and expected in line, line
     assert not (tmp_path / "out").exists()
+
+
+def test_an_output_that_is_the_mission_file_is_refused(tmp_path: Path) -> None:
+    """A review: ``cptbt tree m.yaml --dot m.yaml`` and ``cptbt run m.yaml --log m.yaml``
+    replaced the mission with their output and exited 0."""
+    mission = tmp_path / "m.yaml"
+    text = (ROOT / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8")
+    mission.write_text(text, encoding="utf-8")
+    (tmp_path / "sub").mkdir()
+    for args in (["tree", str(mission), "--dot", str(mission)],
+                 ["phases", str(mission), "--dot", str(tmp_path / "sub" / ".." / "m.yaml")],
+                 ["run", str(mission), "--log", str(mission), "--out", str(tmp_path / "r")]):
+        line = one_line(cptbt(*args), 2)
+        assert "is the mission file this command reads" in line, line
+        assert mission.read_text(encoding="utf-8") == text
+
+
+def test_more_workers_than_cpus_can_use_are_capped_and_said(tmp_path: Path) -> None:
+    """A review's --workers 100000 forked 500 processes and the out-of-memory killer fired."""
+    res = cptbt("batch", "missions/ab2001_strategy1.yaml", "--grid", "2x1", "--time-limit", "5",
+                "--workers", "100000", "--no-plots", "--quiet", "--out", str(tmp_path / "o"))
+    assert res.returncode == 0, res.stderr
+    cap = 4 * (os.cpu_count() or 1)
+    assert f"--workers 100000 is more than 4 per CPU ({os.cpu_count()} here): {cap} workers" \
+        in res.stderr, res.stderr
 
 
 def test_bad_arguments_of_other_commands_are_one_usage_line() -> None:
@@ -91,7 +126,7 @@ def test_usage_errors_found_after_parsing_read_as_argparse_ones(tmp_path: Path) 
     line = one_line(res, 2)
     assert line.startswith(f"cptbt batch: error: {MISSION} has a mission_a section"), line
     res = cptbt("run", "missions/small_oparea.yaml", "--log", str(tmp_path / "x.mcap"),
-                "--out", str(tmp_path / "r"))
+                "--out", str(tmp_path / "r"), "--quiet")  # (its source near a wall is warned of)
     assert one_line(res, 2).startswith("cptbt run: error: --log records the AMP session")
 
 
