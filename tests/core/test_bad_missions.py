@@ -143,6 +143,12 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("a million starts", sub("time_limit_s: 1800", "time_limit_s: 1800\n"
                              "study: {grid: [1000, 1000]}"), 10, "study",
      "more than 100000 starts"),
+    ("10^11 runs", sub("time_limit_s: 1800", "time_limit_s: 1800\n"
+                       "study: {grid: [1000, 100], runs_per_start: 1000000}"), 10, "study",
+     "100,000,000,000 runs, more than 10,000,000: split the study"),
+    ("a million groups", sub("time_limit_s: 1800", "time_limit_s: 1800\n"
+                             "study: {runs_per_start: 1000000, sweeps: {speed_mps: [1, 2]}}"),
+     10, "study", "2,000,000 groups, more than 1,000,000"),
     ("misspelt preset", sub("preset: tro_ocean", "preset: tro_ocaen"), 27, "environment.preset",
      "unknown value 'tro_ocaen': one of 'tro_ocean', 'ab_small_meander', 'ab_large_meander'; "
      "did you mean 'tro_ocean'?"),
