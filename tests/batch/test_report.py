@@ -597,3 +597,24 @@ def test_tables_say_which_runs_left_the_oparea(tmp_path: Path) -> None:
         r["farthest_outside_m"] = 0.01  # under the 0.05 m cptbt run says nothing of
     write_report(rows, tmp_path)
     assert "Left the OpArea" not in (tmp_path / "tables.md").read_text()
+
+
+def test_plot_says_when_the_study_record_cannot_be_read(tmp_path: Path) -> None:
+    """A review: ``cptbt plot`` on a folder whose study.json was ``{garbage`` wrote its tables
+    without a word (``cptbt run --from`` said the record did not say how the rows were flown)."""
+    import subprocess
+    import sys
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    pq.write_table(pa.Table.from_pylist(line_rows()), tmp_path / "results.parquet")
+    (tmp_path / "study.json").write_text("{garbage", encoding="utf-8")
+    res = subprocess.run([str(Path(sys.executable).parent / "cptbt"), "plot", str(tmp_path)],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert f"{tmp_path / 'study.json'} cannot be read as a study's record" in res.stderr
+    (tmp_path / "study.json").unlink()  # no record at all: nothing to say
+    res = subprocess.run([str(Path(sys.executable).parent / "cptbt"), "plot", str(tmp_path)],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and "study.json" not in res.stderr, res.stderr
