@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import re
 import subprocess
@@ -21,6 +20,7 @@ from cptbt.batch.store import ResultStore, StudyMismatch, load_results
 from cptbt.batch.study import GroupTask, Study, Sweep, grid_starts, log_sample, study_notes
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
+from cptbt.cli.batch_rounds import next_replicates, worst_rel_sem
 from cptbt.cli.batch_sweeps import study_configs
 from cptbt.cli.inspect_cmds import load
 from cptbt.cli.plot_cmd import cmd_plot, saved_study
@@ -342,8 +342,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         flown_runs += stats["runs"] - stats["runs_resumed"]
         if not adaptive:
             break
-        worst = _worst_rel_sem(store.rows(tasks))
-        nxt = _next_replicates(n, worst, args.until_sem, runs_per_start, max_runs)
+        worst = worst_rel_sem(store.rows(tasks))
+        nxt = next_replicates(n, worst, args.until_sem, runs_per_start, max_runs)
         if not args.quiet:
             print(f"  {n} realisations per start: largest relative SEM of the mean time "
                   f"{worst:.3f} (target {args.until_sem:g})"
@@ -422,36 +422,8 @@ def _saved(store: ResultStore, tasks: list[GroupTask], args: argparse.Namespace)
             "the rest")
 
 
-def _worst_rel_sem(rows: list[dict[str, Any]]) -> float:
-    """The largest relative SEM of the mean time to source over the configurations (inf where a
-    configuration has fewer than two successes)."""
-    from cptbt.batch.report import by_configuration, protocol
-
-    worst = 0.0
-    for group in by_configuration(rows).values():
-        rel = protocol(group).rel_sem
-        worst = max(worst, rel if math.isfinite(rel) else math.inf)
-    return worst
-
-
 WORKERS_PER_CPU = 4
 """Most local worker processes per CPU: more only wait for a core, each holding its memory."""
-
-
-def _next_replicates(n: int, rel_sem: float, target: float, step: int,
-                     max_n: int) -> int | None:
-    """How many realisations per start to go on to, or None to stop.
-
-    The SEM falls as 1/sqrt(n), so ``n (rel_sem / target)²`` is the estimate, rounded up to a
-    whole number of rounds of ``step`` and at least one more round. The choice depends only on
-    the rows of the first ``n`` realisations, which do not depend on how the study was
-    interrupted, so a resumed study takes the same steps.
-    """
-    if rel_sem <= target or n >= max_n:
-        return None
-    want = n * (rel_sem / target) ** 2 if math.isfinite(rel_sem) else 2 * n
-    rounds = max(1, math.ceil((min(want, max_n) - n) / step))
-    return min(max_n, n + rounds * step)
 
 
 def _plots(results: Path, out: Path, quiet: bool, geometry: StudyGeometry | None,

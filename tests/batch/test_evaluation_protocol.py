@@ -13,7 +13,7 @@ import pytest
 from cptbt.batch.report import protocol, wilson, write_report
 from cptbt.batch.store import load_results
 from cptbt.cli import main
-from cptbt.cli.batch_cmd import _next_replicates
+from cptbt.cli.batch_rounds import next_replicates
 
 ROOT = Path(__file__).resolve().parents[2]
 AB3 = str(ROOT / "missions/ab2001_strategy3.yaml")
@@ -69,7 +69,7 @@ def test_tables_carry_the_protocol(tmp_path: Path) -> None:
     (100, 0.2, None),          # at the cap
 ])
 def test_next_replicates(n: int, rel: float, want: int | None) -> None:
-    assert _next_replicates(n, rel, 0.02, 10, 100) == want
+    assert next_replicates(n, rel, 0.02, 10, 100) == want
 
 
 def test_until_sem_adds_realisations_and_resumes(tmp_path: Path,
