@@ -17,7 +17,7 @@ import pytest
 from cptbt.batch.engine import simulate
 from cptbt.batch.scenario import to_sim_params
 from cptbt.behaviours.safety import OpAreaSafetyFleet
-from cptbt.behaviours.strategies import CrosswindCastFleet, StrategyIIIMaintainFleet
+from cptbt.behaviours.strategies_fleet import CrosswindCastFleet, StrategyIIIMaintainFleet
 from cptbt.cli.inspect_cmds import load
 from cptbt.fleet import fleet_support, planner_choice
 from cptbt.fleet_testing import check_fleet_mission, check_fleet_rule, fleet_capable_specs
