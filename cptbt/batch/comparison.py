@@ -150,8 +150,8 @@ def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
 
 
 OUTSIDE_NOTED_M = 0.05
-"""A run is said to have left the OpArea when its true track went farther outside than this
-(as ``cptbt run`` says it)."""
+"""A run is said to have left the OpArea when its true track went this far outside or farther
+(``cptbt run``'s summary line and ``tables.md`` alike)."""
 
 
 def left_oparea(farthest_outside_m: float) -> bool:
