@@ -159,16 +159,17 @@ def left_oparea(farthest_outside_m: float) -> bool:
     return farthest_outside_m >= OUTSIDE_NOTED_M
 
 
-def excursions(rows: Rows) -> tuple[int, float, float]:
-    """Runs that left the OpArea, the farthest any went (m), and the share of the AMP's time
-    safety drove over all runs (the family time columns: the share of what the tree did)."""
-    rows = [r for r in rows if r.get("outcome") != ERROR_OUTCOME]  # flew nothing to judge
+def excursions(rows: Rows) -> tuple[int, int, float, float]:
+    """Runs that left the OpArea, the runs flown (error rows flew nothing to judge), the
+    farthest any went (m), and the share of the AMP's time safety drove over all runs (the
+    family time columns: the share of what the tree did)."""
+    rows = [r for r in rows if r.get("outcome") != ERROR_OUTCOME]
     far = [float(r.get("farthest_outside_m") or 0.0) for r in rows]
     out = sum(left_oparea(f) for f in far)
     amp = sum(float(v or 0.0) for r in rows for k, v in r.items()
               if k.startswith("time_") and k.endswith("_s") and "." not in k)
     safety = sum(float(r.get("time_safety_s") or 0.0) for r in rows)
-    return out, max(far, default=0.0), safety / amp if amp > 0 else math.nan
+    return out, len(rows), max(far, default=0.0), safety / amp if amp > 0 else math.nan
 
 
 def excursion_table(groups: dict[str, Rows]) -> list[str]:
@@ -176,7 +177,7 @@ def excursion_table(groups: dict[str, Rows]) -> list[str]:
     run went 5-14 m outside said nothing of it outside ``results.parquet``); none when no run
     left it."""
     counts = {label: excursions(rows) for label, rows in groups.items()}
-    if not any(n for n, _, _ in counts.values()):
+    if not any(n for n, _, _, _ in counts.values()):
         return []
     lines = ["", "## Left the OpArea", "",
              "Runs whose true track went outside the OpArea while the AMP drove "
@@ -185,8 +186,7 @@ def excursion_table(groups: dict[str, Rows]) -> list[str]:
              "farthest, and the share of the AMP's time the safety behaviour drove.", "",
              "| configuration | runs outside | farthest outside (m) | safety drove |",
              "|---|---:|---:|---:|"]
-    for label, (n, far, share) in counts.items():
-        flown = sum(r.get("outcome") != ERROR_OUTCOME for r in groups[label])
+    for label, (n, flown, far, share) in counts.items():
         lines.append(f"| {label} | {n} of {flown} | {fmt(far)} "
                      f"| {'—' if math.isnan(share) else f'{100 * share:.1f}%'} |")
     return lines

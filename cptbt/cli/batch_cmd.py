@@ -382,9 +382,9 @@ def cmd_batch(args: argparse.Namespace) -> int:
         print(f"{runs} mission{'s' * (runs != 1)} ({resumed} groups resumed from disk{also}): "
               f"{outcome}; {pace}")
         print(f"  wrote {table}")
-        left, far, _ = excursions(load_results(table))
+        left, flown, far, _ = excursions(load_results(table))
         if left:  # a review: every run 5-14 m outside, and the summary said only "success"
-            print(f"  {left} of {runs} run{'s' * (runs != 1)} left the OpArea, the farthest "
+            print(f"  {left} of {flown} run{'s' * (flown != 1)} left the OpArea, the farthest "
                   f"{far:.1f} m outside (tables.md: \"Left the OpArea\")")
         if args.log_runs:
             logged = sorted((Path(args.out) / "logs").glob("*.mcap"))
