@@ -18,6 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
 
+from .vehicle import wrap_deg
+
 
 class NoiseBank:
     """Per-vehicle random streams served as (N, k) arrays per draw.
@@ -271,5 +273,6 @@ class Navigation:
         if fix.any():
             self.error = np.where(fix[:, None], p.fix_std_m * normal[:, 2:4], self.error)
             self.fixes += int(np.count_nonzero(fix))
-        heading = true_heading_deg + p.heading_noise_std_deg * normal[:, 4]
+        # in (-180, 180] as the vehicle's own: 179.9 plus noise had read 180.3
+        heading = wrap_deg(true_heading_deg + p.heading_noise_std_deg * normal[:, 4])
         return true_xy + self.error, heading

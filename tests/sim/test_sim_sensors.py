@@ -136,3 +136,13 @@ def test_adcp_direction_error_leaves_the_other_noise_unchanged() -> None:
         back = [c * b[0] - s * b[1], s * b[0] + c * b[1]]
         assert back == pytest.approx(list(a), abs=1e-12)
     assert rotated.phi_deg[0] != 0.0
+
+
+def test_navigation_heading_is_wrapped_like_the_vehicles() -> None:
+    # the vehicle's heading is in (-180, 180]; noise on 179.9 had been told as 180.3
+    params = NavigationParams(heading_noise_std_deg=3.0)
+    nav = Navigation(params, _rngs(2))
+    told = np.concatenate([nav.step(1.0, np.zeros((2, 2)), np.array([179.9, -179.9]))[1]
+                           for _ in range(200)])
+    assert told.min() > -180.0 and told.max() <= 180.0
+    assert told.min() < -170.0 and told.max() > 170.0  # both sides of the seam were drawn
