@@ -122,21 +122,22 @@ Spots = list[tuple[float, float]]
 
 
 def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]],
-                  area: OpArea | None = None) -> None:
+                  area: OpArea | None = None, turn: Any = None) -> None:
     """Move each graticule label to the first place along its line where it overlaps no label
     placed before it, nor another text or arrow of the axes (the north arrow and its N, the
     current's arrow and label),
     and stands wholly inside ``area`` (off its border); one with no such place is not drawn.
+    ``turn``: the figure is drawn north up (:func:`north_up_turn`), the OpArea turned with it.
     Called once the layout is settled (the figure drawn at its saving resolution): a label's
     size is in points, the spacing of the lines in metres."""
     if not labels:
         return
     renderer = fig.canvas.get_renderer()  # the caller has drawn: the layout is settled
-    inner = None
-    if area is not None:  # the OpArea in display units, 2 px in from its drawn edge
-        (x0, y0), (x1, y1) = ax.transData.transform([(area.xmin, area.ymin),
-                                                     (area.xmax, area.ymax)])
-        inner = (min(x0, x1) + 2, min(y0, y1) + 2, max(x0, x1) - 2, max(y0, y1) - 2)
+    to_display = ax.transData if turn is None else turn + ax.transData
+    back = to_display.inverted()
+    # 2 px in metres: a label must stand that far in from the OpArea's drawn edge
+    (ax0, ay0), (ax1, ay1) = back.transform([(0.0, 0.0), (2.0, 0.0)])
+    inset = math.hypot(ax1 - ax0, ay1 - ay0)
     mine = {id(text) for text, _ in labels}
     taken = [t.get_window_extent(renderer).expanded(1.1, 1.2) for t in ax.texts
              if id(t) not in mine and t.get_visible() and t.get_text()]
@@ -147,14 +148,57 @@ def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]],
         for spot in spots:
             text.set_position(spot)
             box = text.get_window_extent(renderer).expanded(1.1, 1.2)
-            if inner is not None and not (inner[0] <= box.x0 and box.x1 <= inner[2]
-                                          and inner[1] <= box.y0 and box.y1 <= inner[3]):
-                continue
+            if area is not None:  # the box's corners in the planning frame, inside the OpArea
+                xy = back.transform(box.corners())
+                if not (np.all(xy[:, 0] >= area.xmin + inset)
+                        and np.all(xy[:, 0] <= area.xmax - inset)
+                        and np.all(xy[:, 1] >= area.ymin + inset)
+                        and np.all(xy[:, 1] <= area.ymax - inset)):
+                    continue
             if not any(box.overlaps(other) for other in taken):
                 taken.append(box)
                 break
         else:
             text.set_visible(False)
+
+
+def north_up_turn(area: OpArea) -> Any:
+    """The affine map from the planning frame to (east, north) metres of the mission's N-E
+    frame (a matplotlib ``Affine2D``): a figure drawn through it has north up and east to the
+    right. It mirrors as well as turns (the planning frame's y is 90° clockwise of x, north is
+    90° anticlockwise of east), so nothing is drawn with y inverted."""
+    from matplotlib.transforms import Affine2D
+
+    f = area.frame
+    b = math.radians(f.x_bearing_deg)
+    return Affine2D(np.array([[math.sin(b), math.cos(b), f.origin_e],
+                              [math.cos(b), -math.sin(b), f.origin_n],
+                              [0.0, 0.0, 1.0]]))
+
+
+def turn_north_up(ax: Any, turn: Any) -> None:
+    """Every artist of ``ax`` drawn in the planning frame (lines, patches, the plume's mesh,
+    texts, arrows) drawn through ``turn`` instead (:func:`north_up_turn`); the data limits are
+    computed again. Artists placed in axes or offset coordinates are left as they are."""
+    from matplotlib.artist import Artist
+    from matplotlib.text import Annotation
+
+    data = ax.transData
+    turned = turn + data
+    for artist in [*ax.lines, *ax.patches, *ax.collections, *ax.images]:
+        # Artist's own: a patch's get_transform() has its patch transform (a rectangle's
+        # corners, a circle's radius) before the data's
+        if Artist.get_transform(artist) is data:
+            artist.set_transform(turned)
+    for text in ax.texts:
+        if isinstance(text, Annotation):
+            if text.xycoords == "data":
+                text.xycoords = turned
+            if text.anncoords == "data":
+                text.anncoords = turned
+        elif text.get_transform() is data:
+            text.set_transform(turned)
+    ax.relim()
 
 
 def _wrap180(deg: float) -> float:

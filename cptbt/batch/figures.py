@@ -17,6 +17,8 @@ from cptbt.batch.compass import (
     _north_points,
     _place_labels,
     north_corner,
+    north_up_turn,
+    turn_north_up,
 )
 from cptbt.batch.engine import VehicleRun
 from cptbt.frames import OpArea
@@ -124,8 +126,11 @@ def trajectory_figure(
     sources: Sequence[Point] = (),
     goal: Point | None = None,
     flow_deg: float | None = None,
+    north_up: bool = False,
 ) -> None:
-    """The run in the planning frame, drawn as TRO Figs. 10–12 (y positive down).
+    """The run in the planning frame, drawn as TRO Figs. 10–12 (y positive down); with
+    ``north_up`` (and a compass: not a ``planning``-frame mission), in east and north metres of
+    the mission's N-E frame instead, north up.
 
     Drawn: the plume when the source was declared (``run.plume``, with its colour bar and time),
     the OpArea, the track coloured by the active behaviour, detections and lost contacts, the
@@ -147,12 +152,20 @@ def trajectory_figure(
     truth = list(sources) or [source]
     # As wide as the OpArea's shape needs (a square AB area would leave half the page blank),
     # plus room for the legend on the right.
-    aspect = (area.xmax - area.xmin) / max(area.ymax - area.ymin, 1e-9)
-    width = min(12.5, max(8.0, 3.8 + 4.6 * aspect))
+    turn = north_up_turn(area) if north_up and mission.frame != "planning" else None
+    if turn is None:
+        aspect = (area.xmax - area.xmin) / max(area.ymax - area.ymin, 1e-9)
+    else:  # the turned OpArea's bounding box
+        box = turn.transform(np.array([(q.x, q.y) for q in area.corners]))
+        aspect = float(np.ptp(box[:, 0]) / max(float(np.ptp(box[:, 1])), 1e-9))
+    # North up, a turned OpArea is seldom wide: up to 6 in of drawing high, not 3 (a first
+    # north-up MSN007 drew its 13-m current arrow as a speck)
+    tall = 4.6 if turn is None else 6.0
+    width = min(12.5, max(8.0, 3.8 + tall * aspect))
     # A long thin area (10:1) fills the width at a fraction of the usual height: the page
     # shrinks to it (title, axis labels and colour bar need ~2.6 in) rather than leaving most
     # of it blank between the panels.
-    panel = min(5.6, max(3.4, (width - 3.8) / aspect + 2.6))
+    panel = min(tall + 1.0, max(3.4, (width - 3.8) / aspect + 2.6))
     if belief is None:
         fig, ax = plt.subplots(figsize=(width, panel), layout="constrained")
     else:
@@ -219,21 +232,35 @@ def trajectory_figure(
     if flow_deg is not None:
         drawn = np.concatenate([track, det.reshape(-1, 2), spots])
         flow_arrow(ax, area, flow_deg, drawn,
-                   _north_points(area, north) if north is not None else None)
+                   _north_points(area, north) if north is not None else None, turn)
     if belief is not None:
         _map_panel(ax_map, belief, area, truth, declared, run.declaration_report or {}, plt)
         ax.tick_params(labelbottom=True)  # shared x: the top panel's numbers too
-    ax.set_aspect("equal")
-    ax.invert_yaxis()  # TRO draws the planning y axis positive downward
-    if mission.frame == "planning":  # no compass: drawing a north would invent one
-        ax.set_xlabel("x (m), planning frame (no compass given)")
-    else:
+    if mission.frame != "planning":
         _north_arrow(ax, mission, area, north or 0)
-        bearing = area.frame.x_bearing_deg % 360
-        side = ("the OpArea's long axis" if area.xmax - area.xmin > area.ymax - area.ymin
-                else "the OpArea's x axis")
-        ax.set_xlabel(f"x (m): {side}, compass bearing {bearing:.1f}°")
-    ax.set_ylabel("y (m), 90° clockwise from x")
+    ax.set_aspect("equal")
+    if turn is not None:  # every panel turned; the limits as the planning frame's, turned
+        for panel_ax in [ax] + ([ax_map] if belief is not None else []):
+            turn_north_up(panel_ax, turn)
+            panel_ax.set_xlabel("east (m)")
+            panel_ax.set_ylabel("north (m)")
+        for x, y in [(q.x, q.y) for q in marks] + [tuple(run.start)]:  # as above, turned
+            if math.isfinite(x) and math.isfinite(y):
+                ax.update_datalim(turn.transform([(x - pad, y - pad), (x + pad, y + pad),
+                                                  (x - pad, y + pad), (x + pad, y - pad)]))
+        ax.autoscale_view()
+        ax.set_xlabel("east (m), " + ("about the OpArea's centre" if mission.local_frame()
+                                      else "the mission's N-E frame") + "; north up")
+    else:
+        ax.invert_yaxis()  # TRO draws the planning y axis positive downward
+        if mission.frame == "planning":  # no compass: drawing a north would invent one
+            ax.set_xlabel("x (m), planning frame (no compass given)")
+        else:
+            bearing = area.frame.x_bearing_deg % 360
+            side = ("the OpArea's long axis" if area.xmax - area.xmin > area.ymax - area.ymin
+                    else "the OpArea's x axis")
+            ax.set_xlabel(f"x (m): {side}, compass bearing {bearing:.1f}°")
+        ax.set_ylabel("y (m), 90° clockwise from x")
     # A study row's title names its sweep: wrapped to the panel (~13 characters an inch at
     # 10 pt; the legend takes ~3.5 in), it was cut off at the page's left edge.
     chars = max(40, int(13 * (width - 3.5)))
@@ -253,7 +280,7 @@ def trajectory_figure(
     # box at 45°; measured on its own it fitted)
     fig.set_dpi(150)
     fig.canvas.draw()
-    _place_labels(fig, ax, graticule, area)
+    _place_labels(fig, ax, graticule, area, turn)
     fig.savefig(path, dpi=150)
     plt.close(fig)
 
@@ -268,14 +295,15 @@ def _home_radius(mission: MissionBase) -> float | None:
 
 def flow_arrow(ax: Any, area: OpArea, flow_deg: float,
                track: NDArray[np.float64] | None = None,
-               avoid: NDArray[np.float64] | None = None) -> None:
+               avoid: NDArray[np.float64] | None = None, turn: Any = None) -> None:
     """The mean current's direction, in the OpArea corner that covers least of what else is
     drawn (``track``: the track, detections and markers as points), never the north arrow
     (``avoid``) if a corner is clear of it; among equals, the one farthest from the track
     (the plume alone can mislead: the meander bends it; in a small area a fixed corner put the
     arrow and its label on the track). Dark with a white halo: readable on white and on a
     colour map alike. The axes draw y downward; the label sits on the side of the tail the
-    head does not reach (below it had covered the head of a current with a downward part)."""
+    head does not reach (below it had covered the head of a current with a downward part);
+    ``turn``: the figure is drawn north up (:func:`north_up_turn`), and "below" is south."""
     from matplotlib import patheffects
 
     w, h = area.xmax - area.xmin, area.ymax - area.ymin
@@ -308,8 +336,16 @@ def flow_arrow(ax: Any, area: OpArea, flow_deg: float,
                         arrowprops={"arrowstyle": "-|>", "color": "#1f3b73", "lw": 1.8},
                         zorder=4)
     arrow.arrow_patch.set_path_effects(halo)
-    down = math.sin(th) > 0.2  # the head ends below the tail (y drawn down)
-    ax.text(cx, cy - 0.35 * size if down else cy + 0.35 * size, "mean current",
+    if turn is None:  # y drawn down: screen-up is -y
+        down = math.sin(th) > 0.2  # the head ends below the tail
+        up = (0.0, -1.0)
+    else:  # north up: screen-up is north, the turn's second row
+        linear = np.asarray(turn.get_matrix())[:2, :2]
+        down = float(linear[1] @ (math.cos(th), math.sin(th))) < -0.2
+        ux, uy = np.linalg.solve(linear, (0.0, 1.0))
+        up = (float(ux), float(uy))
+    lift = 0.35 * size if down else -0.35 * size  # the label on the side the head leaves
+    ax.text(cx + lift * up[0], cy + lift * up[1], "mean current",
             color="#1f3b73", fontsize=7, ha="center", va="bottom" if down else "top",
             path_effects=halo, zorder=4)
 

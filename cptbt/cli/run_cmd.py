@@ -6,6 +6,7 @@ import argparse
 import hashlib
 import json
 import math
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -178,6 +179,17 @@ def why_ended(s: dict[str, Any]) -> str | None:
     return WHY_ENDED.get(s["outcome"])  # a StrEnum: its members are their strings
 
 
+def north_up_note(args: argparse.Namespace, mission: MissionBase) -> None:
+    """``--north-up`` where it changes nothing is said, not passed over."""
+    if not args.north_up or args.quiet:
+        return
+    why = ("no trajectory.png is drawn (--no-figure)" if args.no_figure else
+           "the mission has no compass (frame: planning): trajectory.png is drawn in the "
+           "planning frame" if mission.frame == "planning" else None)
+    if why:
+        print(f"cptbt run: warning: --north-up: {why}", file=sys.stderr)
+
+
 def add_parsers(sub: Any) -> None:
     """Register ``run``."""
     p = sub.add_parser("run", help="simulate a mission", description=cmd_run.__doc__)
@@ -192,6 +204,9 @@ def add_parsers(sub: Any) -> None:
                    help="output folder (default: a new runs/<mission>-<digest>-seed<N>)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
     p.add_argument("--no-figure", action="store_true", help="skip trajectory.png")
+    p.add_argument("--north-up", action="store_true",
+                   help="draw trajectory.png in east and north metres, north up (default: the "
+                        "planning frame, +x along the OpArea's long axis, as TRO's figures)")
     p.add_argument("--log", metavar="FILE.mcap", default=None,
                    help="write every AMP cycle to an MCAP log (needs cptbt[logs]; missions with "
                         "a mission_a section)")
@@ -292,6 +307,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UsageError("run: give a MISSION file (or --from RESULTS --row N)")
     argtypes.not_the_mission("--log", getattr(args, "log", None), args.mission)
     mission = load(args.mission, simulate=True, warn=not args.quiet)
+    north_up_note(args, mission)
     params = to_sim_params(mission, args.seed)
     seed = params.seed
     assert seed is not None, "to_sim_params always sets the seed"
@@ -338,7 +354,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                           f"{mission.name} (seed {seed}): {summary['outcome']}, "
                           f"{short_verdict(summary)}\n{variants}",
                           threshold=mission.perception.threshold, waypoints=waypoints,
-                          sources=sources, flow_deg=params.flow.mean_dir_deg)
+                          sources=sources, flow_deg=params.flow.mean_dir_deg,
+                          north_up=args.north_up)
     if not args.quiet:
         s = summary
         print(f"{mission.name}, seed {seed}: {s['outcome']} ({verdict_text(s)}); the AMP "
@@ -408,6 +425,7 @@ def refly(args: argparse.Namespace) -> int:
                 "came from)" if "unknown variant" in said or "unknown behaviour" in said else "")
         raise BatchError(f"{folder}/study.json, configuration {task.config}: its mission no "
                          f"longer loads{plug}: {said}") from None
+    north_up_note(args, mission)
     grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
     mission, (run,), source, wall = fly_group(task, trace=True, plume_grid=grid)
     summary = summarise(run, mission, source, task.root_seed, wall,
@@ -433,7 +451,8 @@ def refly(args: argparse.Namespace) -> int:
                           f"{summary['outcome']}, {short_verdict(summary)}",
                           threshold=mission.perception.threshold,
                           sources=true_sources(mission), goal=Point(*task.starts[0]),
-                          flow_deg=to_sim_params(mission).flow.mean_dir_deg)
+                          flow_deg=to_sim_params(mission).flow.mean_dir_deg,
+                          north_up=args.north_up)
     if not args.quiet:
         same = "the same as the study's row, bit for bit" if not diff else (
             f"where the study's row stopped on an error ({row.get('error')})"
