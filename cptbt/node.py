@@ -195,7 +195,14 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
             # III): held here for every variant (a review's plug-in, not told, drove at once)
             self.last_command = None
             return Status.FAILURE
-        cmd = self.decide(self.context.percept)
+        try:
+            cmd = self.decide(self.context.percept)
+        except Exception as exc:
+            raise blamed(exc, self, self.context.percept.t) from None
+        if cmd is not None and not isinstance(cmd, Command):
+            raise blamed(TypeError(f"decide() returned {type(cmd).__name__} {cmd!r:.60}: return "
+                                   "a Command (self.command(heading_deg, speed_mps)) or None"),
+                         self, self.context.percept.t, where=False)
         self.last_command = cmd
         if cmd is None:
             return Status.FAILURE
@@ -210,6 +217,47 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         The default does nothing; the tree builder adds a watcher node for classes that override
         it (declare-source uses it to keep checking the lost-contact list).
         """
+
+
+def blamed(exc: Exception, behaviour: PlanBehaviour, t: float, where: bool = True
+           ) -> Exception:
+    """``exc`` marked as raised by ``behaviour`` at mission time ``t`` (its type kept, so a test
+    expecting it still catches it): :func:`blame` reads the mark, and the command line names the
+    behaviour and the line instead of calling the error cptbt's own (a review's plug-in's
+    AttributeError read "cptbt: internal error"). ``where``: a line of code says where (not
+    for what cptbt found wrong with a returned value)."""
+    if getattr(exc, "cptbt_behaviour", None) is None:
+        exc.cptbt_where = where  # type: ignore[attr-defined]
+        import inspect
+
+        exc.cptbt_behaviour = behaviour.name  # type: ignore[attr-defined]
+        exc.cptbt_t = t  # type: ignore[attr-defined]
+        try:
+            exc.cptbt_file = inspect.getsourcefile(type(behaviour))  # type: ignore[attr-defined]
+        except TypeError:  # a class with no source file (built at run time)
+            exc.cptbt_file = None  # type: ignore[attr-defined]
+        exc.add_note(f"raised in behaviour {behaviour.name} at t = {t:g} s")
+    return exc
+
+
+def blame(exc: BaseException) -> str | None:
+    """One line naming the behaviour that raised ``exc`` (:func:`blamed`), the mission time and
+    the line of code: the innermost in the behaviour's own file (where its code called what
+    raised), else the innermost of all; None for an error no behaviour raised."""
+    name = getattr(exc, "cptbt_behaviour", None)
+    if name is None:
+        return None
+    import traceback
+    from pathlib import Path
+
+    frames = traceback.extract_tb(exc.__traceback__) if exc.__traceback__ else []
+    frames = [f for f in frames if f.filename != __file__]  # update() itself says nothing
+    own = getattr(exc, "cptbt_file", None)
+    mine = [f for f in frames if own is not None and f.filename == own]
+    chosen = (mine or frames) if getattr(exc, "cptbt_where", True) else []
+    at = f" (at {Path(chosen[-1].filename).name}:{chosen[-1].lineno})" if chosen else ""
+    text = " ".join(f"{type(exc).__name__}: {exc}".split())[:300]
+    return f"behaviour {name} raised {text}{at} at t = {getattr(exc, 'cptbt_t', math.nan):g} s"
 
 
 def active_name(tip: py_trees.behaviour.Behaviour | None) -> str | None:
@@ -237,5 +285,8 @@ class Watch(py_trees.behaviour.Behaviour):
         """Run the watched behaviour's perception on the current percept."""
         context = self.behaviour.context
         assert context is not None and context.percept is not None, "call setup()"
-        self.behaviour.watch(context.percept)
+        try:
+            self.behaviour.watch(context.percept)
+        except Exception as exc:
+            raise blamed(exc, self.behaviour, context.percept.t) from None
         return Status.SUCCESS

@@ -155,6 +155,13 @@ class Planner:
         """Declared and home: the AMP has finished its job."""
         return bool(self._storage[self._key["mission_done"]])
 
+    def nonfinite_commands(self) -> dict[str, int]:
+        """Each behaviour that asked ``command()`` for a non-finite heading or speed, and how
+        often: no command was sent for those (the next behaviour down drove), a bug the run's
+        summary names rather than letting another behaviour's work pass as its own."""
+        return {leaf.name: leaf.nonfinite_commands for leaf in self.leaves
+                if leaf.nonfinite_commands}
+
     def close(self) -> None:
         """Release this planner's blackboard keys (long batches create many planners)."""
         for leaf in self.leaves:

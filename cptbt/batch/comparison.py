@@ -190,3 +190,32 @@ def excursion_table(groups: dict[str, Rows]) -> list[str]:
         lines.append(f"| {label} | {n} of {flown} | {fmt(far)} "
                      f"| {'—' if math.isnan(share) else f'{100 * share:.1f}%'} |")
     return lines
+
+
+def command_faults(rows: Rows) -> tuple[int, int, int, int]:
+    """Runs with a behaviour fault (a command not flown as asked: ``nonfinite_commands``,
+    ``unflyable_commands``), the runs flown, and the cycles of each kind over all runs."""
+    rows = [r for r in rows if r.get("outcome") != ERROR_OUTCOME]
+    nonfinite = [int(r.get("nonfinite_commands") or 0) for r in rows]
+    unflyable = [int(r.get("unflyable_commands") or 0) for r in rows]
+    hit = sum(1 for a, b in zip(nonfinite, unflyable, strict=True) if a or b)
+    return hit, len(rows), sum(nonfinite), sum(unflyable)
+
+
+def command_fault_table(groups: dict[str, Rows]) -> list[str]:
+    """``tables.md``'s account of behaviours whose commands were not flown as asked (a
+    review's plug-in sent none in 457 cycles, or 0.1 m/s the vehicle flew at 0.25, and the
+    study credited it with what covered for it); none when no run had one."""
+    counts = {label: command_faults(rows) for label, rows in groups.items()}
+    if not any(n for n, _, _, _ in counts.values()):
+        return []
+    lines = ["", "## Behaviour faults", "",
+             "Runs in which a behaviour asked `command()` for a non-finite heading or speed (no "
+             "command was sent: the behaviour below it drove), or commanded a speed the "
+             "simulated vehicle cannot fly (it flew the nearest it can). The results are not "
+             "the behaviour's as written; `command_faults` in `results.parquet` names it.", "",
+             "| configuration | runs | non-finite (cycles) | speed not flyable (cycles) |",
+             "|---|---:|---:|---:|"]
+    for label, (n, flown, nonfinite, unflyable) in counts.items():
+        lines.append(f"| {label} | {n} of {flown} | {nonfinite} | {unflyable} |")
+    return lines

@@ -130,6 +130,13 @@ class VehicleRun:
     declaration_report: dict[str, Any] | None = None
     lost_contacts: tuple[Point, ...] = ()
     sensor_faults: dict[str, int] = field(default_factory=dict)
+    nonfinite_commands: dict[str, int] = field(default_factory=dict)
+    """Each behaviour that asked ``command()`` for a non-finite heading or speed, how often
+    (:meth:`~cptbt.planner.Planner.nonfinite_commands`)."""
+    unflyable_speeds: dict[str, tuple[int, float, float]] = field(default_factory=dict)
+    """Each behaviour whose command's speed the simulated vehicle cannot fly (outside its
+    ``min_speed_mps``, ``max_speed_mps``; it flew the nearest): the cycles, the slowest and the
+    fastest such speed commanded."""
     plume: PlumeSnapshot | None = None
 
     @property
@@ -175,6 +182,15 @@ def note_declarations(run: VehicleRun, planner: Planner, t: float) -> None:
         run.t3 = t
     for q in planner.declared_sources:
         run.declared_at.setdefault(q, t)
+
+
+def note_unflyable(run: VehicleRun, active: str | None, speed: float) -> None:
+    """A cycle whose command's speed the simulated vehicle cannot fly, counted against the
+    behaviour that drove (a review's plug-in commanded 0.1 m/s: the vehicle flew 0.25 and a
+    study credited the variant with it, saying nothing)."""
+    name = active or "no behaviour"
+    n, lo, hi = run.unflyable_speeds.get(name, (0, math.inf, -math.inf))
+    run.unflyable_speeds[name] = (n + 1, min(lo, speed), max(hi, speed))
 
 
 def collect_declarations(run: VehicleRun, planner: Planner) -> None:
@@ -263,6 +279,7 @@ def simulate(
     runs = [VehicleRun(planners[i], (s[0], s[1]), rec, i, period, rec if trace else None)
             for i, s in enumerate(starts)]
     area = planners[0].op_area if runs else None
+    slowest, fastest = params.vehicle.min_speed_mps, params.vehicle.max_speed_mps
     cmd_heading = np.full(n, np.nan)
     cmd_speed = np.full(n, np.nan)
     active = np.arange(n)
@@ -305,6 +322,8 @@ def simulate(
             assert p is not None
             if cmd is not None:
                 cmd_heading[i], cmd_speed[i] = cmd.heading_deg, cmd.speed_mps
+                if not slowest <= cmd.speed_mps <= fastest:  # a plug-in's: flown clipped
+                    note_unflyable(run, pl.active, cmd.speed_mps)
             detected[j] = p.detected
             codes[j] = rec.code(pl.active)
             if trace:
@@ -335,6 +354,7 @@ def simulate(
                 collect_declarations(run, pl)
                 run.lost_contacts = p.lost_contacts
                 run.sensor_faults = pl.perception.faults()
+                run.nonfinite_commands = pl.nonfinite_commands()
                 if plume_grid is not None and run.plume is None:
                     run.plume = PlumeSnapshot.of(world, plume_grid)
                 keep[j] = False

@@ -180,6 +180,7 @@ def simulate_phased(
     if amp_rows.count[0]:
         run.start = (float(run.path_true[0, 0]), float(run.path_true[0, 1]))
     collect_declarations(run, planner)
+    run.nonfinite_commands = planner.nonfinite_commands()  # the AMP's, ticked only in override
     planner.close()
     result = PhasedRun(
         amp=run,

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from cptbt.batch.comparison import (
+    command_fault_table,
     excursion_table,
     fmt,
     paired_table,
@@ -385,6 +386,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
             f"| {fmt(_mean([_search_time(r) for r in rows]))} "
             f"| {fmt(_mean(err))} | {fmt(max(err) if err else None)} |")
     lines += excursion_table(groups)
+    lines += command_fault_table(groups)
     if is_maintain_study(every):  # nothing declared: TRO's tables say nothing
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         return path

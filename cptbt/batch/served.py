@@ -99,6 +99,7 @@ def served_summary(result: ServeResult, cycles: AmpCycles, mission: MissionBase,
     run.declared = planner.declared_source
     run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
     run.sensor_faults = planner.perception.faults()
+    run.nonfinite_commands = planner.nonfinite_commands()
     # the session repairs an impossibly far fix before the planner sees it: counted there
     run.sensor_faults["rejected_fixes"] += session.rejected_fixes
     if cycles.rows.count[0]:

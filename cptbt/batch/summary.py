@@ -123,6 +123,9 @@ class RunSummary:
     rejected_fixes: int = 0
     rejected_flow_samples: int = 0
     clock_corrections: int = 0
+    nonfinite_commands: int = 0
+    unflyable_commands: int = 0
+    command_faults: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """Plain data for ``summary.json`` and the results table."""
@@ -172,6 +175,11 @@ def summarise(
     that were not finite, a dropout; a fluorometer reading stuck away from zero; navigation
     fixes more than 1000 km outside the OpArea; impossible
     flow samples, cycle times not after the previous one) up to the end of the AMP's part.
+    ``nonfinite_commands`` counts the cycles a behaviour asked ``command()`` for a non-finite
+    heading or speed (none was sent: the behaviour below drove), ``unflyable_commands`` those
+    whose speed the simulated vehicle cannot fly (it flew the nearest it can), and
+    ``command_faults`` names the behaviours (a plug-in's bugs, which had passed as the work
+    of the behaviours that covered for them).
     With several sources or declared points, the single-source fields keep their single
     meaning: ``true_source`` is the mission's ``source``, ``declared_source`` the declaration
     that ended the search, the last point (which may be another source's; None when the run
@@ -309,7 +317,22 @@ def summarise(
         path_efficiency=(straight / path_m if verdict.success and path_m and straight is not None
                          and mission.evaluation.criterion != "maintain" else None),
         **run.sensor_faults,
+        nonfinite_commands=sum(run.nonfinite_commands.values()),
+        unflyable_commands=sum(n for n, _, _ in run.unflyable_speeds.values()),
+        command_faults=_command_faults(run),
     )
+
+
+def _command_faults(run: VehicleRun) -> str | None:
+    """The behaviours whose commands were not flown as asked, in one line (None: none)."""
+    parts = [f"{name} asked command() for a non-finite heading or speed in {n} "
+             f"cycle{'s' * (n != 1)} (none sent: the behaviour below drove)"
+             for name, n in sorted(run.nonfinite_commands.items())]
+    parts += [f"{name} commanded {lo:g}" + (f" to {hi:g}" if hi != lo else "")
+              + f" m/s in {n} cycle{'s' * (n != 1)}, outside the simulated vehicle's speeds "
+              "(environment.vehicle min_speed_mps, max_speed_mps): flown at the nearest"
+              for name, (n, lo, hi) in sorted(run.unflyable_speeds.items())]
+    return "; ".join(parts) or None
 
 
 def _with_error(out: dict[str, float] | None, p: Point,

@@ -30,6 +30,7 @@ from cptbt.batch.study import GroupTask, config_label, group_seeds
 from cptbt.batch.summary import summarise
 from cptbt.loader import loads_mission
 from cptbt.mission import MissionBase
+from cptbt.node import blame
 from cptbt.registry import default_registry
 from cptbt.types import Point
 
@@ -259,10 +260,12 @@ def failed_rows(task: GroupTask, exc: Exception) -> list[dict[str, Any]]:
     :func:`row_of`), so that the rest of the study goes on, the tables count them as failures
     and ``cptbt batch`` says so at the end. Such a group is not flown again on resume: the same
     seed meets the same error (``cptbt run --from`` flies one alone, with its traceback)."""
-    where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
-    text = f"{type(exc).__name__}: {exc}".splitlines()[0][:300]
-    if where is not None:
-        text += f" (at {Path(where.filename).name}:{where.lineno})"
+    text = blame(exc)  # a behaviour's: named, with the line in its own code
+    if text is None:
+        where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+        text = f"{type(exc).__name__}: {exc}".splitlines()[0][:300]
+        if where is not None:
+            text += f" (at {Path(where.filename).name}:{where.lineno})"
     return error_rows(task, text)
 
 

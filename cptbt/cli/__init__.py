@@ -22,6 +22,7 @@ from cptbt.batch.errors import BatchError
 from cptbt.cli import inspect_cmds, log_cmds, phases_cmd
 from cptbt.cli.argtypes import UsageError
 from cptbt.loader import MissionError
+from cptbt.node import blame
 from cptbt.registry import RegistryError
 
 EXIT_RUNTIME = 1
@@ -171,16 +172,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt as exc:  # a command may say what it kept
         print(f"cptbt: interrupted{f': {exc}' if str(exc) else ''}", file=sys.stderr)
         return 130
-    except OSError as exc:  # an unwritable output or unreadable input: the system says why
-        if os.environ.get(DEBUG_ENV):
-            raise
-        print(f"cptbt: {_os_error(exc)}", file=sys.stderr)
-        return EXIT_RUNTIME
     except Exception as exc:  # a bug: one line, and the way to see more
         if os.environ.get(DEBUG_ENV):
             raise
-        print(f"cptbt: internal error: {type(exc).__name__}: {_one_line(str(exc))} "
-              f"(run with {DEBUG_ENV}=1 for the traceback)", file=sys.stderr)
+        fault = blame(exc)  # a behaviour's (a plug-in's): named, not called cptbt's own
+        if fault is not None:
+            print(f"cptbt: {fault} (run with {DEBUG_ENV}=1 for the traceback)",
+                  file=sys.stderr)
+        elif isinstance(exc, OSError):  # an unwritable output or unreadable input
+            print(f"cptbt: {_os_error(exc)}", file=sys.stderr)
+        else:
+            print(f"cptbt: internal error: {type(exc).__name__}: {_one_line(str(exc))} "
+                  f"(run with {DEBUG_ENV}=1 for the traceback)", file=sys.stderr)
         return EXIT_RUNTIME
 
 

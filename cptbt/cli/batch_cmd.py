@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from cptbt import __version__
-from cptbt.batch.comparison import excursions
+from cptbt.batch.comparison import command_faults, excursions
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
@@ -382,10 +382,15 @@ def cmd_batch(args: argparse.Namespace) -> int:
         print(f"{runs} mission{'s' * (runs != 1)} ({resumed} groups resumed from disk{also}): "
               f"{outcome}; {pace}")
         print(f"  wrote {table}")
-        left, flown, far, _ = excursions(load_results(table))
+        rows = load_results(table)
+        left, flown, far, _ = excursions(rows)
         if left:  # a review: every run 5-14 m outside, and the summary said only "success"
             print(f"  {left} of {flown} run{'s' * (flown != 1)} left the OpArea, the farthest "
                   f"{far:.1f} m outside (tables.md: \"Left the OpArea\")")
+        faulty, flown, _, _ = command_faults(rows)
+        if faulty:  # a review's plug-in: its faults had passed as results
+            print(f"  {faulty} of {flown} run{'s' * (flown != 1)} had behaviour faults, commands "
+                  "not flown as asked (tables.md: \"Behaviour faults\")")
         if args.log_runs:
             logged = sorted((Path(args.out) / "logs").glob("*.mcap"))
             n_logs = sum(len(t.log_ids) for t in tasks)

@@ -66,6 +66,12 @@ def outside_line(s: dict[str, Any]) -> str | None:
     return f"  left the OpArea: at most {far:.1f} m outside it (true track)"
 
 
+def command_faults_line(s: dict[str, Any]) -> str | None:
+    """The behaviours whose commands were not flown as asked (None: none)."""
+    text = s.get("command_faults")
+    return f"  behaviour faults: {text}" if text else None
+
+
 def sensor_faults_line(s: dict[str, Any]) -> str | None:
     """What the perception dropped or corrected in a run summary (None: nothing)."""
     parts = []

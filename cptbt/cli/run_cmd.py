@@ -21,6 +21,7 @@ from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import load
 from cptbt.cli.output import (
+    command_faults_line,
     fmt,
     fresh_folder,
     outside_line,
@@ -318,7 +319,6 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UsageError(f"run: --log {args.log} is one of the files the run writes in {out}")
     # the log first: a bad --log leaves no empty output folder behind
     cycle_log = _open_log(args, mission, seed)  # a bad --log: UsageError, exit 2
-    out.mkdir(parents=True, exist_ok=True)
     source = Point(*params.source_xy_m)
     sources = [source, *(Point(*xy) for xy in params.extra_sources_xy_m)]
     waypoints = None
@@ -340,6 +340,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         (run,), world, wall = simulate(mission, params, [launch_pose(mission)], trace=True,
                                        plume_grid=grid)
         summary = summarise(run, mission, source, seed, wall, sources=sources).to_dict()
+    # made once the run has flown: a run that stopped on an error leaves no empty folder
+    out.mkdir(parents=True, exist_ok=True)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     trace_path = write_trace(run, out)
     figure = None
@@ -367,7 +369,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         for text in declaration_lines(s):
             print(text)
         for line in (sources_line(s), upflow_check_line(s), sensor_faults_line(s),
-                     outside_line(s)):
+                     command_faults_line(s), outside_line(s)):
             if line:
                 print(line)
         if s["criterion"] == "maintain":
@@ -377,7 +379,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         else:
             print(times_line(s))
         for c in s.get("phases", {}).get("timeline", []):
-            print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})")
+            # the detail too (a review read "(command_refused)" and had to open summary.json
+            # to learn the speed its plug-in had sent), as cptbt serve prints it
+            print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})"
+                  + (f" {c['detail']}" if c.get("detail") else ""))
         share = time_share(s["time_share"])
         print(f"  time in behaviours: {share}")
         print(f"  wrote {out / 'summary.json'}, {trace_path}" + (f", {figure}" if figure else "")
@@ -463,7 +468,8 @@ def refly(args: argparse.Namespace) -> int:
         why = why_ended(summary)
         for line in ((f"  {summary['outcome']}: {why}" if why else None),
                      *declaration_lines(summary), sources_line(summary),
-                     sensor_faults_line(summary), outside_line(summary)):
+                     sensor_faults_line(summary),
+                     command_faults_line(summary), outside_line(summary)):
             if line:
                 print(line)
         print(f"  wrote {out}")

@@ -18,6 +18,7 @@ from cptbt.cli import argtypes
 from cptbt.cli.argtypes import sigterm_as_interrupt
 from cptbt.cli.inspect_cmds import load
 from cptbt.cli.output import (
+    command_faults_line,
     fmt,
     fresh_folder,
     place,
@@ -162,9 +163,9 @@ def print_summary(s: dict[str, Any], session: AmpSession) -> None:
     for c in s["phases"]["timeline"]:
         print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})"
               + (f" {c['detail']}" if c["detail"] else ""))
-    faults = sensor_faults_line(s)
-    if faults:
-        print(faults)
+    for faults in (sensor_faults_line(s), command_faults_line(s)):
+        if faults:
+            print(faults)
     print(f"  time in behaviours: {time_share(s['time_share']) or '—'}")
     print(f"  link: {link.get('received', 0)} datagrams in, {link.get('sent', 0)} out, "
           f"{link.get('ignored', 0)} ignored, {link['heartbeats']} heartbeats; "

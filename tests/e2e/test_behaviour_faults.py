@@ -1,0 +1,140 @@
+"""A behaviour's faults are named as its own: an error it raises, a value that is no command,
+commands it asked for and could not send, speeds the vehicle cannot fly (a plug-in author's
+review: each had read "internal error", or passed silently as results)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import ClassVar
+
+import pytest
+
+import cptbt.registry as registry_module
+from cptbt import cli
+from cptbt.batch.comparison import command_fault_table
+from cptbt.node import PlanBehaviour, blame
+from cptbt.registry import load_entry_points
+from cptbt.testing import check_behaviour
+from cptbt.types import Command, Percept
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+class Raises(PlanBehaviour):
+    family: ClassVar[str] = "find_plume"
+    variant: ClassVar[str] = "test_raises"
+
+    def decide(self, p: Percept) -> Command | None:
+        return self.context.op_area.no_such_helper()  # type: ignore[union-attr,attr-defined]
+
+
+class Tuple(PlanBehaviour):
+    family: ClassVar[str] = "find_plume"
+    variant: ClassVar[str] = "test_tuple"
+
+    def decide(self, p: Percept) -> Command | None:
+        return (90.0, 1.5)  # type: ignore[return-value]
+
+
+class NaN(PlanBehaviour):
+    family: ClassVar[str] = "find_plume"
+    variant: ClassVar[str] = "test_nan"
+
+    def decide(self, p: Percept) -> Command | None:
+        return self.command(math.nan)
+
+
+class Slow(PlanBehaviour):
+    family: ClassVar[str] = "find_plume"
+    variant: ClassVar[str] = "test_slow"
+
+    def decide(self, p: Percept) -> Command | None:
+        return self.command(p.pose.heading_deg, 0.1)  # the simulated REMUS flies 0.25 at least
+
+
+@pytest.fixture
+def faulty(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The installed behaviours and the four faulty ones, as the default registry."""
+    registry = load_entry_points()
+    for cls in (Raises, Tuple, NaN, Slow):
+        registry.register(cls)
+    monkeypatch.setattr(registry_module, "_DEFAULT", registry)
+
+
+def mission(tmp_path: Path, variant: str) -> str:
+    """oblique_flow with find-plume replaced by ``variant``, for 120 s."""
+    text = (ROOT / "missions" / "oblique_flow.yaml").read_text(encoding="utf-8")
+    lines, skip = [], False
+    for line in text.splitlines():  # the find-plume entry, its parameters dropped
+        if line.startswith("  - find_plume:"):
+            lines.append(f"  - find_plume: {{variant: {variant}}}")
+            skip = True
+        elif not (skip and line.startswith("      ")):
+            lines.append(line)
+            skip = False
+    lines = ["time_limit_s: 120" if line.startswith("time_limit_s:") else line
+             for line in lines]
+    assert any(variant in line for line in lines)
+    path = tmp_path / f"{variant}.yaml"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return str(path)
+
+
+def test_an_error_a_behaviour_raises_names_it_and_its_line(
+        faulty: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "run"
+    assert cli.main(["run", mission(tmp_path, "test_raises"), "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    line = Raises.decide.__code__.co_firstlineno + 1
+    assert err.startswith("cptbt: behaviour find_plume.test_raises raised AttributeError: "), err
+    assert f"(at {Path(__file__).name}:{line}) at t = " in err, err
+    assert "internal error" not in err and len(err.splitlines()) == 1
+    assert not out.exists()  # no empty folder left for the run that did not fly
+
+
+def test_a_value_that_is_no_command_is_named_at_its_tick(faulty: None, tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]
+                                                         ) -> None:
+    with pytest.raises(AssertionError, match=r"tick \d+ .*decide\(\) returned tuple"):
+        check_behaviour(Tuple)  # it had crashed inside check_behaviour, with no tick named
+    assert cli.main(["run", mission(tmp_path, "test_tuple"), "--no-figure"]) == 1
+    err = capsys.readouterr().err
+    assert "behaviour find_plume.test_tuple raised TypeError: decide() returned tuple" in err
+
+
+def test_the_error_keeps_its_type_and_says_where() -> None:
+    """Code that catches the behaviour's own error type still does."""
+    from cptbt.testing import ScriptedPerception  # noqa: F401  (the module the script needs)
+
+    with pytest.raises(AssertionError) as info:
+        check_behaviour(Raises)
+    cause = info.value.__cause__
+    assert isinstance(cause, AttributeError)
+    said = blame(cause)
+    assert said is not None and said.startswith("behaviour find_plume.test_raises raised ")
+
+
+def test_commands_not_flown_as_asked_are_counted_and_named(
+        faulty: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for variant, said in (("test_nan", "find_plume.test_nan asked command() for a non-finite "
+                                       "heading or speed in "),
+                          ("test_slow", "find_plume.test_slow commanded 0.1 m/s in ")):
+        out = tmp_path / variant
+        assert cli.main(["run", mission(tmp_path, variant), "--no-figure", "--out",
+                         str(out)]) == 0
+        shown = capsys.readouterr().out
+        assert f"  behaviour faults: {said}" in shown, shown
+        summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+        key = "nonfinite_commands" if variant == "test_nan" else "unflyable_commands"
+        assert summary[key] > 0 and said in summary["command_faults"]
+
+
+def test_a_study_tables_its_behaviour_faults() -> None:
+    rows = [{"outcome": "declared", "nonfinite_commands": 0, "unflyable_commands": 0}]
+    assert command_fault_table({"a": rows}) == []  # nothing to say: nothing said
+    rows.append({"outcome": "timeout", "nonfinite_commands": 3, "unflyable_commands": 0})
+    rows.append({"outcome": "error"})  # flew nothing
+    lines = command_fault_table({"a": rows})
+    assert "## Behaviour faults" in lines and "| a | 1 of 2 | 3 | 0 |" in lines
