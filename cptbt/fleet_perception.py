@@ -230,7 +230,8 @@ class FleetPerception:
         from the simulator's clock, never corrected, and its fixes from the simulated
         navigation, never far out)."""
         return {"missing_samples": int(self.missing_samples[i]),
-                "stuck_samples": int(self.stuck_samples[i]), "rejected_fixes": 0,
+                "stuck_samples": int(self.stuck_samples[i]), "late_samples": 0,
+                "rejected_fixes": 0,
                 "rejected_flow_samples": int(self.rejected_flow_samples[i]),
                 "clock_corrections": 0}
 

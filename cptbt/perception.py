@@ -97,7 +97,9 @@ class Perception:
       and so are the samples of a reading stuck away from zero (``stuck_after_s``: the same
       value that long, to the last bit, more than :data:`STUCK_FLOOR` from zero) until it
       changes; a cycle with no sample left has a NaN
-      concentration, which no behaviour takes for plume or for clean water;
+      concentration, which no behaviour takes for plume or for clean water; a sample stamped
+      more than one period before the previous cycle (a late delivery: its plume was where the
+      vehicle no longer is) is dropped and counted (``late_samples``);
     - flow: non-finite samples and samples faster than ``max_flow_speed_mps`` (fill values such
       as 9.97e36, spikes) are dropped; the windowed vector mean is summed afresh each cycle with
       :func:`math.fsum`, so no sample outlives its window and no running sum loses precision;
@@ -146,6 +148,7 @@ class Perception:
         self.stuck_samples = 0
         self.missing_samples = 0  # fluorometer samples not finite (dropouts)
         self.rejected_fixes = 0  # navigation fixes ignored as impossibly far out
+        self.late_samples = 0  # fluorometer samples stamped before the previous cycle's period
         self._run_value = math.nan  # the latest sample, and since when it has read so
         self._run_t = math.nan
         self.latest: Percept | None = None
@@ -155,7 +158,7 @@ class Perception:
         faults): fluorometer samples missing (not finite) or dropped as stuck, flow samples and
         navigation fixes rejected, clock steps back corrected."""
         return {"missing_samples": self.missing_samples, "stuck_samples": self.stuck_samples,
-                "rejected_fixes": self.rejected_fixes,
+                "late_samples": self.late_samples, "rejected_fixes": self.rejected_fixes,
                 "rejected_flow_samples": self.rejected_flow_samples,
                 "clock_corrections": self.clock_corrections}
 
@@ -171,6 +174,17 @@ class Perception:
         if not math.isfinite(concentration):
             self.missing_samples += 1
             return  # a dropout between two frozen readings does not unfreeze the sensor
+        if (math.isfinite(self._t_prev) and usable_stamp(t)
+                and self._clock(t) < self._t_prev - self._period - TIME_EPS_S):
+            # taken before the previous cycle's period: placed at the present pose it would
+            # be a detection where the vehicle is not (a review's samples 20 s late declared a
+            # source 15.7 m off, nothing said)
+            self.late_samples += 1
+            n = self.late_samples
+            level = logging.WARNING if n == 10 ** int(math.log10(n) + 1e-9) else logging.DEBUG
+            log.log(level, "fluorometer sample stamped %g s reached the planner after its "
+                    "cycle at %g s: dropped (%d so far)", t, self._t_prev, n)
+            return
         if self.settings.stuck_after_s is not None and self._stuck(self._clock(t), concentration):
             self.stuck_samples += 1
             level = logging.INFO if self.stuck_samples == 1 else logging.DEBUG

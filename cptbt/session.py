@@ -45,6 +45,13 @@ log = logging.getLogger(__name__)
 RETAKE_S = 2.0
 """A take the vehicle has not granted is sent again this often (vehicle clock), s."""
 
+NAV_TIMEOUT_S = 5.0
+"""Under override, the AMP gives back (``amp_abort``) when the vehicle's other reports have run
+this long (vehicle clock), or three planning cycles if longer, past its latest usable
+navigation: without a position the planner cannot tick, and safety cannot keep the vehicle in
+(a review's NaN positions, and a frozen navigation clock, left the vehicle on its last command
+until its own 30-s watchdog, 18 m outside an 80-m OpArea)."""
+
 
 class AmpSession:
     """One AMP run on one vehicle.
@@ -86,6 +93,11 @@ class AmpSession:
         self._control_t: float | None = None  # the vehicle's latest report in override
         self.amp_elapsed_s = 0.0  # AMP time so far: the clock's forward steps only
         self._elapsed_t = math.nan  # the vehicle time amp_elapsed_s was last brought up to
+        self._dock_t: float | None = None  # the vehicle's latest report at the dock (pre_launch)
+        self.joined = False  # the first report showed the vehicle under way: no take-over
+        self._heard_t = -math.inf  # the latest time stamp of any report (not only navigation)
+        self._fix_t = -math.inf  # the time of the latest report with a usable position
+        self._nav_timeout = max(NAV_TIMEOUT_S, 3 * self._period)
 
     @property
     def t(self) -> float:
@@ -106,6 +118,12 @@ class AmpSession:
         if self.state is None:
             return
         t = self.t
+        if self.in_override and self._heard_t - self._fix_t >= self._nav_timeout:
+            self.link.send(OverrideRelease())
+            self.phases.fire("amp_abort", self._heard_t, "no usable navigation for "
+                             f"{self._heard_t - self._fix_t:g} s (the latest usable position "
+                             f"at t = {self._fix_t:g} s)")
+            return
         if self.phases.state == "mission_a.waypoints" and self._enable_due():
             self.link.send(OverrideRequest())
             self.phases.fire("amp_enable", t)
@@ -197,10 +215,16 @@ class AmpSession:
         return dataclasses.replace(s, **fixes) if fixes else s
 
     def _handle(self, msg: object) -> None:
+        stamp = getattr(msg, "t_s", math.nan)
+        if isinstance(stamp, float) and math.isfinite(stamp):
+            # the latest, not the largest: after a step back of the clock, the new time
+            self._heard_t = stamp
         if isinstance(msg, VehicleState):
             state = self._sane(msg)
             if state is None:
                 return
+            if state.x_m == msg.x_m and state.y_m == msg.y_m:  # its own position, not the last
+                self._fix_t = state.t_s
             self.state = state
             self._follow_vehicle_mode(state)
         elif isinstance(msg, FlowSample):
@@ -219,8 +243,21 @@ class AmpSession:
 
     def _follow_vehicle_mode(self, s: VehicleState) -> None:
         ph = self.phases
+        if s.mode == "pre_launch":
+            self._dock_t = s.t_s
         if ph.state == "pre_launch" and s.mode != "pre_launch":
-            ph.fire("launch", s.t_s)
+            if self._dock_t is None:
+                # A session started while the vehicle was under way (a restarted serve, after a
+                # give-back made for a reason): it does not know the launch, and taking over
+                # at its first report would fly a new search with a fresh time limit (a review).
+                self.joined = True
+                why = (f"the vehicle was under way (mode {s.mode}) when this session began: it "
+                       "did not see the launch, and does not take over; start the AMP before "
+                       "the launch")
+                log.warning(why)
+                ph.fire("launch", s.t_s, why)
+            else:
+                ph.fire("launch", s.t_s)
         if s.mode == "post_mission" and ph.state != "post_mission":
             ph.fire("mission_a_complete", s.t_s)
             return
@@ -230,9 +267,17 @@ class AmpSession:
             ph.fire("break_off_reached", s.t_s, f"at ({s.x_m:.1f}, {s.y_m:.1f})")
 
     def _enable_due(self) -> bool:
+        """Whether the take-over is due: ``amp_enable_s`` after the launch, timed from the
+        vehicle's last report at the dock (the launch came after it, by at most one report;
+        the vehicle's clock need not read 0 there: a review's ArduSub, booted 10 minutes before
+        the launch, was taken over at once on its time since boot), or on passing waypoint
+        ``amp_enable_waypoint``; never in a session that did not see the launch."""
         assert self.state is not None
+        if self.joined:
+            return False
         if self.spec.amp_enable_s is not None:
-            return self.state.t_s + 1e-9 >= self.spec.amp_enable_s
+            assert self._dock_t is not None  # not joined: it was seen at the dock
+            return self.state.t_s - self._dock_t + 1e-9 >= self.spec.amp_enable_s
         assert self.spec.amp_enable_waypoint is not None
         return self.state.waypoints_reached > self.spec.amp_enable_waypoint
 

@@ -120,6 +120,7 @@ class RunSummary:
     path_efficiency: float | None = None
     missing_samples: int = 0
     stuck_samples: int = 0
+    late_samples: int = 0
     rejected_fixes: int = 0
     rejected_flow_samples: int = 0
     clock_corrections: int = 0
@@ -170,9 +171,10 @@ def summarise(
     was held where a declared source's plume blinds the up-flow check, ``held_candidate``
     the latest such candidate not resolved by a later declaration (a probable source the rule
     could not confirm; not a declaration, and not judged).
-    ``missing_samples``, ``stuck_samples``, ``rejected_fixes``, ``rejected_flow_samples`` and
-    ``clock_corrections`` count what the perception dropped or corrected (fluorometer samples
-    that were not finite, a dropout; a fluorometer reading stuck away from zero; navigation
+    ``missing_samples``, ``stuck_samples``, ``late_samples``, ``rejected_fixes``,
+    ``rejected_flow_samples`` and ``clock_corrections`` count what the perception dropped or
+    corrected (fluorometer samples that were not finite, a dropout; a fluorometer reading stuck
+    away from zero; samples stamped before the previous planning cycle's period; navigation
     fixes more than 1000 km outside the OpArea; impossible
     flow samples, cycle times not after the previous one) up to the end of the AMP's part.
     ``nonfinite_commands`` counts the cycles a behaviour asked ``command()`` for a non-finite

@@ -153,6 +153,13 @@ def serve(
         result.error = f"{type(exc).__name__}: {exc}"
     finally:
         result.handed_back = _hand_back(session, link, result)
+        if result.handed_back:  # the observers hear of it (a log had ended in the override)
+            session.ticked = False  # no new cycle: the last was heard already
+            for observe in observers:
+                try:
+                    observe(session)
+                except Exception:  # pragma: no cover - the release has gone already
+                    log.exception("could not report the hand-back to an observer")
         result.wall_s = time.monotonic() - wall0
         try:
             result.link_stats = dict(link.stats())

@@ -90,11 +90,17 @@ def test_a_silent_amp_loses_control_to_the_vehicle_watchdog(msn007) -> None:
 
 def test_a_cut_link_gives_back_on_both_sides(msn007) -> None:
     faults = WireFaults(silent_from_s=300.0, silent_both=True)
+    heard: list[str] = []  # what an observer (a cycle log) was told last
+
+    def watch(session: AmpSession) -> None:
+        heard[:] = [c.trigger for c in session.phases.timeline]
+
     with double_running(msn007, BackseatCodec(), faults=faults, max_time_s=400) as (a, report):
-        result = _serve(msn007, a)
+        result = _serve(msn007, a, observers=[watch])
         vehicle = report()
     assert result.stop_reason == "link_lost" and result.handed_back
     assert triggers(result)[-1] == "amp_abort"
+    assert heard[-1] == "amp_abort"  # a log had ended with the AMP still in control (a review)
     assert vehicle.override_ended == ["watchdog"]  # the vehicle's own watchdog took over
 
 

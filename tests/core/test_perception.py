@@ -309,3 +309,18 @@ def test_a_forward_jump_within_an_hour_is_elapsed_time() -> None:
     p.cycle(0.0)
     p.cycle(1.0)
     assert p.cycle(601.0).t == 601.0 and p.clock_corrections == 0  # a 10-min link outage
+
+
+def test_a_sample_delivered_after_its_cycle_is_dropped_and_counted() -> None:
+    """A review's samples, delivered 20 s late with their true stamps, were each placed where
+    the vehicle was on arrival (a false declaration 15.7 m off): one taken before the previous
+    cycle's period is dropped; one up to a period late still counts."""
+    p = make()
+    p.set_pose(Pose(50, 0))
+    p.cycle(10.0)
+    p.add_sample(9.5, 0.3)  # within the period before the previous cycle: transport jitter
+    assert p.cycle(11.0).concentration == 0.3
+    p.add_sample(2.0, 5.0)  # taken 9 s before the previous cycle
+    per = p.cycle(12.0)
+    assert math.isnan(per.concentration) and not per.detected
+    assert p.faults()["late_samples"] == 1

@@ -141,6 +141,7 @@ def test_amp_enable_after_a_set_time_sends_an_override_request_then_commands() -
 
 def test_amp_enable_at_a_waypoint() -> None:
     s, link, _ = session(amp_enable_s=None, amp_enable_waypoint=1)
+    step(s, link, state(0.0, "pre_launch"))
     step(s, link, state(0.1))
     assert step(s, link, state(500.0, reached=1)) == "mission_a.waypoints"  # at waypoint 0 only
     assert step(s, link, state(501.0, reached=2)) == "amp.override"
@@ -374,3 +375,54 @@ def test_mission_a_settings_under_which_the_amp_never_drives_are_warned_of(
     assert loc == ("mission_a", key) and says in why, why
     if key == "amp_enable_waypoint":  # a looping Mission A comes round to it again
         assert mission(**settings, loop="true").advisories() == []
+
+
+def test_amp_enable_s_counts_from_the_launch_not_the_vehicle_clocks_zero() -> None:
+    """A review's ArduSub, booted 10 minutes before its launch, reports time since boot: it
+    was taken over at the launch. ``amp_enable_s`` counts from the last report at the dock."""
+    s, link, _ = session()  # amp_enable_s 100
+    step(s, link, state(599.0, "pre_launch"))
+    step(s, link, state(600.0, "pre_launch"))
+    assert step(s, link, state(600.2)) == "mission_a.waypoints"
+    assert step(s, link, state(699.9)) == "mission_a.waypoints"
+    assert step(s, link, state(700.0)) == "amp.override"
+
+
+def test_a_session_that_did_not_see_the_launch_does_not_take_over() -> None:
+    """A review's restarted serve took a released vehicle back at its first report and flew a
+    new search with a fresh time limit: a session that meets the vehicle under way never
+    takes it (its timeline says why)."""
+    s, link, planner = session(amp_enable_s=None, amp_enable_waypoint=1)
+    assert step(s, link, state(344.6, reached=4)) == "mission_a.waypoints"
+    for t in (345.0, 400.0, 500.0):
+        assert step(s, link, state(t, reached=4)) == "mission_a.waypoints"
+    assert not link.sent and not planner.ticks
+    (launch,) = s.phases.timeline
+    assert "did not see the launch, and does not take over" in launch.detail
+
+
+def test_no_usable_navigation_under_override_gives_back() -> None:
+    """A review's NaN positions (dropped by the decoder) left the vehicle on its last command
+    until its own watchdog, 18 m outside the OpArea: the AMP gives back when the other reports
+    run 5 s past its latest usable position."""
+    s, link, _ = session()
+    into_override(s, link)
+    step(s, link, state(101.0, "override"))
+    for k in range(1, 61):  # samples go on; navigation has stopped at 101 s
+        step(s, link, ConcentrationSample(101.0 + 0.1 * k, 0.0))
+    assert s.phases.state == "amp.give_back" and isinstance(link.sent[-1], OverrideRelease)
+    gave = s.phases.timeline[-1]
+    assert gave.trigger == "amp_abort" and gave.t_s == pytest.approx(106.0)
+    assert gave.detail == "no usable navigation for 5 s (the latest usable position at t = 101 s)"
+
+
+def test_a_held_position_is_no_usable_navigation_for_long() -> None:
+    """A non-finite fix keeps the last (one bad report must not end the override), but not for
+    ever: 5 s of them give back as no navigation does."""
+    s, link, _ = session()
+    into_override(s, link)
+    step(s, link, state(101.0, "override"))
+    for k in range(1, 5):
+        assert step(s, link, state(101.0 + k, "override", x=math.nan)) == "amp.override"
+    assert step(s, link, state(106.0, "override", x=math.nan)) == "amp.give_back"
+    assert s.phases.timeline[-1].trigger == "amp_abort"
