@@ -75,15 +75,29 @@ class Sweep:
         return "+".join(self.paths)
 
 
+NOT_SWEPT = {
+    "environment.seed": "a study draws replicate r's plume from its root seed (--seed) and r, "
+                        "so every value would fly the same plumes (a review's two 'worlds' "
+                        "came out identical, run for run); more plumes: --runs-per-start; "
+                        "another set of them: --seed",
+    "start": "every configuration flies the study's own starts (study.starts, --grid, "
+             "--starts...; else the mission's start), so every value would fly the same runs; "
+             "give the starts with --starts",
+}
+"""Mission keys a study sets itself: a sweep of one would change nothing, and is refused."""
+
+
 def apply_setting(data: dict[str, Any], path: str, value: Any) -> None:
     """Set one path of mission data in place.
 
     Raises:
-        ValueError: the path names nothing in the mission.
+        ValueError: the path names nothing in the mission, or nothing a study flies.
     """
+    if path in NOT_SWEPT:
+        raise ValueError(f"sweep path {path!r}: {NOT_SWEPT[path]}")
     head, _, rest = path.partition(".")
     if not rest:
-        if head not in data and head not in ("start", "environment"):
+        if head not in data and head != "environment":
             raise ValueError(f"sweep path {path!r}: no such mission field")
         data[head] = value
         return
@@ -117,7 +131,11 @@ def changes_world(path: str) -> bool:
     """Whether a swept setting changes the simulated world (the flow and plume replicate r
     flies): a simulator setting other than the vehicle's and its sensors', or the OpArea (the
     flow field is laid over it). A review found an OpArea sweep paired as the same plume and
-    a sensor sweep refused as another world."""
+    a sensor sweep refused as another world. A joint sweep's column (``a+b``) changes it if
+    any of its paths does (a review's ``speed_mps+environment.flow_speed_mps`` was paired run
+    by run "on the same plume", its paths tested as one name)."""
+    if "+" in path:
+        return any(changes_world(part) for part in path.split("+"))
     return (path.startswith("environment.") and not path.startswith(SAME_WORLD)) or \
         path.startswith("op_area.")
 

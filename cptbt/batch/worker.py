@@ -299,4 +299,8 @@ def row_of(task: GroupTask, k: int, run: VehicleRun, mission: MissionBase, sourc
     row.update(flatten(summarise(run, mission, source, task.root_seed, wall_s,
                                  sources=true_sources(mission)).to_dict()))
     row.update(_placement(task, k, mission.name))
+    # the limit the run flew under (the study's, else its configuration's): a failure counts
+    # as it in the mean search time and the maps
+    row["run_time_limit_s"] = (task.time_limit_s if task.time_limit_s is not None
+                               else mission.time_limit_s)
     return row

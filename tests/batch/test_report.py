@@ -553,6 +553,31 @@ def test_pairing_follows_what_changes_the_world() -> None:
     assert not changes_world("environment.fluorometer.noise_std")
     assert not changes_world("environment.navigation.drift_std_m")
     assert not changes_world("declare_source.variant")
+    # a joint sweep's column: any of its paths (a review's speed+flow pairs read "same plume")
+    assert changes_world("speed_mps+environment.flow_speed_mps")
+    assert changes_world("environment.fluorometer.noise_std+environment.flow_speed_mps")
+    assert not changes_world("speed_mps+environment.fluorometer.noise_std")
+
+
+def test_a_joint_sweep_that_changes_the_world_is_not_paired() -> None:
+    from cptbt.batch.comparison import paired_table
+
+    key = "speed_mps+environment.flow_speed_mps"
+    groups = {f"{key}={v}": [{"replicate": r, "start": 0, key: v, "success": r % 2 == 0,
+                              "t3": 10.0 + r} for r in range(6)] for v in (0.8, 1.0)}
+    assert paired_table(groups) == []
+
+
+def test_a_failure_counts_at_its_time_limit_in_the_search_time() -> None:
+    """A review: a false declaration counted at its run's end, after the trip home, so a
+    setting that never succeeded looked only a little slow on the map."""
+    from cptbt.batch.report import _search_time
+
+    false = {**BASE, "success": False, "t3": 176.0, "sim_time_s": 335.0}
+    assert _search_time({**false, "run_time_limit_s": 1800.0}) == 1800.0
+    assert _search_time(false) == 335.0  # rows from before the limit was recorded
+    assert _search_time({**BASE, "success": True, "t3": 225.0, "sim_time_s": 343.0,
+                         "run_time_limit_s": 1800.0}) == 225.0
 
 
 def test_plot_elsewhere_heads_its_tables_with_the_study(tmp_path: Path) -> None:
@@ -618,3 +643,18 @@ def test_plot_says_when_the_study_record_cannot_be_read(tmp_path: Path) -> None:
     res = subprocess.run([str(Path(sys.executable).parent / "cptbt"), "plot", str(tmp_path)],
                          capture_output=True, text=True, timeout=120)
     assert res.returncode == 0 and "study.json" not in res.stderr, res.stderr
+
+
+def test_a_start_at_the_source_is_said_under_the_arrival_criterion() -> None:
+    """A review: AB Fig. 10's start at the source made instant successes, unremarked."""
+    from cptbt.batch.scenario import starts_at_a_source
+    from cptbt.cli.inspect_cmds import load
+
+    root = Path(__file__).resolve().parents[2]
+    ab = load(str(root / "missions" / "ab2001_strategy1.yaml"), simulate=True)
+    said = starts_at_a_source(ab, [(0.0, 0.0), (20.0, 0.0), (20.5, 0.5)])
+    assert said is not None and said.startswith("2 starts within the success radius (1 m)")
+    assert starts_at_a_source(ab, [(0.0, 0.0)]) is None
+    tro = load(str(root / "missions" / "tro2006_msn007.yaml"), simulate=True)
+    src = tro.to_xy(tro.environment.source)  # type: ignore[union-attr]
+    assert starts_at_a_source(tro, [(src.x, src.y)]) is None  # a declaration is still to make

@@ -49,6 +49,15 @@ def test_a_sweep_of_nothing_is_an_error(path: str) -> None:
         apply_setting(data(), path, 1)
 
 
+@pytest.mark.parametrize(("path", "why"), [("environment.seed", "the same plumes"),
+                                           ("start", "the same runs")])
+def test_a_sweep_of_what_a_study_sets_itself_is_refused(path: str, why: str) -> None:
+    """A review swept environment.seed for more plumes: both 'worlds' came out identical, run
+    for run, told they differed; a start sweep flew the study's own starts at every value."""
+    with pytest.raises(ValueError, match=f"sweep path '{path}': .*{why}"):
+        apply_setting(data(), path, 1)
+
+
 def test_sweep_parses_joined_paths_and_yaml_values() -> None:
     s = Sweep.parse("maintain_plume.variant+reacquire_plume.variant=strategy_1,strategy_2")
     assert s.paths == ("maintain_plume.variant", "reacquire_plume.variant")
