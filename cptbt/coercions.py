@@ -7,6 +7,7 @@ slip, not a way of writing one; :func:`coercions` finds every such value in a mi
 from __future__ import annotations
 
 import json
+import logging
 import re
 from typing import Any, Literal, get_args, get_origin
 
@@ -57,6 +58,8 @@ def coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
     except (TypeError, ValueError):  # values JSON cannot carry: the lax pass judged them
         return []
     out = _literal_booleans(data, model)
+    said = logging.getLogger("cptbt.mission")  # its notes were said by the first pass (a
+    was, said.disabled = said.disabled, True  # review's -v printed each twice)
     try:
         model.model_validate_json(text, strict=True, context={"problems": []})
     except ValidationError as exc:
@@ -72,6 +75,8 @@ def coercions(data: Any, model: type[BaseModel]) -> list[tuple[Loc, str]]:
             if path in seen:
                 continue
             out.append((path, f"expected {want}, got {_given(value)}"))
+    finally:
+        said.disabled = was
     return out
 
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 
 import py_trees
+from pydantic import ValidationError
 
 from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 
@@ -118,9 +119,15 @@ class Registry:
                 isinstance(item, type) and issubclass(item, PlanBehaviour)):
             raise RegistryError(f"{item!r} is neither a PlanBehaviour subclass nor a "
                                 "BehaviourSpec")
+        if isinstance(item, type) and not (item.family and item.variant):
+            # its name, not a dataclass repr of the spec (a review: 443 characters of it)
+            raise RegistryError(f"{item.__module__}.{item.__qualname__} has no family or "
+                                "variant name: set its ClassVars family and variant")
         spec = item if isinstance(item, BehaviourSpec) else BehaviourSpec.of(item)
         if not spec.family or not spec.variant:
-            raise RegistryError(f"{spec!r} has no family or variant name")
+            raise RegistryError(f"the BehaviourSpec {spec.summary or spec.params.__name__!r} "
+                                "has no family or variant name")
+        _check_params(spec)
         key = (spec.family, spec.variant)
         if key in self._specs:
             raise DuplicateBehaviourError(f"behaviour {spec.key} is registered twice")
@@ -169,9 +176,13 @@ class Registry:
                     + (" (misspelt?)" if difflib.get_close_matches(family, elsewhere, 1, 0.8)
                        else "")
                 )
+            close = _close(variant, [s.variant for s in variants])
             raise UnknownBehaviourError(
-                f"unknown variant {variant!r} of {family}"
-                f"{_close(variant, [s.variant for s in variants])}"
+                f"unknown variant {variant!r} of {family}{close}"
+                # a plug-in's, not installed here or not listed (a review): say how it is found
+                + ("" if "did you mean" in close else
+                   f" (a plug-in's? its package lists it in an entry point of the group "
+                   f"{ENTRY_POINT_GROUP!r} and is installed here: pip install -e PACKAGE)")
             )
         return spec
 
@@ -221,6 +232,11 @@ def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
             raise RegistryError(
                 f"cannot load behaviours from entry point {ep.value}: {exc}"
             ) from exc
+        if isinstance(items, type) or not isinstance(items, Iterable):
+            raise RegistryError(
+                f"entry point {ep.value}: expected a tuple or list of PlanBehaviour subclasses "
+                f"or BehaviourSpecs, got {getattr(items, '__name__', type(items).__name__)!r}"
+                + (f" (write ({items.__name__},))" if isinstance(items, type) else ""))
         try:  # a review's bad item and reused name read as an internal error, or no source
             for item in items:
                 spec = registry.register(item)
@@ -247,6 +263,31 @@ def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
         except (RegistryError, TypeError) as exc:
             raise RegistryError(f"entry point {ep.value}: {exc}") from exc
     return registry
+
+
+def _check_params(spec: BehaviourSpec) -> None:
+    """A variant's ``Params``: a :class:`~cptbt.node.BehaviourParams` whose defaults pass its
+    own rules. A plain pydantic model had registered and then read as a fault of the mission's
+    line 3, and a default of -5 under ``gt=0`` flew (a plug-in author's review)."""
+    where = f"{spec.family}.{spec.variant}"
+    params = spec.params
+    if not (isinstance(params, type) and issubclass(params, BehaviourParams)):
+        raise RegistryError(f"{where}: its Params ({getattr(params, '__name__', params)!r}) is "
+                            "not a cptbt.node.BehaviourParams subclass: derive it from one")
+    given = {name: f.default for name, f in params.model_fields.items()
+             if not f.is_required() and f.default_factory is None}
+    try:
+        params.model_validate(given)
+    except ValidationError as exc:
+        errors = [e for e in exc.errors(include_url=False) if e["type"] != "missing"]
+        if not errors:  # only the required fields missing: they are the mission's to give
+            return
+        err = errors[0]
+        field = ".".join(str(x) for x in err["loc"])
+        raise RegistryError(f"{where}: the default of {field} ({given.get(field)!r}) breaks its "
+                            f"own rule: {err['msg']}") from None
+    except Exception:  # a model validator that needs the required fields: judged when given
+        pass
 
 
 def _builtin(entry_point_value: str) -> bool:

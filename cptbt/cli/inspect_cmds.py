@@ -245,8 +245,12 @@ def cmd_tree(args: argparse.Namespace) -> int:
 def _param_rows(model: type[BaseModel]) -> list[dict[str, Any]]:
     rows = []
     for name, field in model.model_fields.items():
-        default = field.get_default(call_default_factory=True)
-        rows.append({"name": name, "default": default, "description": field.description or ""})
+        row: dict[str, Any] = {"name": name, "description": field.description or ""}
+        if field.is_required():  # no default: "PydanticUndefined" had been printed (a review)
+            row["required"] = True
+        else:
+            row["default"] = field.get_default(call_default_factory=True)
+        rows.append(row)
     return rows
 
 
@@ -282,7 +286,8 @@ def cmd_behaviours(args: argparse.Namespace) -> int:
             if notes:
                 print(f"      ({'; '.join(notes)})")
             for row in _param_rows(spec.params):
-                print(textwrap.fill(f"{row['name']} = {row['default']!r}  "
+                given = "(required)" if row.get("required") else f"= {row['default']!r}"
+                print(textwrap.fill(f"{row['name']} {given}  "
                                     f"{plain(row['description'])}", 100,
                                     initial_indent="      ", subsequent_indent="          "))
     return 0
