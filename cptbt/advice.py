@@ -9,6 +9,7 @@ which the AMP never takes over or never gets back. Those only a simulated world 
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 from cptbt.policy import RELINQUISH_OUTSIDE_M
@@ -54,7 +55,35 @@ def advisories(mission: MissionBase) -> list[Problem]:
                     f"longer than perception.lambda_s ({lam:g} s): contact is lost between any "
                     "two cycles, so maintain-plume hands over at once and timed behaviours "
                     "act late"))
-    return out + mission_a_advice(mission)
+    return out + mission_a_advice(mission) + centre_advice(mission)
+
+
+FAR_WAYPOINT_M = 20_000.0
+"""A Mission A waypoint farther than this outside the OpArea is warned of (a REMUS 100 covers
+some 70 km on a charge: a transit of 20 km to the OpArea is possible, a slip far likelier)."""
+
+CENTRE_OFF_SHARE = 0.5
+"""A ``geodetic_centre_deg`` farther from the corners' own centre than this share of the
+OpArea's diagonal is warned of."""
+
+
+def centre_advice(mission: MissionBase) -> list[Problem]:
+    """A ``geodetic_centre_deg`` far from the corners: every N-E output is measured from it, so
+    a typo moves them all (a review's 0.01° slip: "source N 1113.7 m" in a 150-m OpArea)."""
+    given = mission.op_area.geodetic_centre_deg
+    if given is None or mission.frame != "geodetic":
+        return []
+    from cptbt.geodesy import LocalFrame
+
+    own = LocalFrame.centred_on([tuple(c) for c in mission.op_area.corners])  # type: ignore[misc]
+    n, e = own.to_ne(float(given[0]), float(given[1]))
+    off = math.hypot(n, e)
+    diagonal = mission.op_area_geometry().diagonal_m
+    if off <= CENTRE_OFF_SHARE * diagonal:
+        return []
+    return [(("op_area", "geodetic_centre_deg"),
+             f"{off:.0f} m from the corners' centre (the OpArea's diagonal is {diagonal:.0f} m): "
+             "every north-east position printed is measured from it; a typo?")]
 
 
 ALWAYS_DRIVES = ("find_plume",)
@@ -148,6 +177,14 @@ def mission_a_advice(mission: MissionBase) -> list[Problem]:
                         f"the take-over waypoint is {outside:.1f} m outside the OpArea: the AMP "
                         f"gives control back {RELINQUISH_OUTSIDE_M:g} m outside it (TRO II), so "
                         "it would give back in its first cycle"))
+    area = mission.op_area_geometry()
+    for i, wp in enumerate(a.waypoints):  # a lost sign or swapped lat/lon (a review's 9 500 km)
+        at = mission.to_xy(wp)
+        far = area.distance_outside(at.x, at.y)
+        if far > FAR_WAYPOINT_M:
+            out.append((("mission_a", "waypoints", i),
+                        f"{far / 1000:.1f} km outside the OpArea: a slip (a sign, lat/lon "
+                        "swapped)? The vehicle would spend its mission getting there"))
     if a.amp_enable_waypoint == last and not a.loop:
         out.append((("mission_a", "amp_enable_waypoint"), f"{last} is the last waypoint: "
                     "Mission A ends on reaching it, before the AMP can take over"))

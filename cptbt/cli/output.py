@@ -7,6 +7,8 @@ from pathlib import Path
 from typing import Any
 
 from cptbt.batch.comparison import left_oparea
+from cptbt.mission import MissionBase
+from cptbt.types import Point
 
 
 def fresh_folder(base: Path) -> Path:
@@ -91,3 +93,22 @@ def sensor_faults_line(s: dict[str, Any]) -> str | None:
         if n:
             parts.append(f"{n} " + what.format("s" * (n != 1)))
     return "  sensor faults: " + "; ".join(parts) if parts else None
+
+
+def frame_line(mission: MissionBase) -> str:
+    """Where the planning frame is, for a front seat's integrator: the backseat protocol's
+    positions, flows and headings are in it (a review had to recover it from a figure's label).
+    """
+    if mission.frame == "planning":
+        return ("  planning frame: the mission's own x, y (no compass given); the backseat "
+                "link's positions, flows and headings are in it")
+    area = mission.op_area_geometry()
+    origin = Point(0.0, 0.0)
+    n, e = mission.to_ne(origin)
+    geo = mission.to_geodetic(origin)
+    where = (f"{geo.lat_deg:.6f}, {geo.lon_deg:.6f}" if geo is not None
+             else f"N {n:.1f} m, E {e:.1f} m")
+    b = area.frame.x_bearing_deg % 360
+    return (f"  planning frame: origin at {where}; +x toward compass bearing {b:.1f}°, +y toward "
+            f"{(b + 90) % 360:.1f}°; a heading h in it is compass bearing h + {b:.1f}°; the "
+            "backseat link's positions, flows and headings are in it")

@@ -8,6 +8,7 @@ from typing import Any
 
 from cptbt.cli.argtypes import not_the_mission
 from cptbt.cli.inspect_cmds import load
+from cptbt.cli.output import frame_line
 from cptbt.phases import describe, to_dot
 
 
@@ -34,8 +35,11 @@ def cmd_phases(args: argparse.Namespace) -> int:
     if spec is None:
         print("  no mission_a section: the AMP drives from launch (cptbt run uses no phases)")
     else:
-        enable = (f"at t = {spec.amp_enable_s:g} s" if spec.amp_enable_s is not None
-                  else f"on reaching waypoint {spec.amp_enable_waypoint}")
+        k = spec.amp_enable_waypoint
+        enable = (f"{spec.amp_enable_s:g} s after the launch (timed from the vehicle's last "
+                  "report at the dock; a session that did not see the launch never takes over)"
+                  if spec.amp_enable_s is not None else
+                  f"on reaching waypoint {k} (0-based: the {_ordinal((k or 0) + 1)} of the list)")
         ending = "loops" if spec.loop else "ends at the last waypoint"
         lim = spec.limits
         print(f"  Mission A: {len(spec.waypoints)} waypoints at {spec.speed_mps:g} m/s, {ending}"
@@ -46,7 +50,16 @@ def cmd_phases(args: argparse.Namespace) -> int:
         print(f"  watchdog_timeout: no accepted command for {spec.watchdog_s:g} s")
         print(f"  command_refused: speed outside [{lim.min_speed_mps:g}, {lim.max_speed_mps:g}]"
               f" m/s, depth outside [0, {lim.max_depth_m:g}] m, or a heading not finite")
+        print("  amp_abort: the operator stops, the link falls silent, an internal error, or "
+              "5 s without a usable position")
+    print(frame_line(mission))
     if args.dot:
         Path(args.dot).write_text(to_dot(), encoding="utf-8")
         print(f"wrote {args.dot}")
     return 0
+
+
+def _ordinal(n: int) -> str:
+    """1st, 2nd, 3rd, 4th ... 11th, 12th, 13th, 21st."""
+    suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{suffix}"

@@ -20,6 +20,7 @@ from cptbt.cli.inspect_cmds import load
 from cptbt.cli.output import (
     command_faults_line,
     fmt,
+    frame_line,
     fresh_folder,
     place,
     sensor_faults_line,
@@ -124,6 +125,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(f"{mission.name}: serving on {args.link} at {args.clock_scale:g}x real time; "
               "Ctrl-C gives control back", flush=True)
+        print(frame_line(mission), flush=True)
     try:
         result = serve(mission, link, planner=planner, options=options, observers=observers)
     finally:
