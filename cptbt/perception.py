@@ -162,6 +162,11 @@ class Perception:
                 "rejected_flow_samples": self.rejected_flow_samples,
                 "clock_corrections": self.clock_corrections}
 
+    def on_clock(self, t: float) -> float:
+        """A vehicle time stamp on the planner's clock (shifted by the steps back so far): the
+        time the measures of a run read."""
+        return self._clock(t)
+
     def _clock(self, t: float) -> float:
         """A sample's time on the planner's clock (the vehicle's, shifted by past steps back)."""
         if not usable_stamp(t):

@@ -142,7 +142,10 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
         per_cell = f"n = {runs_n[0]}" if len(runs_n) == 1 else f"n = {runs_n[0]}–{runs_n[-1]}"
         ok = sum(bool(r["success"]) for r in rows)
         lo, hi = wilson(ok, len(rows))
-        ax.set_title(f"{label}\nsuccess {ok / len(rows):.1%} (95% CI {lo:.1%}–{hi:.1%}) of "
+        # wrapped to the panel (~12 characters an inch at 9 pt): two sweeps' label ran into the
+        # next panel's, mangling the value that told them apart (a review)
+        ax.set_title(f"{textwrap.fill(label, 70, break_on_hyphens=False)}\nsuccess "
+                     f"{ok / len(rows):.1%} (95% CI {lo:.1%}–{hi:.1%}) of "
                      f"{len(rows)} runs; {per_cell} per start", fontsize=9)
         # a wide map shrinks its box under constrained layout and lost its title off the top
         # of the figure (a review): it widens its limits instead

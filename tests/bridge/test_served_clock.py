@@ -1,0 +1,54 @@
+"""A served run's measures on the planner's clock: a vehicle clock stepped back gives no
+negative time (a review: T_T -6.4 s, a behaviour's share -151%)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from cptbt.batch.served import AmpCycles, served_summary
+from cptbt.bridge.serve import ServeResult
+from cptbt.link import ConcentrationSample, FlowSample, VehicleState
+from cptbt.loader import load_mission
+from cptbt.planner import Planner
+from cptbt.session import AmpSession
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+class Link:
+    def __init__(self) -> None:
+        self.inbox: list[object] = []
+
+    def receive(self) -> list[object]:
+        out, self.inbox = self.inbox, []
+        return out
+
+    def send(self, message: object) -> None:
+        pass
+
+
+def test_a_clock_stepped_back_gives_no_negative_time() -> None:
+    mission = load_mission(ROOT / "missions" / "tro2006_msn007.yaml")  # take-over at 240 s
+    link = Link()
+    session = AmpSession(mission, Planner(mission), link)
+    cycles = AmpCycles(mission)
+
+    def report(t: float, mode: str, conc: float = 0.0) -> None:
+        link.inbox += [VehicleState(t, -60.0 + 0.01 * t, 10.0, 180.0, 1.5, 3.0, mode, 1),
+                       FlowSample(t, 0.1, 0.0), ConcentrationSample(t, conc)]
+        session.update()
+        cycles(session)
+
+    report(0.0, "pre_launch")
+    for k in range(1, 2410):  # to 241 s, in Mission A, then the take-over
+        report(k / 10, "mission")
+    assert session.in_override
+    for k in range(2410, 3000):  # detections from 250 s: t1 there
+        report(k / 10, "override", conc=1.0 if k >= 2500 else 0.0)
+    for k in range(2000, 2600):  # the vehicle clock steps back 100 s at 300 s
+        report(k / 10, "override")
+    summary = served_summary(ServeResult(session, "stopped"), cycles, mission, None)
+    assert summary["t1"] is not None and summary["t1"] >= summary["t0"]
+    assert summary["T_F"] >= 0 and summary["sim_time_s"] >= summary["t0"]
+    assert all(v >= 0 for v in summary["time_in_behaviour_s"].values())
+    assert summary["clock_corrections"] >= 1
