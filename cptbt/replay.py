@@ -138,6 +138,10 @@ def story(log: LogData) -> list[str]:
     if log.cycles:
         lines[0] += f", t {float(log.cycles[0]['t']):.1f}–{float(log.cycles[-1]['t']):.1f} s"
     events: list[tuple[float, int, str]] = []
+    try:  # the places in the mission's own frame too (a review read only planning x, y)
+        m: MissionBase | None = logged_mission(log)
+    except Exception:  # a mission that no longer loads here (a plug-in not installed)
+        m = None
     for c in log.phases:
         detail = f" — {c['detail']}" if c.get("detail") else ""
         events.append((float(c["t"]), 0, f"phase {c['from']} -> {c['to']} "
@@ -161,14 +165,12 @@ def story(log: LogData) -> list[str]:
         p = c.get("percept") or {}
         if p.get("detected") and not detected:
             detected = True
-            events.append((t, 1, f"  first detection at ({float(p['x']):.1f}, "
-                                 f"{float(p['y']):.1f}), concentration "
-                                 f"{float(p['concentration']):.2f}"))
+            events.append((t, 1, f"  first detection at {_at(m, p['x'], p['y'])}, "
+                                 f"concentration {float(p['concentration']):.2f}"))
         if c["declared_source"] is not None and not declared:
             declared = True
             s = c["declared_source"]
-            events.append((t, 1, f"  source declared at ({float(s['x']):.1f}, "
-                                 f"{float(s['y']):.1f}) (planning frame)"))
+            events.append((t, 1, f"  source declared at {_at(m, s['x'], s['y'])}"))
         refs += bool(p.get("detected"))
     events.sort(key=lambda e: (e[0], e[1]))
     lines += [f"t {t:7.1f} s  {text}" for t, _, text in events]
@@ -179,3 +181,16 @@ def story(log: LogData) -> list[str]:
         lines.append("cycles in each behaviour: " + ", ".join(
             f"{name} {n / total:.0%}" for name, n in sorted(cycles_in.items())))
     return lines
+
+
+def _at(m: MissionBase | None, x: object, y: object) -> str:
+    """A logged planning point as the operator reads it: N-E metres and latitude/longitude
+    when the mission has them, then the planning frame's x, y."""
+    px, py = float(x), float(y)  # type: ignore[arg-type]
+    planning = f"({px:.1f}, {py:.1f}) (planning frame)"
+    if m is None or m.frame == "planning":
+        return planning
+    n, e = m.to_ne(Point(px, py))
+    geo = m.to_geodetic(Point(px, py))
+    lat_lon = f" ({geo.lat_deg:.6f}, {geo.lon_deg:.6f})" if geo is not None else ""
+    return f"N {n:.1f} m, E {e:.1f} m{lat_lon}; {planning}"

@@ -93,6 +93,9 @@ def test_a_tampered_input_breaks_the_replay_at_that_cycle(logged: Path) -> None:
 def test_the_story_tells_the_phases_and_the_declaration(logged: Path) -> None:
     text = "\n".join(story(read_log(logged)))
     assert "amp_enable" in text and "first detection" in text and "source declared" in text
+    # in the mission's own frame and lat/lon too, not only the planning frame (a review)
+    declared = next(line for line in text.splitlines() if "source declared at" in line)
+    assert " m, E " in declared and "(32.98" in declared and "(planning frame)" in declared
     # The story is told by family; the leaves behind it (track-in and track-out) get shares.
     shares = story(read_log(logged))[-1]
     assert shares.startswith("cycles in each behaviour:")
