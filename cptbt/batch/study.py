@@ -261,6 +261,7 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         ValueError: a sweep path names nothing in the mission.
     """
     out: list[Config] = []
+    bad: list[MissionError] = []  # the combinations that are no valid mission
     by_text: dict[str, Config] = {}  # a configuration by its mission text: twins are refused
     combos = itertools.product(*(s.values for s in sweeps)) if sweeps else [()]
     base = mission_to_data(mission)
@@ -289,7 +290,10 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         except MissionError as exc:
             if not swept or exc.located is None:
                 raise
-            raise _swept_error(exc.located, source, lines, swept, sweeps) from None
+            # every bad combination told, not the first alone (a review fixed and validated
+            # again once per bad value)
+            bad.append(_swept_error(exc.located, source, lines, swept, sweeps))
+            continue
         if swept and validated.environment is not None:
             # The simulator's own limits (environment.dt_s, flow overrides...), as `load` checks
             # them for the mission file: a swept value must not first fail in a worker. (Imported
@@ -299,12 +303,14 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
 
             found = problems(validated, simulate=False)
             if found:
-                raise _swept_error(found, source, lines, swept, sweeps)
+                bad.append(_swept_error(found, source, lines, swept, sweeps))
+                continue
             error = check(validated)
             if error is not None:
                 located = located_errors(error, data.get("environment") or {}, ("environment",),
                                          EnvironmentParams)
-                raise _swept_error(located, source, lines, swept, sweeps)
+                bad.append(_swept_error(located, source, lines, swept, sweeps))
+                continue
         text = dump_mission(validated)
         twin = by_text.get(text)
         if twin is not None:  # 10 and 10.0, or a value twice: one configuration flown as two
@@ -313,6 +319,8 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
                              "value once")
         by_text[text] = Config(i, coords, text, validated)
         out.append(by_text[text])
+    if bad:
+        raise MissionError(list(dict.fromkeys(line for e in bad for line in e.problems)))
     return out
 
 

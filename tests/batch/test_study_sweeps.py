@@ -170,7 +170,8 @@ def test_a_bad_swept_value_is_reported_at_the_files_key_or_without_a_line(
     status = main(["batch", str(OBLIQUE), "--grid", "1x1", "--sweep", sweep,
                    "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err.strip().splitlines()
-    assert status == 2 and err == [f"{OBLIQUE}{where}"], err
+    # the first bad value's line (every bad value is told: the flow sweep's 0.2 too)
+    assert status == 2 and err[0] == f"{OBLIQUE}{where}", err
     assert not (tmp_path / "out").exists()
 
 
@@ -374,3 +375,18 @@ def test_a_value_flown_as_a_dropped_paths_fallback_is_not_listed_as_not_flown() 
     assert left[("environment.preset",)] == ("ab_small_meander",)
     assert 0.0 not in left[("maintain_plume.beta1_deg",)]
     assert 5.0 not in left[("maintain_plume.beta1_deg",)]
+
+
+def test_every_bad_swept_value_is_reported_not_the_first_alone(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A review fixed and validated again once per bad value."""
+    from cptbt.cli import main
+
+    status = main(["batch", str(OBLIQUE), "--grid", "1x1", "--sweep",
+                   "reacquire_plume.d_leaf_m=-1,abc,5", "--out", str(tmp_path / "s")])
+    err = capsys.readouterr().err
+    assert status == 2 and not (tmp_path / "s").exists()
+    assert "(with sweep reacquire_plume.d_leaf_m=-1)" in err
+    assert "(with sweep reacquire_plume.d_leaf_m=abc)" in err
+    assert "d_leaf_m=5" not in err
