@@ -53,19 +53,13 @@ def mcnemar(b: int, c: int) -> float:
     return min(1.0, 2 * tail)
 
 
-def paired_table(groups: dict[str, Rows]) -> list[str]:
-    """Each configuration against the first of its world, run by run (a review: the runs are
-    paired, the tables compared only each configuration's own intervals).
-
-    Runs pair by (replicate, start): the same plume, start and vehicle noise. Configurations
-    that differ in a swept setting of the simulated world (``changes_world``: the flow, the
-    plume, the OpArea; not the vehicle or its sensors) fly other worlds and are not paired;
-    each is set against the first configuration of its own world. Success: the runs only one
-    of the two succeeded in, with the exact McNemar p on them; time: the mean paired
-    difference over the runs both succeeded in, with its standard error.
-    """
-    if len(groups) < 2:
-        return []
+def pairings(groups: dict[str, Rows]) -> tuple[bool, list[tuple[str, str, list[tuple[Any, Any]]]]]:
+    """Each configuration with the first of its world and their runs paired by (replicate,
+    start): whether a swept setting changes the world (configurations are then set against
+    the first of their own world only), and (label, base, pairs) for every configuration that
+    has a base other than itself. Configurations that differ in a swept setting of the
+    simulated world (``changes_world``: the flow, the plume, the OpArea; not the vehicle or its
+    sensors) fly other worlds and are not paired."""
     world_keys = sorted({k for rows in groups.values() for r in rows[:1] for k in r
                          if changes_world(k)})
 
@@ -75,25 +69,41 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
     first: dict[tuple[Any, ...], str] = {}
     for label, rows in groups.items():
         first.setdefault(world(rows), label)
-    if len(first) == len(groups):  # every configuration a world of its own: none pairs
+    out = []
+    for label, rows in groups.items():
+        base = first[world(rows)]
+        if base == label:
+            continue
+        there = {(r.get("replicate"), r.get("start")): r for r in groups[base]}
+        out.append((label, base, [(r, there[k]) for r in rows
+                                  if (k := (r.get("replicate"), r.get("start"))) in there]))
+    return bool(world_keys), out
+
+
+def paired_table(groups: dict[str, Rows]) -> list[str]:
+    """Each configuration against the first of its world, run by run (a review: the runs are
+    paired, the tables compared only each configuration's own intervals).
+
+    Runs pair by (replicate, start): the same plume, start and vehicle noise (:func:`pairings`).
+    Success: the runs only one of the two succeeded in, with the exact McNemar p on them; time:
+    the mean paired difference over the runs both succeeded in, with its standard error.
+    """
+    if len(groups) < 2:
+        return []
+    worlds, paired = pairings(groups)
+    if not paired:  # every configuration a world of its own: none pairs
         return []
     lines = ["", "## Paired comparisons", "",
              "Each configuration against the first"
              + (" of its world (the same swept settings of the simulated world)"
-                if world_keys else "")
+                if worlds else "")
              + ", run by run on the same plume, start and vehicle noise: the runs only one "
              "of the two succeeded in (exact McNemar p on those), and the mean time difference "
              "over the runs both succeeded in (this minus the first, ± SE).", "",
              "| configuration | against | pairs | succeeded only here / only there | McNemar p "
              "| time difference (s) | both succeeded |",
              "|---|---|---:|---:|---:|---:|---:|"]
-    for label, rows in groups.items():
-        base = first[world(rows)]
-        if base == label:
-            continue
-        there = {(r.get("replicate"), r.get("start")): r for r in groups[base]}
-        pairs = [(r, there[k]) for r in rows
-                 if (k := (r.get("replicate"), r.get("start"))) in there]
+    for label, base, pairs in paired:
         here_only = sum(bool(a.get("success")) and not b.get("success") for a, b in pairs)
         there_only = sum(bool(b.get("success")) and not a.get("success") for a, b in pairs)
         d = np.array([time_to_source(a) - time_to_source(b) for a, b in pairs

@@ -109,3 +109,27 @@ def maintain_figure(groups: dict[str, Rows], path: Path, plt: Any) -> Path | Non
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def maintain_paired_table(groups: dict[str, Rows]) -> list[str]:
+    """T_M of each configuration against the first of its world, run by run over the runs
+    that made a contact in both (a review recomputed Fig. 9's β differences with paired SEs,
+    smaller than the unpaired ones the figure shows)."""
+    from cptbt.batch.comparison import pairings
+
+    worlds, paired = pairings(groups) if len(groups) > 1 else (False, [])
+    if not paired:
+        return []
+    lines = ["## Paired maintain times", "",
+             "Each configuration against the first" + (" of its world" if worlds else "")
+             + ", run by run on the same plume and start: the mean difference in T_M (this "
+             "minus the first) over the runs with a contact in both, ± its paired SE.", "",
+             "| configuration | against | pairs with a contact in both | T_M difference (s) |",
+             "|---|---|---:|---:|"]
+    for label, base, pairs in paired:
+        d = [float(a["T_M"]) - float(b["T_M"]) for a, b in pairs
+             if _t_m([a]) and _t_m([b])]
+        m, se = _mean_se(d)
+        lines.append(f"| {label} | {base} | {len(d)} | "
+                     + ("—" if not d else f"{m:.1f} ± {_se_text(se)}") + " |")
+    return [*lines, ""]

@@ -24,7 +24,12 @@ from cptbt.batch.comparison import (
     time_to_source,
 )
 from cptbt.batch.figures import pyplot
-from cptbt.batch.maintain_report import is_maintain_study, maintain_figure, maintain_table
+from cptbt.batch.maintain_report import (
+    is_maintain_study,
+    maintain_figure,
+    maintain_paired_table,
+    maintain_table,
+)
 from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.frames import PlanningFrame
 
@@ -362,7 +367,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
     if failed:
         lines += [f"**{failed}**", ""]
     if is_maintain_study(every):  # what such a study measures comes first
-        lines += [*maintain_table(groups), ""]
+        lines += [*maintain_table(groups), "", *maintain_paired_table(groups)]
     # Several true sources: a run succeeds only when it finds every one, and a rule that can
     # declare one source alone fails every run with no false declaration and a small error;
     # how many sources were found says what the success rate does not.

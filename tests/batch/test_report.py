@@ -658,3 +658,18 @@ def test_a_start_at_the_source_is_said_under_the_arrival_criterion() -> None:
     tro = load(str(root / "missions" / "tro2006_msn007.yaml"), simulate=True)
     src = tro.to_xy(tro.environment.source)  # type: ignore[union-attr]
     assert starts_at_a_source(tro, [(src.x, src.y)]) is None  # a declaration is still to make
+
+
+def test_a_maintain_study_pairs_t_m_run_by_run() -> None:
+    """A review recomputed AB Fig. 9's β differences with paired SEs (smaller than the
+    unpaired ones shown): the tables give them."""
+    from cptbt.batch.maintain_report import maintain_paired_table
+
+    base = [3.0, 5.0, 7.0, 9.0]
+    groups = {f"beta1_deg={b}": [{"replicate": r, "start": 0, "criterion": "maintain",
+                                   "T_M": t + (1.0 + 0.1 * r if b else 0.0)}
+                                  for r, t in enumerate(base)] for b in (0, 10)}
+    groups["beta1_deg=10"][3]["T_M"] = None  # no contact: left out of the pairs
+    lines = maintain_paired_table(groups)
+    assert "| beta1_deg=10 | beta1_deg=0 | 3 | 1.1 ± 0.1 |" in lines, lines
+    assert maintain_paired_table({"a": groups["beta1_deg=0"]}) == []
