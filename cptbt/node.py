@@ -198,7 +198,8 @@ class PlanBehaviour(py_trees.behaviour.Behaviour):
         try:
             cmd = self.decide(self.context.percept)
         except Exception as exc:
-            raise blamed(exc, self, self.context.percept.t) from None
+            blamed(exc, self, self.context.percept.t)
+            raise  # as raised, its own chain kept (a diff review: "from None" had cut it)
         if cmd is not None and not isinstance(cmd, Command):
             raise blamed(TypeError(f"decide() returned {type(cmd).__name__} {cmd!r:.60}: return "
                                    "a Command (self.command(heading_deg, speed_mps)) or None"),
@@ -288,5 +289,6 @@ class Watch(py_trees.behaviour.Behaviour):
         try:
             self.behaviour.watch(context.percept)
         except Exception as exc:
-            raise blamed(exc, self.behaviour, context.percept.t) from None
+            blamed(exc, self.behaviour, context.percept.t)
+            raise
         return Status.SUCCESS

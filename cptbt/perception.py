@@ -26,6 +26,11 @@ STUCK_FLOOR = 1e-12
 """Readings no farther from zero than this are never taken for a stuck sensor: a low-pass
 filter's output decays to the smallest float (5e-324) in clean water and stays there exactly."""
 
+LATE_SAMPLE_S = 1.0
+"""A fluorometer sample stamped more than this (or a planning period, if longer) before the
+previous cycle is late: placed where the vehicle is now, its plume would be 1.5 m or more from
+where it was sampled, at REMUS speed."""
+
 MAX_CLOCK_JUMP_S = 3600.0
 """A cycle stamped more than this after the previous one is taken as a corrupt or re-based
 stamp (corrected as a step back is), not as that much elapsed time: no mission runs this long
@@ -98,8 +103,9 @@ class Perception:
       value that long, to the last bit, more than :data:`STUCK_FLOOR` from zero) until it
       changes; a cycle with no sample left has a NaN
       concentration, which no behaviour takes for plume or for clean water; a sample stamped
-      more than one period before the previous cycle (a late delivery: its plume was where the
-      vehicle no longer is) is dropped and counted (``late_samples``);
+      more than :data:`LATE_SAMPLE_S` (or the nominal period, if longer) before the previous
+      cycle (a late delivery: its plume was where the vehicle no longer is) is dropped and
+      counted (``late_samples``), unless that cycle finds the clock stepped back;
     - flow: non-finite samples and samples faster than ``max_flow_speed_mps`` (fill values such
       as 9.97e36, spikes) are dropped; the windowed vector mean is summed afresh each cycle with
       :func:`math.fsum`, so no sample outlives its window and no running sum loses precision;
@@ -124,6 +130,10 @@ class Perception:
                  nominal_period_s: float = 1.0) -> None:
         self.op_area = op_area
         self.nominal_period_s = nominal_period_s
+        # A sample stamped more than this before the previous cycle is late: the nominal
+        # period, or LATE_SAMPLE_S if longer (the measured period, up to 60 s, had dropped a
+        # 10-Hz mission's samples at 0.25 s of latency and kept a minute-old one: a review).
+        self.late_after_s = max(LATE_SAMPLE_S, nominal_period_s)
         self.settings = settings or PerceptionSettings()
         self.threshold = self.settings.threshold
         self.lambda_s = self.settings.lambda_s
@@ -148,7 +158,10 @@ class Perception:
         self.stuck_samples = 0
         self.missing_samples = 0  # fluorometer samples not finite (dropouts)
         self.rejected_fixes = 0  # navigation fixes ignored as impossibly far out
-        self.late_samples = 0  # fluorometer samples stamped before the previous cycle's period
+        self.late_samples = 0  # fluorometer samples stamped well before the previous cycle
+        self._held_max = -math.inf  # such samples of this cycle, held until it closes ...
+        self._held_n = 0  # ... how many ...
+        self._held_t = math.nan  # ... and the latest one's stamp
         self._run_value = math.nan  # the latest sample, and since when it has read so
         self._run_t = math.nan
         self.latest: Percept | None = None
@@ -180,15 +193,15 @@ class Perception:
             self.missing_samples += 1
             return  # a dropout between two frozen readings does not unfreeze the sensor
         if (math.isfinite(self._t_prev) and usable_stamp(t)
-                and self._clock(t) < self._t_prev - self._period - TIME_EPS_S):
-            # taken before the previous cycle's period: placed at the present pose it would
-            # be a detection where the vehicle is not (a review's samples 20 s late declared a
-            # source 15.7 m off, nothing said)
-            self.late_samples += 1
-            n = self.late_samples
-            level = logging.WARNING if n == 10 ** int(math.log10(n) + 1e-9) else logging.DEBUG
-            log.log(level, "fluorometer sample stamped %g s reached the planner after its "
-                    "cycle at %g s: dropped (%d so far)", t, self._t_prev, n)
+                and self._clock(t) < self._t_prev - self.late_after_s - TIME_EPS_S):
+            # Taken well before the previous cycle: placed at the present pose it would be a
+            # detection where the vehicle is not (a review's samples 20 s late declared a
+            # source 15.7 m off, nothing said). Held aside until the next cycle says whether
+            # the clock stepped back instead (a diff review: a step back had dropped the next
+            # cycle's samples, called late): then they count; else they are dropped, counted.
+            self._held_max = max(self._held_max, concentration)
+            self._held_n += 1
+            self._held_t = t
             return
         if self.settings.stuck_after_s is not None and self._stuck(self._clock(t), concentration):
             self.stuck_samples += 1
@@ -292,7 +305,22 @@ class Perception:
 
         The percept's ``t`` is the planner clock (equal to ``t`` unless the clock stepped back).
         """
+        corrected = self.clock_corrections
         t = self._cycle_time(t)
+        if self._held_n:
+            if self.clock_corrections > corrected:  # the clock stepped back: on the new clock
+                self._cycle_max = max(self._cycle_max, self._held_max)
+            else:
+                before = self.late_samples
+                self.late_samples += self._held_n
+                n = self.late_samples
+                # said the first time and at each power of ten passed, not every cycle
+                loud = before == 0 or int(math.log10(n)) > int(math.log10(before))
+                log.log(logging.WARNING if loud else logging.DEBUG,
+                        "%d fluorometer sample%s (the latest stamped %g s) reached the planner "
+                        "after their cycle: dropped as late (%d so far)", self._held_n,
+                        "s" * (self._held_n != 1), self._held_t, n)
+            self._held_max, self._held_n = -math.inf, 0
         pose = self._pose
         conc = self._cycle_max if self._cycle_max > -math.inf else math.nan
         self._cycle_max = -math.inf

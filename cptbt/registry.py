@@ -274,7 +274,10 @@ def _check_params(spec: BehaviourSpec) -> None:
     if not (isinstance(params, type) and issubclass(params, BehaviourParams)):
         raise RegistryError(f"{where}: its Params ({getattr(params, '__name__', params)!r}) is "
                             "not a cptbt.node.BehaviourParams subclass: derive it from one")
-    given = {name: f.default for name, f in params.model_fields.items()
+    # by the key the model reads (an alias: validated by name, a plug-in's aliased field had
+    # been refused as an extra key, a diff review)
+    given = {(f.validation_alias if isinstance(f.validation_alias, str) else f.alias or name):
+             f.default for name, f in params.model_fields.items()
              if not f.is_required() and f.default_factory is None}
     try:
         params.model_validate(given)

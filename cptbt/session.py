@@ -46,11 +46,21 @@ RETAKE_S = 2.0
 """A take the vehicle has not granted is sent again this often (vehicle clock), s."""
 
 NAV_TIMEOUT_S = 5.0
-"""Under override, the AMP gives back (``amp_abort``) when the vehicle's other reports have run
-this long (vehicle clock), or three planning cycles if longer, past its latest usable
-navigation: without a position the planner cannot tick, and safety cannot keep the vehicle in
-(a review's NaN positions, and a frozen navigation clock, left the vehicle on its last command
-until its own 30-s watchdog, 18 m outside an 80-m OpArea)."""
+"""Under override, the AMP gives back (``amp_abort``) when the vehicle's reports have run this
+long, or three planning cycles if longer, since its latest usable position: without a position
+the planner steers by a stale one, and safety cannot keep the vehicle in (a review's NaN
+positions, and a frozen navigation clock, left the vehicle on its last command until its own
+30-s watchdog, 18 m outside an 80-m OpArea). The time is the reports' own forward steps, each
+counted up to :data:`MAX_REPORT_STEP_S` (one corrupt stamp of 4e9 s adds that much, not 4e9 s),
+a step back of the clock adding nothing and counting on from the new time (a vehicle's computer
+restarted without navigation is timed out 5 s later, not once its clock has caught up)."""
+
+MAX_REPORT_STEP_S = 1.0
+"""The most one report's stamp counts toward :data:`NAV_TIMEOUT_S` past the latest before it."""
+
+CLOCK_STEP_BACK_S = 2.0
+"""A report stamped this far before the latest is taken as the clock stepped back: the time
+without navigation counts on from it (a sample a little out of order is not)."""
 
 
 class AmpSession:
@@ -95,9 +105,13 @@ class AmpSession:
         self._elapsed_t = math.nan  # the vehicle time amp_elapsed_s was last brought up to
         self._dock_t: float | None = None  # the vehicle's latest report at the dock (pre_launch)
         self.joined = False  # the first report showed the vehicle under way: no take-over
-        self._heard_t = -math.inf  # the latest time stamp of any report (not only navigation)
+        self._heard_t = -math.inf  # the reports' clock, as the navigation timeout counts it
+        self._without_fix_s = 0.0  # the reports' time since the latest usable position
         self._fix_t = -math.inf  # the time of the latest report with a usable position
         self._nav_timeout = max(NAV_TIMEOUT_S, 3 * self._period)
+        self._launch_base: float | None = None  # the vehicle time the launch counts from
+        self._launch_offset = 0.0  # the clock's steps back since the launch, added back
+        self._launch_prev_t = math.nan  # the latest state time since the launch
 
     @property
     def t(self) -> float:
@@ -118,11 +132,11 @@ class AmpSession:
         if self.state is None:
             return
         t = self.t
-        if self.in_override and self._heard_t - self._fix_t >= self._nav_timeout:
+        if self.in_override and self._without_fix_s >= self._nav_timeout:
             self.link.send(OverrideRelease())
-            self.phases.fire("amp_abort", self._heard_t, "no usable navigation for "
-                             f"{self._heard_t - self._fix_t:g} s (the latest usable position "
-                             f"at t = {self._fix_t:g} s)")
+            self.phases.fire("amp_abort", t, "no usable navigation for "
+                             f"{self._without_fix_s:.3g} s of the vehicle's reports (the latest "
+                             f"usable position at t = {self._fix_t:g} s)")
             return
         if self.phases.state == "mission_a.waypoints" and self._enable_due():
             self.link.send(OverrideRequest())
@@ -214,17 +228,26 @@ class AmpSession:
                     return None
         return dataclasses.replace(s, **fixes) if fixes else s
 
-    def _handle(self, msg: object) -> None:
-        stamp = getattr(msg, "t_s", math.nan)
-        if isinstance(stamp, float) and math.isfinite(stamp):
-            # the latest, not the largest: after a step back of the clock, the new time
+    def _heard(self, stamp: object) -> None:
+        """Count a report's time toward the navigation timeout (:data:`NAV_TIMEOUT_S`)."""
+        if not (isinstance(stamp, float) and math.isfinite(stamp)):
+            return
+        if not math.isfinite(self._heard_t) or stamp < self._heard_t - CLOCK_STEP_BACK_S:
+            self._heard_t = stamp  # the first report, or the clock stepped back: on from here
+            return
+        if stamp > self._heard_t:
+            self._without_fix_s += min(stamp - self._heard_t, MAX_REPORT_STEP_S)
             self._heard_t = stamp
+
+    def _handle(self, msg: object) -> None:
+        self._heard(getattr(msg, "t_s", math.nan))
         if isinstance(msg, VehicleState):
             state = self._sane(msg)
             if state is None:
                 return
             if state.x_m == msg.x_m and state.y_m == msg.y_m:  # its own position, not the last
                 self._fix_t = state.t_s
+                self._without_fix_s = 0.0
             self.state = state
             self._follow_vehicle_mode(state)
         elif isinstance(msg, FlowSample):
@@ -243,8 +266,12 @@ class AmpSession:
 
     def _follow_vehicle_mode(self, s: VehicleState) -> None:
         ph = self.phases
-        if s.mode == "pre_launch":
+        if s.mode == "pre_launch" and ph.state == "pre_launch":
             self._dock_t = s.t_s
+        if self._launch_base is not None:  # after the launch: the clock's steps back added back
+            if s.t_s < self._launch_prev_t:
+                self._launch_offset += self._launch_prev_t - s.t_s
+            self._launch_prev_t = s.t_s
         if ph.state == "pre_launch" and s.mode != "pre_launch":
             if self._dock_t is None:
                 # A session started while the vehicle was under way (a restarted serve, after a
@@ -257,6 +284,11 @@ class AmpSession:
                 log.warning(why)
                 ph.fire("launch", s.t_s, why)
             else:
+                # Counted from the last report at the dock, or from this one if the clock
+                # restarted at the launch (a front seat on mission time: the dock's reports on
+                # time since boot had put the take-over a boot's length late, a review).
+                self._launch_base = self._dock_t if s.t_s >= self._dock_t else s.t_s
+                self._launch_prev_t = s.t_s
                 ph.fire("launch", s.t_s)
         if s.mode == "post_mission" and ph.state != "post_mission":
             ph.fire("mission_a_complete", s.t_s)
@@ -268,16 +300,20 @@ class AmpSession:
 
     def _enable_due(self) -> bool:
         """Whether the take-over is due: ``amp_enable_s`` after the launch, timed from the
-        vehicle's last report at the dock (the launch came after it, by at most one report;
-        the vehicle's clock need not read 0 there: a review's ArduSub, booted 10 minutes before
-        the launch, was taken over at once on its time since boot), or on passing waypoint
+        vehicle's last report at the dock (the launch came after it, by at most one report; from
+        the first report under way if the clock restarted at the launch), its steps back added
+        back: the vehicle's clock need not read 0 at the launch (a review's ArduSub, booted 10
+        minutes before the launch, was taken over at once on its time since boot), and a
+        ``pre_launch`` reported again under way moves nothing; or on passing waypoint
         ``amp_enable_waypoint``; never in a session that did not see the launch."""
         assert self.state is not None
         if self.joined:
             return False
         if self.spec.amp_enable_s is not None:
-            assert self._dock_t is not None  # not joined: it was seen at the dock
-            return self.state.t_s - self._dock_t + 1e-9 >= self.spec.amp_enable_s
+            if self._launch_base is None:  # not launched yet
+                return False
+            since = self.state.t_s + self._launch_offset - self._launch_base
+            return since + 1e-9 >= self.spec.amp_enable_s
         assert self.spec.amp_enable_waypoint is not None
         return self.state.waypoints_reached > self.spec.amp_enable_waypoint
 

@@ -72,7 +72,9 @@ class MavlinkCodec:
         self.parser = mw.DatagramParser(mw.VEHICLE_SYSTEM, mw.VEHICLE_COMPONENT)
         self.mav = mw.encoder(mw.VEHICLE_SYSTEM, mw.VEHICLE_COMPONENT)
         self.modes_shown: list[str] = []
-        self._mode = "pre_launch"
+        # none said yet: the first state goes out with a HEARTBEAT, as an ArduSub's 1-Hz one
+        # precedes its positions (the AMP takes no position before a HEARTBEAT's mode)
+        self._mode: str | None = None
         self._reached = 0
         self._pending: list[bytes] = []
         self._extra: dict[str, int] = {"set_mode_refused": 0, "setpoints": 0}

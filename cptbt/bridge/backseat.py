@@ -27,8 +27,9 @@ than :data:`MAX_DATAGRAM` bytes. It never raises on what arrives from the wire. 
 (by ``seq``) than one already handled is a delayed packet: it is dropped (and counted), so a late
 datagram cannot look like the vehicle's clock stepping back. A ``seq`` that falls back by more
 than :data:`SEQ_RESTART_GAP` is taken as the sender restarting, and so is a rising run of
-:data:`RESTART_RUN` late navs that counts from :data:`RESTART_FROM` or less, or whose clock is
-not behind the last nav's (a backlog of delayed navs, flushed in order, is neither).
+:data:`RESTART_RUN` late navs whose clock is not behind the last nav's, or that counts from
+:data:`RESTART_FROM` or less, :data:`RESTART_DROP` or more below the last (a backlog of delayed
+navs, flushed in order, is neither).
 """
 
 from __future__ import annotations
@@ -67,12 +68,19 @@ SEQ_RESTART_GAP = 1000
 """A ``seq`` this far below the last one means the sender restarted, not a late packet."""
 RESTART_RUN = 5
 """This many navs in a row below the last one, each above the one before, also mean the sender
-restarted, when the run counts from a small number (:data:`RESTART_FROM`) or its clock is not
-behind the last nav's: a backlog of delayed navs flushed in order (a serial or radio buffer)
-rises too, but from near the last count and on older times (a review's 10-s backlog had been
-taken for a restart, and the AMP had steered by a 10-s-old fix)."""
+restarted, when its clock is not behind the last nav's, or it counts from a small number
+(:data:`RESTART_FROM`) far below the last (:data:`RESTART_DROP`): a backlog of delayed navs
+flushed in order (a serial or radio buffer) rises too, but from near the last count and on older
+times (a review's 10-s backlog had been taken for a restart, and the AMP had steered by a
+10-s-old fix)."""
 RESTART_FROM = 100
-"""A rising run of late navs that starts at or below this ``seq`` is a count started again."""
+"""A rising run of late navs that starts at or below this ``seq``, at least :data:`RESTART_DROP`
+below the last, is a count started again (its clock restarted with it)."""
+RESTART_DROP = 200
+"""How far below the last ``seq`` a run from :data:`RESTART_FROM` must start to be a restart: a
+backlog flushed early in a mission also counts from a small number, but from near the last (a
+diff review's 60..79 after 80, 10 Hz, had been taken for a restart). A sender restarted within
+its first 200 navs is heard again once its count passes the old one."""
 
 MODES: tuple[str, ...] = get_args(VehicleMode)
 END_REASONS = ("released", "watchdog", "mission_end")
@@ -304,7 +312,8 @@ class Decoder:
             if not rising:
                 self._late_from = seq
             self._late_seq = seq
-            anew = self._late_from <= RESTART_FROM or t >= self._last_nav_t
+            anew = t >= self._last_nav_t or (self._late_from <= RESTART_FROM
+                                              and last - self._late_from >= RESTART_DROP)
             if self._late_run < RESTART_RUN or not anew:
                 return False
             self.counts["restarts"] += 1

@@ -116,7 +116,8 @@ class MavlinkLink:
             self.udp = UdpEndpoint((uri.host, uri.port))
         self.parser = mw.DatagramParser(mw.AMP_SYSTEM, mw.AMP_COMPONENT)
         self.mav = mw.encoder(mw.AMP_SYSTEM, mw.AMP_COMPONENT)
-        self.counts: dict[str, int] = {"late": 0, "vehicle_heartbeats": 0, "other_system": 0,
+        self.counts: dict[str, int] = {"late": 0, "before_heartbeat": 0,
+                                       "vehicle_heartbeats": 0, "other_system": 0,
                                        "acks_refused": 0, "mode_requests_repeated": 0}
         self.target = (mw.VEHICLE_SYSTEM, mw.VEHICLE_COMPONENT)
         self._last_heard: float | None = None
@@ -307,6 +308,12 @@ class MavlinkLink:
             return
         self._t_nav = self._t = t
         self._xy = (x, y)
+        if self._custom is None:
+            # no HEARTBEAT yet: the mode is not known, and read as "disarmed" it said pre_launch,
+            # which a session takes for the dock (a diff review: a restarted serve saw a
+            # position before the first HEARTBEAT and took over a vehicle already under way)
+            self.counts["before_heartbeat"] += 1
+            return
         compass = hdg if hdg is not None else self._yaw_deg
         heading = self.frames.planning_deg(compass) if compass is not None else math.nan
         self._out.append(VehicleState(

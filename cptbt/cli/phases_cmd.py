@@ -50,8 +50,9 @@ def cmd_phases(args: argparse.Namespace) -> int:
         print(f"  watchdog_timeout: no accepted command for {spec.watchdog_s:g} s")
         print(f"  command_refused: speed outside [{lim.min_speed_mps:g}, {lim.max_speed_mps:g}]"
               f" m/s, depth outside [0, {lim.max_depth_m:g}] m, or a heading not finite")
+        nav = max(5.0, 3.0 / mission.cycle_hz)
         print("  amp_abort: the operator stops, the link falls silent, an internal error, or "
-              "5 s without a usable position")
+              f"{nav:g} s of the vehicle's reports without a usable position")
     print(frame_line(mission))
     if args.dot:
         Path(args.dot).write_text(to_dot(), encoding="utf-8")

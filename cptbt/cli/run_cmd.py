@@ -319,29 +319,36 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UsageError(f"run: --log {args.log} is one of the files the run writes in {out}")
     # the log first: a bad --log leaves no empty output folder behind
     cycle_log = _open_log(args, mission, seed)  # a bad --log: UsageError, exit 2
-    source = Point(*params.source_xy_m)
-    sources = [source, *(Point(*xy) for xy in params.extra_sources_xy_m)]
-    waypoints = None
-    grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
-    if mission.mission_a is not None:  # the AMP as a guest inside the vehicle's Mission A
-        try:
-            phased, world, wall = simulate_phased(
-                mission, params, trace=True, plume_grid=grid,
-                planner=cycle_log.planner if cycle_log else None,
-                observers=[cycle_log] if cycle_log else ())
-        finally:
-            if cycle_log is not None:
-                cycle_log.close()
-        run, waypoints = phased.amp, phased.waypoints
-        summary = summarise(run, mission, source, seed, wall, t0=phased.t_amp_start or 0.0,
-                            sources=sources).to_dict()
-        summary["phases"] = phase_summary(phased, mission)
-    else:
-        (run,), world, wall = simulate(mission, params, [launch_pose(mission)], trace=True,
-                                       plume_grid=grid)
-        summary = summarise(run, mission, source, seed, wall, sources=sources).to_dict()
-    # made once the run has flown: a run that stopped on an error leaves no empty folder
+    # made before the flight, so an unusable --out is said at once (a diff review: after a
+    # whole flight), and taken away again if the run stops on an error: no empty folder
+    made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
+    try:
+        source = Point(*params.source_xy_m)
+        sources = [source, *(Point(*xy) for xy in params.extra_sources_xy_m)]
+        waypoints = None
+        grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
+        if mission.mission_a is not None:  # the AMP as a guest inside the vehicle's Mission A
+            try:
+                phased, world, wall = simulate_phased(
+                    mission, params, trace=True, plume_grid=grid,
+                    planner=cycle_log.planner if cycle_log else None,
+                    observers=[cycle_log] if cycle_log else ())
+            finally:
+                if cycle_log is not None:
+                    cycle_log.close()
+            run, waypoints = phased.amp, phased.waypoints
+            summary = summarise(run, mission, source, seed, wall, t0=phased.t_amp_start or 0.0,
+                                sources=sources).to_dict()
+            summary["phases"] = phase_summary(phased, mission)
+        else:
+            (run,), world, wall = simulate(mission, params, [launch_pose(mission)], trace=True,
+                                           plume_grid=grid)
+            summary = summarise(run, mission, source, seed, wall, sources=sources).to_dict()
+    except BaseException:
+        if made and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()
+        raise
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     trace_path = write_trace(run, out)
     figure = None

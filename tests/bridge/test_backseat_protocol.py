@@ -184,3 +184,13 @@ def test_an_ignored_line_says_why_in_the_log(caplog: pytest.LogCaptureFixture) -
     said = [r.getMessage() for r in caplog.records]
     assert len(said) == 2 and "invalid, 10 so far" in said[1], said
     assert "waypoints_reached" in said[0]
+
+
+def test_a_backlog_early_in_a_mission_is_no_restart_either() -> None:
+    """A diff review: navs 60..79 flushed after 80 (10 Hz) counted from a small number and
+    were taken for a restart, 16 old fixes accepted as fresh."""
+    d = Decoder()
+    for k in range(1, 81):
+        d.feed(encode(VehicleState(k / 10, 0, 0, 0, 1), k))
+    backlog = [d.feed(encode(VehicleState(k / 10, 0, 0, 0, 1), k)) for k in range(60, 80)]
+    assert not any(backlog) and d.counts["restarts"] == 0

@@ -245,3 +245,16 @@ def test_a_lost_take_or_give_is_asked_again() -> None:
         assert w.link.stats()["mode_requests_repeated"] == 2
     finally:
         w.close()
+
+
+def test_a_position_before_the_first_heartbeat_says_no_mode(wire: Wire) -> None:
+    """A diff review: positions heard before the vehicle's first HEARTBEAT read as pre_launch
+    (base mode 0: disarmed), which a restarted session took for the dock, and so it took over a
+    vehicle already under way. They give no vehicle state until a HEARTBEAT says the mode."""
+    wire.codec._mode = "mission"  # as if the HEARTBEAT had gone out before the AMP listened
+    early = wire.send(VehicleState(5000.0, 1.0, 2.0, 0.0, 1.5, 3.0, "mission", 4))
+    assert not [m for m in early if isinstance(m, VehicleState)]
+    assert wire.link.stats()["before_heartbeat"] == 1
+    heard = wire.raw(wire.codec.heartbeat(5000.5, "mission"))
+    later = heard + wire.send(VehicleState(5001.0, 1.0, 2.0, 0.0, 1.5, 3.0, "mission", 4))
+    assert [m.mode for m in later if isinstance(m, VehicleState)] == ["mission"]

@@ -54,7 +54,8 @@ def test_dropped_delayed_and_junk_datagrams_are_survived_and_counted(msn007) -> 
     assert stats["oversized"] > 25 and stats["malformed"] > 25  # counted, never raised
     assert stats["late"] > 25  # delayed positions dropped, not taken for a clock step back
     assert triggers(result)[:2] == ["launch", "amp_enable"]
-    assert codec.modes_shown[:2] == ["mission", "override"]  # the lost take was not fatal
+    # the first HEARTBEAT says the dock; the lost take was not fatal
+    assert codec.modes_shown[:3] == ["pre_launch", "mission", "override"]
     assert vehicle.commands_heard > 40 and "watchdog" not in vehicle.override_ended
     # The double stopped at 120 s: its heartbeat fell silent, and the AMP gave back.
     assert result.stop_reason == "link_lost" and result.handed_back
@@ -129,4 +130,4 @@ def test_an_internal_error_hands_back_and_the_vehicle_restores_its_mode(msn007) 
     assert result.stop_reason == "error" and result.handed_back
     assert "RuntimeError: boom" in result.error and triggers(result)[-1] == "amp_abort"
     assert vehicle.override_ended == ["released"]  # the mode change back reached the vehicle
-    assert codec.modes_shown[:3] == ["mission", "override", "returning"]
+    assert codec.modes_shown[:4] == ["pre_launch", "mission", "override", "returning"]

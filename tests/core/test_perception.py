@@ -324,3 +324,30 @@ def test_a_sample_delivered_after_its_cycle_is_dropped_and_counted() -> None:
     per = p.cycle(12.0)
     assert math.isnan(per.concentration) and not per.detected
     assert p.faults()["late_samples"] == 1
+
+
+def test_a_clock_step_back_is_no_late_delivery() -> None:
+    """A diff review: after the clock stepped back 60 s, the next cycle's in-plume samples were
+    dropped as late; held until the cycle, they count once it finds the step."""
+    p = make()
+    p.set_pose(Pose(50, 0))
+    for t in range(100, 111):
+        p.cycle(float(t))
+    for k in range(1, 10):
+        p.add_sample(50.0 + k / 10, 0.9)
+    per = p.cycle(51.0)
+    assert per.concentration == 0.9 and per.detected
+    assert p.faults()["late_samples"] == 0 and p.faults()["clock_corrections"] == 1
+
+
+def test_lateness_is_judged_against_a_second_not_a_10_hz_period() -> None:
+    """A diff review: at 10 Hz, the measured period (0.1 s) dropped every sample of a steady
+    0.25-s latency; the measured period after a gap (up to 60 s) kept a minute-old one."""
+    p = Perception(AREA, PerceptionSettings(threshold=0.2, lambda_s=2.0), nominal_period_s=0.1)
+    p.set_pose(Pose(50, 0))
+    p.cycle(10.0)
+    p.add_sample(9.75, 0.5)  # 0.25 s of latency
+    assert p.cycle(10.1).concentration == 0.5
+    p.cycle(70.0)  # a 60-s gap
+    p.add_sample(15.0, 5.0)
+    assert math.isnan(p.cycle(70.1).concentration) and p.faults()["late_samples"] == 1

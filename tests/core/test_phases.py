@@ -412,8 +412,11 @@ def test_no_usable_navigation_under_override_gives_back() -> None:
         step(s, link, ConcentrationSample(101.0 + 0.1 * k, 0.0))
     assert s.phases.state == "amp.give_back" and isinstance(link.sent[-1], OverrideRelease)
     gave = s.phases.timeline[-1]
-    assert gave.trigger == "amp_abort" and gave.t_s == pytest.approx(106.0)
-    assert gave.detail == "no usable navigation for 5 s (the latest usable position at t = 101 s)"
+    assert gave.trigger == "amp_abort" and gave.t_s == 101.0  # the vehicle time it last said
+    assert gave.detail == ("no usable navigation for 5 s of the vehicle's reports (the latest "
+                           "usable position at t = 101 s)")
+    assert len(s.phases.timeline) == 3  # launch, take-over, abort: and only after 5 s
+    # fired at the 50th sample (5 s), not before: samples 1..49 left the override standing
 
 
 def test_a_held_position_is_no_usable_navigation_for_long() -> None:
@@ -426,3 +429,49 @@ def test_a_held_position_is_no_usable_navigation_for_long() -> None:
         assert step(s, link, state(101.0 + k, "override", x=math.nan)) == "amp.override"
     assert step(s, link, state(106.0, "override", x=math.nan)) == "amp.give_back"
     assert s.phases.timeline[-1].trigger == "amp_abort"
+
+
+def test_a_corrupt_stamp_is_not_taken_for_time_without_navigation() -> None:
+    """A diff review: one flow sample stamped 4e9 s (or samples on a clock 6 s ahead) ended the
+    AMP's search at once; a report's stamp counts at most a second past the one before."""
+    s, link, _ = session()
+    into_override(s, link)
+    step(s, link, state(101.0, "override"), FlowSample(4e9, 0.1, 0.0),
+         ConcentrationSample(1e20, 0.0))
+    assert step(s, link, state(101.5, "override")) == "amp.override"
+    for k in range(20):  # samples 6 s ahead of the navigation, navigation on time
+        assert step(s, link, ConcentrationSample(108.0 + 0.1 * k, 0.0),
+                    state(102.0 + 0.1 * k, "override")) == "amp.override"
+
+
+def test_no_navigation_after_a_clock_step_back_is_timed_out_on_the_new_clock() -> None:
+    """A diff review: a vehicle computer restarted (its clock from 0, no position while its
+    navigation starts) kept the override 254 s, until the new clock passed the last fix."""
+    s, link, _ = session()
+    into_override(s, link)
+    step(s, link, state(101.0, "override"))
+    k = 0
+    while s.in_override and k < 200:
+        k += 1
+        step(s, link, ConcentrationSample(0.1 * k, 0.0))
+    assert not s.in_override and 49 <= k <= 72, k  # 5 s of the new clock (and the step)
+
+
+def test_amp_enable_s_counts_from_a_launch_on_a_restarted_clock() -> None:
+    """A diff review: a front seat on mission time restarts its clock at the launch; the dock's
+    reports, on time since boot, had put the take-over a boot's length late."""
+    s, link, _ = session()  # amp_enable_s 100
+    step(s, link, state(600.0, "pre_launch"))
+    assert step(s, link, state(0.1)) == "mission_a.waypoints"
+    assert step(s, link, state(100.0)) == "mission_a.waypoints"
+    assert step(s, link, state(100.1)) == "amp.override"
+
+
+def test_a_pre_launch_reported_under_way_does_not_restart_the_count() -> None:
+    """A diff review: a mode glitch (or a MAVLink disarm) every 90 s kept the AMP out."""
+    s, link, _ = session()  # amp_enable_s 100
+    step(s, link, state(0.0, "pre_launch"))
+    step(s, link, state(0.1))
+    step(s, link, state(90.0, "pre_launch"))
+    assert step(s, link, state(99.9)) == "mission_a.waypoints"
+    assert step(s, link, state(100.0)) == "amp.override"

@@ -174,3 +174,23 @@ def test_an_unknown_variant_with_no_close_name_says_how_a_plug_in_is_found() -> 
     with pytest.raises(UnknownBehaviourError) as close:  # a slip gets its suggestion alone
         default_registry().get("reacquire_plume", "cloverlef")
     assert "did you mean 'cloverleaf'?" in str(close.value) and "plug-in" not in str(close.value)
+
+
+def test_a_params_field_with_an_alias_registers() -> None:
+    """A diff review: the defaults were checked by field name, and an aliased field refused."""
+    from typing import ClassVar
+
+    from pydantic import Field
+
+    from cptbt.node import BehaviourParams, PlanBehaviour
+    from cptbt.registry import Registry
+
+    class AliasedParams(BehaviourParams):
+        leg_m: float = Field(10.0, gt=0, alias="leg_length_m")
+
+    class Aliased(PlanBehaviour):
+        family: ClassVar[str] = "find_plume"
+        variant: ClassVar[str] = "aliased"
+        Params = AliasedParams
+
+    assert Registry().register(Aliased).variant == "aliased"

@@ -138,3 +138,25 @@ def test_a_study_tables_its_behaviour_faults() -> None:
     rows.append({"outcome": "error"})  # flew nothing
     lines = command_fault_table({"a": rows})
     assert "## Behaviour faults" in lines and "| a | 1 of 2 | 3 | 0 |" in lines
+
+
+def test_a_behaviours_error_keeps_its_own_cause() -> None:
+    """A diff review: marking the error had cut its chain (``from None``), even in the
+    CPTBT_DEBUG traceback."""
+
+    class Chained(PlanBehaviour):
+        family: ClassVar[str] = "find_plume"
+        variant: ClassVar[str] = "test_chained"
+
+        def decide(self, p: Percept) -> Command | None:
+            try:
+                {}["calibration"]
+            except KeyError as err:
+                raise ValueError("no calibration table") from err
+            return None
+
+    with pytest.raises(AssertionError) as info:
+        check_behaviour(Chained)
+    cause = info.value.__cause__
+    assert isinstance(cause, ValueError) and isinstance(cause.__cause__, KeyError)
+    assert (blame(cause) or "").startswith("behaviour find_plume.test_chained raised ValueError")

@@ -93,12 +93,17 @@ def test_the_current_points_its_compass_way_and_its_label_clears_it(
         arrow.arrow_patch.get_window_extent(renderer))
 
 
-def test_north_up_without_a_compass_is_said(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("also", "said"), [
+    ((), "--north-up: the mission has no compass (frame: planning): trajectory.png is drawn in "
+         "the planning frame"),
+    (("--no-figure",), "--north-up: no trajectory.png is drawn (--no-figure)")])
+def test_north_up_where_it_changes_nothing_is_said(tmp_path: Path, also: tuple[str, ...],
+                                                   said: str) -> None:
     """A planning-frame mission has no north: the figure stays in the planning frame, and
-    the command says so rather than passing the option over."""
+    the command says so rather than passing the option over; so it does without a figure."""
     done = subprocess.run(
         [sys.executable, "-m", "cptbt", "run", str(ROOT / "missions" / "ab2001_strategy3.yaml"),
-         "--north-up", "--no-figure", "--out", str(tmp_path / "r")],
+         "--north-up", *also, "--out", str(tmp_path / "r")],
         capture_output=True, text=True, check=False)
     assert done.returncode == 0, done.stderr
-    assert "--north-up: no trajectory.png is drawn (--no-figure)" in done.stderr
+    assert said in done.stderr
