@@ -53,7 +53,10 @@ positions, and a frozen navigation clock, left the vehicle on its last command u
 30-s watchdog, 18 m outside an 80-m OpArea). The time is the reports' own forward steps, each
 counted up to :data:`MAX_REPORT_STEP_S` (one corrupt stamp of 4e9 s adds that much, not 4e9 s),
 a step back of the clock adding nothing and counting on from the new time (a vehicle's computer
-restarted without navigation is timed out 5 s later, not once its clock has caught up)."""
+restarted without navigation is timed out 5 s later, not once its clock has caught up), each
+kind of report (samples, flows, navigation...) on its own clock, the longest counting (samples
+delivered 20 s late, mixed with flows on time, would otherwise count their lateness again and
+again)."""
 
 MAX_REPORT_STEP_S = 1.0
 """The most one report's stamp counts toward :data:`NAV_TIMEOUT_S` past the latest before it."""
@@ -105,8 +108,9 @@ class AmpSession:
         self._elapsed_t = math.nan  # the vehicle time amp_elapsed_s was last brought up to
         self._dock_t: float | None = None  # the vehicle's latest report at the dock (pre_launch)
         self.joined = False  # the first report showed the vehicle under way: no take-over
-        self._heard_t = -math.inf  # the reports' clock, as the navigation timeout counts it
-        self._without_fix_s = 0.0  # the reports' time since the latest usable position
+        # each kind of report's latest stamp and its time since the latest usable position
+        # (kept apart: a stream delivered late, mixed with one on time, would count twice)
+        self._heard: dict[type, list[float]] = {}
         self._fix_t = -math.inf  # the time of the latest report with a usable position
         self._nav_timeout = max(NAV_TIMEOUT_S, 3 * self._period)
         self._launch_base: float | None = None  # the vehicle time the launch counts from
@@ -132,11 +136,12 @@ class AmpSession:
         if self.state is None:
             return
         t = self.t
-        if self.in_override and self._without_fix_s >= self._nav_timeout:
+        without = max((acc for _, acc in self._heard.values()), default=0.0)
+        if self.in_override and without >= self._nav_timeout:
             self.link.send(OverrideRelease())
-            self.phases.fire("amp_abort", t, "no usable navigation for "
-                             f"{self._without_fix_s:.3g} s of the vehicle's reports (the latest "
-                             f"usable position at t = {self._fix_t:g} s)")
+            self.phases.fire("amp_abort", t, f"no usable navigation for {without:.3g} s of the "
+                             f"vehicle's reports (the latest usable position at t = "
+                             f"{self._fix_t:g} s)")
             return
         if self.phases.state == "mission_a.waypoints" and self._enable_due():
             self.link.send(OverrideRequest())
@@ -228,26 +233,31 @@ class AmpSession:
                     return None
         return dataclasses.replace(s, **fixes) if fixes else s
 
-    def _heard(self, stamp: object) -> None:
-        """Count a report's time toward the navigation timeout (:data:`NAV_TIMEOUT_S`)."""
+    def _count(self, msg: object) -> None:
+        """Count a report's time toward the navigation timeout (:data:`NAV_TIMEOUT_S`), on the
+        clock of its own kind of report."""
+        stamp = getattr(msg, "t_s", math.nan)
         if not (isinstance(stamp, float) and math.isfinite(stamp)):
             return
-        if not math.isfinite(self._heard_t) or stamp < self._heard_t - CLOCK_STEP_BACK_S:
-            self._heard_t = stamp  # the first report, or the clock stepped back: on from here
-            return
-        if stamp > self._heard_t:
-            self._without_fix_s += min(stamp - self._heard_t, MAX_REPORT_STEP_S)
-            self._heard_t = stamp
+        kind = self._heard.get(type(msg))
+        if kind is None:
+            self._heard[type(msg)] = [stamp, 0.0]
+        elif stamp < kind[0] - CLOCK_STEP_BACK_S:
+            kind[0] = stamp  # the clock stepped back: on from here
+        elif stamp > kind[0]:
+            kind[1] += min(stamp - kind[0], MAX_REPORT_STEP_S)
+            kind[0] = stamp
 
     def _handle(self, msg: object) -> None:
-        self._heard(getattr(msg, "t_s", math.nan))
+        self._count(msg)
         if isinstance(msg, VehicleState):
             state = self._sane(msg)
             if state is None:
                 return
             if state.x_m == msg.x_m and state.y_m == msg.y_m:  # its own position, not the last
                 self._fix_t = state.t_s
-                self._without_fix_s = 0.0
+                for kind in self._heard.values():
+                    kind[1] = 0.0
             self.state = state
             self._follow_vehicle_mode(state)
         elif isinstance(msg, FlowSample):

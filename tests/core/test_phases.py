@@ -475,3 +475,16 @@ def test_a_pre_launch_reported_under_way_does_not_restart_the_count() -> None:
     step(s, link, state(90.0, "pre_launch"))
     assert step(s, link, state(99.9)) == "mission_a.waypoints"
     assert step(s, link, state(100.0)) == "amp.override"
+
+
+def test_late_samples_mixed_with_reports_on_time_are_no_time_without_navigation() -> None:
+    """Each kind of report counts on its own clock: samples 20 s late between flows on time
+    had counted their lateness at every alternation, and given back with navigation at 1 Hz."""
+    s, link, _ = session()
+    into_override(s, link)
+    for k in range(1, 600):
+        t = 100.0 + 0.1 * k
+        msgs: list[object] = [ConcentrationSample(t - 20.0, 0.0), FlowSample(t, 0.1, 0.0)]
+        if k % 10 == 0:
+            msgs.append(state(t, "override"))
+        assert step(s, link, *msgs) == "amp.override", t
