@@ -50,7 +50,8 @@ CATEGORIES = [  # (label, substring of the file path), first match wins
 
 def profile_group(mission: str, planner: str) -> dict[str, float]:
     """Self time by category for one 100-vehicle group (after a warm-up group)."""
-    from cptbt.batch.study import Study, configurations, grid_starts
+    from cptbt.batch.starts import grid_starts
+    from cptbt.batch.study import Study, configurations
     from cptbt.batch.worker import run_group
     from cptbt.cli.inspect_cmds import load
 

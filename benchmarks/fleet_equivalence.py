@@ -31,7 +31,8 @@ def _fly(args: tuple[str, int, int]) -> tuple[str, int, list[Any], list[Any], fl
     """One group both ways: (mission, replicate, tree rows, fleet rows, cpu tree, cpu fleet)."""
     import numpy as np
 
-    from cptbt.batch.study import Study, configurations, grid_starts
+    from cptbt.batch.starts import grid_starts
+    from cptbt.batch.study import Study, configurations
     from cptbt.batch.worker import fly_group
     from cptbt.cli.inspect_cmds import load
 

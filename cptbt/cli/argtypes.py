@@ -14,7 +14,7 @@ import threading
 from pathlib import Path
 from types import FrameType
 
-from cptbt.batch.study import MAX_STARTS, line_xs
+from cptbt.batch.starts import MAX_STARTS, line_xs
 
 Start = tuple[float, float]
 

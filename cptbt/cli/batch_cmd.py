@@ -16,8 +16,9 @@ from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import environment_of, starts_at_a_source, to_sim_params
+from cptbt.batch.starts import grid_starts
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
-from cptbt.batch.study import GroupTask, Study, Sweep, grid_starts, log_sample, study_notes
+from cptbt.batch.study import GroupTask, Study, Sweep, log_sample, study_notes
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
 from cptbt.cli.batch_rounds import next_replicates, worst_rel_sem

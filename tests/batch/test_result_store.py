@@ -12,8 +12,9 @@ import pytest
 
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import code_identity, rows_checksum, source_hash
+from cptbt.batch.starts import line_xs
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
-from cptbt.batch.study import GroupTask, line_xs
+from cptbt.batch.study import GroupTask
 from cptbt.batch.worker import run_group
 
 FORMATS = ["parquet", "csv"]

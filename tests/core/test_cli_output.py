@@ -8,7 +8,7 @@ from pathlib import Path
 from cptbt.batch.scenario import Environment
 from cptbt.batch.summary import where
 from cptbt.cli.output import fmt, fresh_folder, place, sensor_faults_line, time_share
-from cptbt.cli.run_cmd import upflow_check_line
+from cptbt.cli.run_text import upflow_check_line
 from cptbt.loader import load_mission
 from cptbt.registry import default_registry
 from cptbt.types import Point
@@ -59,7 +59,7 @@ def test_the_up_flow_check_line_names_each_count_it_has() -> None:
 
 
 def test_the_verdict_says_what_a_success_needs_and_how_a_failure_missed_it() -> None:
-    from cptbt.cli.run_cmd import verdict_text
+    from cptbt.cli.run_text import verdict_text
 
     one = {"criterion": "declaration", "success_radius_m": 15.0, "sources_true": 1,
            "sources_declared": 1, "success": False, "false_declaration": True, "error_m": 16.4}
@@ -84,7 +84,7 @@ def test_the_verdict_says_what_a_success_needs_and_how_a_failure_missed_it() -> 
 
 
 def test_the_figure_title_says_whether_the_declaration_was_right() -> None:
-    from cptbt.cli.run_cmd import short_verdict
+    from cptbt.cli.run_text import short_verdict
 
     one = {"criterion": "declaration", "success_radius_m": 15.0, "sources_true": 1,
            "success": True, "false_declaration": False, "error_m": 3.04}
@@ -111,7 +111,7 @@ def test_sensor_faults_are_told_only_when_there_were_some() -> None:
 
 
 def test_the_sources_line_says_how_the_search_for_more_ended() -> None:
-    from cptbt.cli.run_cmd import sources_line
+    from cptbt.cli.run_text import sources_line
 
     one = {"sources_true": 1, "sources_declared": 1, "withdrawn": None, "flybys": None}
     assert sources_line(one) is None  # one source, one point: the verdict says it all
@@ -138,7 +138,7 @@ def test_a_d1_over_d0_below_one_is_explained() -> None:
 
 
 def test_several_declared_points_are_printed_with_their_own_error_and_source() -> None:
-    from cptbt.cli.run_cmd import declaration_lines
+    from cptbt.cli.run_text import declaration_lines
 
     # the worst point is not the last: the error printed beside each point is its own
     s = {"declared_source": {"x": -68.5, "y": 23.8}, "search_given_up": None, "t3": 300.0,

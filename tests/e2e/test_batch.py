@@ -12,8 +12,9 @@ from pathlib import Path
 import pytest
 
 from cptbt.batch.runner import run_study
+from cptbt.batch.starts import grid_starts
 from cptbt.batch.store import ResultStore, load_results
-from cptbt.batch.study import Study, configurations, grid_starts
+from cptbt.batch.study import Study, configurations
 from cptbt.cli.inspect_cmds import load
 
 ROOT = Path(__file__).resolve().parents[2]

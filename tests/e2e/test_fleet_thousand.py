@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cptbt.batch.study import Study, configurations, grid_starts
+from cptbt.batch.starts import grid_starts
+from cptbt.batch.study import Study, configurations
 from cptbt.batch.worker import fly_group
 from cptbt.cli.inspect_cmds import load
 
