@@ -58,9 +58,10 @@ def advisories(mission: MissionBase) -> list[Problem]:
     return out + mission_a_advice(mission) + centre_advice(mission)
 
 
-FAR_WAYPOINT_M = 20_000.0
-"""A Mission A waypoint farther than this outside the OpArea is warned of (a REMUS 100 covers
-some 70 km on a charge: a transit of 20 km to the OpArea is possible, a slip far likelier)."""
+FAR_WAYPOINT_M = 5_000.0
+"""A Mission A waypoint farther than this outside the OpArea is warned of: a slip of one digit
+in the second decimal of a degree (1.1 km) is not caught, one in the first (11 km: a re-test's,
+which validated at 20 km) is; a transit of 5 km to the OpArea is warned of, and may be meant."""
 
 CENTRE_OFF_SHARE = 0.5
 """A ``geodetic_centre_deg`` farther from the corners' own centre than this share of the

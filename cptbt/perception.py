@@ -26,10 +26,12 @@ STUCK_FLOOR = 1e-12
 """Readings no farther from zero than this are never taken for a stuck sensor: a low-pass
 filter's output decays to the smallest float (5e-324) in clean water and stays there exactly."""
 
-LATE_SAMPLE_S = 1.0
+LATE_SAMPLE_S = 5.0
 """A fluorometer sample stamped more than this (or a planning period, if longer) before the
-previous cycle is late: placed where the vehicle is now, its plume would be 1.5 m or more from
-where it was sampled, at REMUS speed."""
+previous cycle is late: placed where the vehicle is now, its plume would be 7.5 m or more from
+where it was sampled, at REMUS speed. Not less: a fluorometer whose clock runs a few seconds
+behind the navigation's would have every sample dropped, the AMP searching blind (a re-test's
+3 s), where a few metres of misplacement still declared within 6 m."""
 
 MAX_CLOCK_JUMP_S = 3600.0
 """A cycle stamped more than this after the previous one is taken as a corrupt or re-based

@@ -33,7 +33,7 @@ from cptbt.link import (
 )
 from cptbt.mission import MissionBase
 from cptbt.mission_a import MissionASpec
-from cptbt.perception import MAX_FIX_OUTSIDE_M
+from cptbt.perception import MAX_CLOCK_JUMP_S, MAX_FIX_OUTSIDE_M
 from cptbt.phases import MissionPhases
 from cptbt.planner import Planner
 from cptbt.policy import give_back_trigger
@@ -116,6 +116,7 @@ class AmpSession:
         self._launch_base: float | None = None  # the vehicle time the launch counts from
         self._launch_offset = 0.0  # the clock's steps back since the launch, added back
         self._launch_prev_t = math.nan  # the latest state time since the launch
+        self._since_launch = 0.0  # the time since the launch at the latest report that counts
 
     @property
     def t(self) -> float:
@@ -254,7 +255,9 @@ class AmpSession:
             state = self._sane(msg)
             if state is None:
                 return
-            if state.x_m == msg.x_m and state.y_m == msg.y_m:  # its own position, not the last
+            fresh = (state.t_s > self._fix_t  # a clock that moves: a frozen one says nothing
+                     or state.t_s < self._fix_t - CLOCK_STEP_BACK_S)  # (a re-test), or anew
+            if fresh and state.x_m == msg.x_m and state.y_m == msg.y_m:  # its own position
                 self._fix_t = state.t_s
                 for kind in self._heard.values():
                     kind[1] = 0.0
@@ -278,10 +281,13 @@ class AmpSession:
         ph = self.phases
         if s.mode == "pre_launch" and ph.state == "pre_launch":
             self._dock_t = s.t_s
-        if self._launch_base is not None:  # after the launch: the clock's steps back added back
+        # After the launch: the clock's steps back added back; a report that leaps beyond
+        # MAX_CLOCK_JUMP_S is passed over (a re-test: one nav stamped 4e9 s took over 140 s early)
+        if self._launch_base is not None and s.t_s - self._launch_prev_t <= MAX_CLOCK_JUMP_S:
             if s.t_s < self._launch_prev_t:
                 self._launch_offset += self._launch_prev_t - s.t_s
             self._launch_prev_t = s.t_s
+            self._since_launch = s.t_s + self._launch_offset - self._launch_base
         if ph.state == "pre_launch" and s.mode != "pre_launch":
             if self._dock_t is None:
                 # A session started while the vehicle was under way (a restarted serve, after a
@@ -299,6 +305,7 @@ class AmpSession:
                 # time since boot had put the take-over a boot's length late, a review).
                 self._launch_base = self._dock_t if s.t_s >= self._dock_t else s.t_s
                 self._launch_prev_t = s.t_s
+                self._since_launch = s.t_s - self._launch_base
                 ph.fire("launch", s.t_s)
         if s.mode == "post_mission" and ph.state != "post_mission":
             ph.fire("mission_a_complete", s.t_s)
@@ -322,8 +329,7 @@ class AmpSession:
         if self.spec.amp_enable_s is not None:
             if self._launch_base is None:  # not launched yet
                 return False
-            since = self.state.t_s + self._launch_offset - self._launch_base
-            return since + 1e-9 >= self.spec.amp_enable_s
+            return self._since_launch + 1e-9 >= self.spec.amp_enable_s
         assert self.spec.amp_enable_waypoint is not None
         return self.state.waypoints_reached > self.spec.amp_enable_waypoint
 

@@ -488,3 +488,29 @@ def test_late_samples_mixed_with_reports_on_time_are_no_time_without_navigation(
         if k % 10 == 0:
             msgs.append(state(t, "override"))
         assert step(s, link, *msgs) == "amp.override", t
+
+
+def test_a_frozen_navigation_clock_is_no_usable_navigation() -> None:
+    """A re-test: navigation stamped with a frozen clock (positions still coming) kept the
+    override, the planner silent, until the vehicle's own watchdog."""
+    s, link, _ = session()
+    into_override(s, link)
+    step(s, link, state(101.0, "override"))
+    for k in range(1, 70):
+        step(s, link, state(101.0, "override", x=50 + 0.1 * k),
+             ConcentrationSample(101.0 + 0.1 * k, 0.0))
+        if not s.in_override:
+            break
+    assert not s.in_override and 49 <= k <= 51, k
+    assert s.phases.timeline[-1].trigger == "amp_abort"
+
+
+def test_a_corrupt_navigation_stamp_does_not_bring_the_take_over_forward() -> None:
+    """A re-test: one nav stamped 4e9 s in Mission A took over 140 s early."""
+    s, link, _ = session()  # amp_enable_s 100
+    step(s, link, state(0.0, "pre_launch"))
+    step(s, link, state(0.1))
+    assert step(s, link, state(4e9)) == "mission_a.waypoints"
+    assert step(s, link, state(50.0)) == "mission_a.waypoints"
+    assert step(s, link, state(99.9)) == "mission_a.waypoints"
+    assert step(s, link, state(100.0)) == "amp.override"  # on time: the leap passed over
