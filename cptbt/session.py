@@ -61,6 +61,12 @@ again)."""
 MAX_REPORT_STEP_S = 1.0
 """The most one report's stamp counts toward :data:`NAV_TIMEOUT_S` past the latest before it."""
 
+BACKLOG_S = 60.0
+"""A report stamped up to this long before the latest usable position, after later ones of its
+kind, is a delayed one flushed late (a serial or radio buffer): it does not count toward
+:data:`NAV_TIMEOUT_S` (a re-test's 10-s backlog of samples had given back with navigation
+fine). A clock stepped back further than this counts on from its new time."""
+
 CLOCK_STEP_BACK_S = 2.0
 """A report stamped this far before the latest is taken as the clock stepped back: the time
 without navigation counts on from it (a sample a little out of order is not)."""
@@ -244,6 +250,8 @@ class AmpSession:
         if kind is None:
             self._heard[type(msg)] = [stamp, 0.0]
         elif stamp < kind[0] - CLOCK_STEP_BACK_S:
+            if self._fix_t - BACKLOG_S <= stamp <= self._fix_t:
+                return  # from before the latest fix: a flushed backlog (a re-test) says nothing
             kind[0] = stamp  # the clock stepped back: on from here
         elif stamp > kind[0]:
             kind[1] += min(stamp - kind[0], MAX_REPORT_STEP_S)

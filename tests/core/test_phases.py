@@ -514,3 +514,15 @@ def test_a_corrupt_navigation_stamp_does_not_bring_the_take_over_forward() -> No
     assert step(s, link, state(50.0)) == "mission_a.waypoints"
     assert step(s, link, state(99.9)) == "mission_a.waypoints"
     assert step(s, link, state(100.0)) == "amp.override"  # on time: the leap passed over
+
+
+def test_a_flushed_backlog_of_samples_is_no_time_without_navigation() -> None:
+    """A re-test: 10 s of samples held by a buffer and flushed after a fresh fix counted their
+    own steps as time without navigation, and gave back with navigation fine."""
+    s, link, _ = session()
+    into_override(s, link)
+    for k in range(1, 231):
+        step(s, link, state(100.0 + 0.1 * k, "override"), ConcentrationSample(100.0 + 0.1 * k, 0))
+    backlog = [ConcentrationSample(110.0 + 0.1 * k, 0.0) for k in range(100)]
+    assert step(s, link, state(123.1, "override"), *backlog) == "amp.override"
+    assert step(s, link, state(123.2, "override")) == "amp.override"
