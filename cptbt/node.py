@@ -8,9 +8,12 @@ subsumption network of TRO Fig. 2 (SPEC §3).
 
 from __future__ import annotations
 
+import inspect
 import math
+import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import py_trees
@@ -229,8 +232,6 @@ def blamed(exc: Exception, behaviour: PlanBehaviour, t: float, where: bool = Tru
     for what cptbt found wrong with a returned value)."""
     if getattr(exc, "cptbt_behaviour", None) is None:
         exc.cptbt_where = where  # type: ignore[attr-defined]
-        import inspect
-
         exc.cptbt_behaviour = behaviour.name  # type: ignore[attr-defined]
         exc.cptbt_t = t  # type: ignore[attr-defined]
         try:
@@ -248,9 +249,6 @@ def blame(exc: BaseException) -> str | None:
     name = getattr(exc, "cptbt_behaviour", None)
     if name is None:
         return None
-    import traceback
-    from pathlib import Path
-
     frames = traceback.extract_tb(exc.__traceback__) if exc.__traceback__ else []
     frames = [f for f in frames if f.filename != __file__]  # update() itself says nothing
     own = getattr(exc, "cptbt_file", None)

@@ -170,8 +170,8 @@ class Perception:
 
     def faults(self) -> dict[str, int]:
         """What the perception has dropped or corrected so far (the run summary's sensor
-        faults): fluorometer samples missing (not finite) or dropped as stuck, flow samples and
-        navigation fixes rejected, clock steps back corrected."""
+        faults): fluorometer samples missing (not finite) or dropped as stuck or late, flow
+        samples and navigation fixes rejected, clock steps back corrected."""
         return {"missing_samples": self.missing_samples, "stuck_samples": self.stuck_samples,
                 "late_samples": self.late_samples, "rejected_fixes": self.rejected_fixes,
                 "rejected_flow_samples": self.rejected_flow_samples,

@@ -174,7 +174,8 @@ def summarise(
     ``missing_samples``, ``stuck_samples``, ``late_samples``, ``rejected_fixes``,
     ``rejected_flow_samples`` and ``clock_corrections`` count what the perception dropped or
     corrected (fluorometer samples that were not finite, a dropout; a fluorometer reading stuck
-    away from zero; samples stamped before the previous planning cycle's period; navigation
+    away from zero; samples stamped more than 5 s, or a planning period, before the previous
+    cycle; navigation
     fixes more than 1000 km outside the OpArea; impossible
     flow samples, cycle times not after the previous one) up to the end of the AMP's part.
     ``nonfinite_commands`` counts the cycles a behaviour asked ``command()`` for a non-finite

@@ -81,8 +81,8 @@ def sensor_faults_line(s: dict[str, Any]) -> str | None:
                        "a dropout)"),
                       ("stuck_samples", "fluorometer sample{} dropped as stuck (the same "
                        "reading for perception.stuck_after_s)"),
-                      ("late_samples", "fluorometer sample{} dropped as late (stamped before "
-                       "the previous planning cycle's period)"),
+                      ("late_samples", "fluorometer sample{} dropped as late (stamped more than "
+                       "5 s, or a planning period, before the previous cycle)"),
                       ("rejected_fixes", "navigation position{} ignored (more than 1000 km outside "
                        "the OpArea)"),
                       ("rejected_flow_samples", "flow sample{} rejected (not finite, or faster "

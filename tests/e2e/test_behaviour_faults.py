@@ -106,8 +106,6 @@ def test_a_value_that_is_no_command_is_named_at_its_tick(faulty: None, tmp_path:
 
 def test_the_error_keeps_its_type_and_says_where() -> None:
     """Code that catches the behaviour's own error type still does."""
-    from cptbt.testing import ScriptedPerception  # noqa: F401  (the module the script needs)
-
     with pytest.raises(AssertionError) as info:
         check_behaviour(Raises)
     cause = info.value.__cause__
