@@ -127,6 +127,14 @@ class Planner:
         self.active = active_name(tip)
         return cmd
 
+    def silence(self) -> str:
+        """Why the latest cycle gave no command, as far as the planner can tell (for a
+        give-back's detail)."""
+        percept = self.percept
+        if percept is not None and percept.flow is None:
+            return "no flow estimate (no usable flow sample has arrived)"
+        return f"no behaviour drove (the tree's status {self.root.status.value})"
+
     # -- outputs --------------------------------------------------------------------------
     @property
     def declared_source(self) -> Point | None:

@@ -58,6 +58,14 @@ kind of report (samples, flows, navigation...) on its own clock, the longest cou
 delivered 20 s late, mixed with flows on time, would otherwise count their lateness again and
 again)."""
 
+NO_OUTPUT_S = 5.0
+"""Under override, the AMP gives back (``amp_abort``) when its planner has given no command for
+this long, or three planning cycles if longer (counted in cycles, whatever the clock does): a
+planner with no output leaves the vehicle on the AMP's last command, which nothing then steers
+or keeps in the OpArea (a review's dead current sensor: no flow estimate, no behaviour drove,
+and only the vehicle's own 30-s watchdog ended the override). A run's last cycle, after the
+declaration and the trip home, is no command for one cycle only."""
+
 MAX_REPORT_STEP_S = 1.0
 """The most one report's stamp counts toward :data:`NAV_TIMEOUT_S` past the latest before it."""
 
@@ -119,6 +127,8 @@ class AmpSession:
         self._heard: dict[type, list[float]] = {}
         self._fix_t = -math.inf  # the time of the latest report with a usable position
         self._nav_timeout = max(NAV_TIMEOUT_S, 3 * self._period)
+        self._silent_cycles = 0  # planning cycles in a row without a command
+        self._silent_limit = max(3, math.ceil(NO_OUTPUT_S * mission.cycle_hz - 1e-9))
         self._launch_base: float | None = None  # the vehicle time the launch counts from
         self._launch_offset = 0.0  # the clock's steps back since the launch, added back
         self._launch_prev_t = math.nan  # the latest state time since the launch
@@ -173,7 +183,8 @@ class AmpSession:
             if self._next_tick <= t:
                 self._next_tick = t + self._period
             self._tick(t)
-            self._give_back_due()
+            if not self._give_back_due():
+                self._silent_give_back(t)
 
     # -- internals --------------------------------------------------------------------------
     def _in_control(self, t: float) -> bool:
@@ -363,6 +374,18 @@ class AmpSession:
         self.link.send(OverrideRelease())
         self.phases.fire(due[0], t, due[1])
         return True
+
+    def _silent_give_back(self, t: float) -> None:
+        """Give back once the planner has had no command for :data:`NO_OUTPUT_S`."""
+        self._silent_cycles = 0 if self.command is not None else self._silent_cycles + 1
+        if self._silent_cycles < self._silent_limit:
+            return
+        self.link.send(OverrideRelease())
+        why = getattr(self.planner, "silence", None)
+        self.phases.fire("amp_abort", t, f"the planner gave no command for "
+                         f"{self._silent_cycles} planning cycles "
+                         f"({self._silent_cycles * self._period:.3g} s)"
+                         + (f": {why()}" if callable(why) else ""))
 
     def _tick(self, t: float) -> None:
         assert self.state is not None

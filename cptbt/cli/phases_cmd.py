@@ -51,8 +51,9 @@ def cmd_phases(args: argparse.Namespace) -> int:
         print(f"  command_refused: speed outside [{lim.min_speed_mps:g}, {lim.max_speed_mps:g}]"
               f" m/s, depth outside [0, {lim.max_depth_m:g}] m, or a heading not finite")
         nav = max(5.0, 3.0 / mission.cycle_hz)
-        print("  amp_abort: the operator stops, the link falls silent, an internal error, or "
-              f"{nav:g} s of the vehicle's reports without a usable position")
+        print("  amp_abort: the operator stops, the link falls silent, an internal error, "
+              f"{nav:g} s of the vehicle's reports without a usable position, or {nav:g} s of "
+              "planning cycles without a command")
     print(frame_line(mission))
     if args.dot:
         Path(args.dot).write_text(to_dot(), encoding="utf-8")

@@ -8,6 +8,7 @@ vehicle's own reports then lead to ``return_to_break_off``, ``mission_a.resumed`
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 from conftest import scripted_registry
@@ -25,11 +26,12 @@ from cptbt.link import (
     VehicleLink,
     VehicleState,
 )
-from cptbt.loader import loads_mission
+from cptbt.loader import load_mission, loads_mission
 from cptbt.mission import MissionBase
 from cptbt.mission_a import MissionASpec, VehicleLimits
 from cptbt.perception import Perception
 from cptbt.phases import MissionPhases, describe, leaf_states, to_dot
+from cptbt.planner import Planner
 from cptbt.session import AmpSession
 from cptbt.types import Command, Point, Pose
 
@@ -526,3 +528,53 @@ def test_a_flushed_backlog_of_samples_is_no_time_without_navigation() -> None:
     backlog = [ConcentrationSample(110.0 + 0.1 * k, 0.0) for k in range(100)]
     assert step(s, link, state(123.1, "override"), *backlog) == "amp.override"
     assert step(s, link, state(123.2, "override")) == "amp.override"
+
+
+def test_a_planner_with_no_output_gives_back() -> None:
+    """A review's dead current sensor: the planner gave no command, the vehicle flew the AMP's
+    last one unsteered until its own 30-s watchdog. The AMP gives back after 5 s of cycles
+    without a command (5 at 1 Hz); a cycle or two without one changes nothing."""
+    s, link, planner = session()
+    into_override(s, link)
+    silent = {"on": True}
+    ticks = planner.tick
+
+    def tick(t: float) -> Command | None:
+        out = ticks(t)
+        return None if silent["on"] else out
+
+    planner.tick = tick  # type: ignore[method-assign]
+    for t in (101.0, 102.0):
+        assert step(s, link, state(t, "override")) == "amp.override"
+    silent["on"] = False
+    assert step(s, link, state(103.0, "override")) == "amp.override"
+    silent["on"] = True
+    for t in (104.0, 105.0, 106.0, 107.0):
+        assert step(s, link, state(t, "override")) == "amp.override"
+    assert not isinstance(link.sent[-1], OverrideRelease)
+    assert step(s, link, state(108.0, "override")) == "amp.give_back"
+    assert isinstance(link.sent[-1], OverrideRelease)
+    gave = s.phases.timeline[-1]
+    assert gave.trigger == "amp_abort" and gave.t_s == 108.0
+    assert gave.detail == "the planner gave no command for 5 planning cycles (5 s)"
+
+
+def test_a_dead_current_sensor_gives_back_and_says_why() -> None:
+    """The real planner of TRO MSN007 with no flow sample: no behaviour drives without a flow
+    estimate once the vehicle is at the start, and the give-back (after 5 cycles at 1 Hz)
+    names the missing estimate."""
+    m = load_mission(Path(__file__).parents[2] / "missions" / "tro2006_msn007.yaml")
+    link = FakeLink()
+    s = AmpSession(m, Planner(m), link)
+    at = m.to_xy(m.start)
+    step(s, link, state(0.0, "pre_launch"))
+    step(s, link, state(1.0))
+    assert step(s, link, state(240.0)) == "amp.override"
+    for t in range(241, 245):
+        assert step(s, link, state(float(t), "override", x=at.x, y=at.y),
+                    ConcentrationSample(float(t), 0.0)) == "amp.override"
+    assert step(s, link, state(245.0, "override", x=at.x, y=at.y)) == "amp.give_back"
+    gave = s.phases.timeline[-1]
+    assert gave.trigger == "amp_abort" and gave.t_s == 245.0
+    assert gave.detail == ("the planner gave no command for 5 planning cycles (5 s): no flow "
+                           "estimate (no usable flow sample has arrived)")
