@@ -212,14 +212,22 @@ def test_a_mavlink_link_needs_its_mission() -> None:
 @pytest.mark.parametrize("mode, custom, armed, state", [
     ("pre_launch", mw.MANUAL, False, mavlink.MISSION_STATE_NOT_STARTED),
     ("mission", mw.AUTO, True, mavlink.MISSION_STATE_ACTIVE),
-    ("mission", mw.POSHOLD, True, None),
+    ("mission", mw.POSHOLD, True, mavlink.MISSION_STATE_ACTIVE),  # a pilot, mid-mission
+    # armed in a pilot's mode, the mission not started: a pilot at the dock, not the launch
+    ("pre_launch", mw.POSHOLD, True, None),
+    ("pre_launch", mw.MANUAL, True, mavlink.MISSION_STATE_NOT_STARTED),
+    ("pre_launch", mw.STABILIZE, True, mavlink.MISSION_STATE_UNKNOWN),
+    ("mission", mw.AUTO, True, None),
+    ("mission", mw.AUTO, True, mavlink.MISSION_STATE_NOT_STARTED),
     ("override", mw.GUIDED, True, mavlink.MISSION_STATE_ACTIVE),
     ("returning", mw.AUTO, True, mavlink.MISSION_STATE_PAUSED),
     ("post_mission", mw.SURFACE, True, mavlink.MISSION_STATE_COMPLETE),
 ])
 def test_the_mode_table(mode: str, custom: int, armed: bool, state: int | None) -> None:
     assert mw.vehicle_mode(custom, mw.CUSTOM | (mw.ARMED if armed else 0), state) == mode
-    if state is not None and mode in mw.WIRE_MODES and custom != mw.POSHOLD:
+    if (state is not None and mode in mw.WIRE_MODES and custom not in (mw.POSHOLD, mw.STABILIZE)
+            and (custom, armed) != (mw.MANUAL, True)
+            and (custom, state) != (mw.AUTO, mavlink.MISSION_STATE_NOT_STARTED)):
         assert mw.WIRE_MODES[mode] == (custom, armed, state)
 
 
