@@ -320,8 +320,9 @@ class Perception:
                 loud = before == 0 or int(math.log10(n)) > int(math.log10(before))
                 log.log(logging.WARNING if loud else logging.DEBUG,
                         "%d fluorometer sample%s (the latest stamped %g s) reached the planner "
-                        "after their cycle: dropped as late (%d so far)", self._held_n,
-                        "s" * (self._held_n != 1), self._held_t, n)
+                        "after %s cycle: dropped as late (%d so far)", self._held_n,
+                        "s" * (self._held_n != 1), self._held_t,
+                        "its" if self._held_n == 1 else "their", n)
             self._held_max, self._held_n = -math.inf, 0
         pose = self._pose
         conc = self._cycle_max if self._cycle_max > -math.inf else math.nan

@@ -95,13 +95,14 @@ def sensor_faults_line(s: dict[str, Any]) -> str | None:
     return "  sensor faults: " + "; ".join(parts) if parts else None
 
 
-def frame_line(mission: MissionBase) -> str:
+def frame_line(mission: MissionBase, mavlink: bool = False) -> str:
     """Where the planning frame is, for a front seat's integrator: the backseat protocol's
-    positions, flows and headings are in it (a review had to recover it from a figure's label).
-    """
+    positions, flows and headings are in it (a review had to recover it from a figure's label);
+    over MAVLink (``mavlink``) the AMP converts into it (a review: the line had said "backseat
+    link" on a MAVLink serve)."""
     if mission.frame == "planning":
-        return ("  planning frame: the mission's own x, y (no compass given); the backseat "
-                "link's positions, flows and headings are in it")
+        return ("  planning frame: the mission's own x, y (no compass given); "
+                + _frame_use(mavlink))
     area = mission.op_area_geometry()
     origin = Point(0.0, 0.0)
     n, e = mission.to_ne(origin)
@@ -110,5 +111,14 @@ def frame_line(mission: MissionBase) -> str:
              else f"N {n:.1f} m, E {e:.1f} m")
     b = area.frame.x_bearing_deg % 360
     return (f"  planning frame: origin at {where}; +x toward compass bearing {b:.1f}°, +y toward "
-            f"{(b + 90) % 360:.1f}°; a heading h in it is compass bearing h + {b:.1f}°; the "
-            "backseat link's positions, flows and headings are in it")
+            f"{(b + 90) % 360:.1f}°; a heading h in it is compass bearing h + {b:.1f}°; "
+            + _frame_use(mavlink))
+
+
+def _frame_use(mavlink: bool) -> str:
+    """Who speaks in the planning frame: the backseat protocol does; MAVLink speaks
+    latitude/longitude or north-east-down, which the AMP turns into it."""
+    if mavlink:
+        return ("the AMP turns MAVLink's latitude/longitude (or north-east metres) into it, "
+                "and plans and logs in it")
+    return "the backseat link's positions, flows and headings are in it"

@@ -125,7 +125,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(f"{mission.name}: serving on {args.link} at {args.clock_scale:g}x real time; "
               "Ctrl-C gives control back", flush=True)
-        print(frame_line(mission), flush=True)
+        print(frame_line(mission, args.link.startswith("mavlink")), flush=True)
     try:
         result = serve(mission, link, planner=planner, options=options, observers=observers)
     finally:

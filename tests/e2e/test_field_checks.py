@@ -51,3 +51,15 @@ def test_phases_prints_the_planning_frame_and_the_waypoint_count_from_zero(
     assert "amp_enable: on reaching waypoint 1 (0-based: the 2nd of the list)" in out
     assert ("planning frame: origin at 32.980883, -118.537050; +x toward compass bearing "
             "136.") in out
+    assert "the backseat link's positions, flows and headings are in it" in out
+
+
+def test_the_planning_frame_line_of_a_mavlink_serve_says_the_amp_converts() -> None:
+    """A review: a MAVLink serve's frame line had said the backseat link speaks in the planning
+    frame; MAVLink speaks latitude/longitude, which the AMP converts."""
+    from cptbt.cli.output import frame_line
+    from cptbt.loader import load_mission
+
+    m = load_mission(ROOT / "missions" / "tro2006_msn010.yaml")
+    line = frame_line(m, mavlink=True)
+    assert "backseat" not in line and "the AMP turns MAVLink's latitude/longitude" in line
