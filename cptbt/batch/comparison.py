@@ -136,10 +136,13 @@ def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
     limit = meta.get("time_limit_s")
     flown = (f"{starts} start{'s' * (starts != 1)} × {reps} replicate{'s' * (reps != 1)} per "
              "configuration, " if starts and isinstance(reps, int) else "")
+    planned = meta.get("configs")
+    planned = len(planned) if isinstance(planned, list) and planned else configurations
+    count = (f"{planned} configuration{'s' * (planned != 1)}" if planned == configurations
+             else f"{planned} configurations ({configurations} with runs so far)")
     lines = ["## What was flown", "",
              f"- Mission `{meta['mission']}` ({meta.get('mission_name', '')}), root seed "
-             f"{meta.get('root_seed')}; {flown}{configurations} "
-             f"configuration{'s' * (configurations != 1)}; time limit "
+             f"{meta.get('root_seed')}; {flown}{count}; time limit "
              + (f"{limit:g} s." if isinstance(limit, (int, float)) else "the mission's.")]
     sweeps = meta.get("sweeps") or {}
     lines.append("- Swept: " + "; ".join(f"`{k}` = {', '.join(map(str, v))}"

@@ -64,6 +64,41 @@ def read_journal(path: Path, tag: str, task: GroupTask) -> Rows:
     return [rows[i] for i in sorted(rows)]
 
 
+def unsettled_rows(folder: Path) -> Rows:
+    """The rows the journals in study ``folder``'s ``parts/`` hold for groups with no part
+    (a ``.parquet`` or ``.csv`` file), for a table of a study stopped part way (``cptbt plot``
+    had left them out while the batch counted them saved): sound lines of the study its
+    ``study.json`` names only (none if it cannot be read), one per group and start, in group
+    and start order."""
+    try:
+        tag = json.loads((folder / "study.json").read_text(encoding="utf-8"))["fingerprint"]
+    except (OSError, ValueError, UnicodeDecodeError, TypeError, KeyError):
+        return []
+    parts = folder / "parts"
+    settled = {p.stem for p in parts.glob("*") if p.suffix in (".parquet", ".csv")}
+    rows: dict[tuple[str, int], dict[str, Any]] = {}
+    for path in sorted(parts.glob(f"*{JOURNAL_SUFFIX}")):
+        key = path.name[: -len(JOURNAL_SUFFIX)]
+        if key in settled:
+            continue
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            continue
+        for line in text.splitlines():
+            try:
+                entry = json.loads(line)
+                row = entry["row"]
+                ok = (entry["study"] == tag and entry["group"] == key
+                      and entry["sha256"] == rows_checksum([row])
+                      and isinstance(row["start"], int))
+            except (ValueError, TypeError, KeyError):
+                continue
+            if ok:
+                rows.setdefault((key, row["start"]), row)
+    return [rows[k] for k in sorted(rows)]
+
+
 class JournalFile:
     """The file a worker appends a group's rows to (flushed line by line: a killed process
     keeps them in the page cache). One that cannot be written (a full disk) or a row JSON

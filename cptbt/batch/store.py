@@ -27,7 +27,7 @@ import yaml
 
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import fingerprint, rows_checksum
-from cptbt.batch.journal import JOURNAL_SUFFIX, read_journal
+from cptbt.batch.journal import JOURNAL_SUFFIX, read_journal, unsettled_rows
 from cptbt.batch.study import GroupTask
 from cptbt.mission import Loc, dotted
 
@@ -456,7 +456,8 @@ def load_results(path: Path) -> Rows:
             if any((path / "parts").glob(f"*{fmt.suffix}")):
                 rows = ResultStore(path, fmt_name).rows()
                 break
-        else:
+        rows += unsettled_rows(path)  # runs of groups stopped part way
+        if not rows:
             raise BatchError(f"{path} holds no results table (results.parquet or results.csv) "
                              "and no parts/")
     else:

@@ -673,3 +673,16 @@ def test_a_maintain_study_pairs_t_m_run_by_run() -> None:
     lines = maintain_paired_table(groups)
     assert "| beta1_deg=10 | beta1_deg=0 | 3 | 1.1 ± 0.1 |" in lines, lines
     assert maintain_paired_table({"a": groups["beta1_deg=0"]}) == []
+
+
+def test_the_header_counts_the_studys_configurations_not_those_with_runs() -> None:
+    """A review: ``cptbt plot`` on a two-configuration sweep stopped before the second had a
+    run headed its tables "1 configuration"."""
+    from cptbt.batch.comparison import study_header
+
+    meta = {"mission": "m.yaml", "mission_name": "m", "root_seed": 1, "starts": [[0, 0]],
+            "runs_per_start": 2, "configs": [{"speed_mps": 1}, {"speed_mps": 2}],
+            "sweeps": {"speed_mps": [1, 2]}}
+    assert "2 configurations (1 with runs so far);" in study_header(meta, 1)[2]
+    assert "2 configurations;" in study_header(meta, 2)[2]
+    assert "1 configuration;" in study_header({**meta, "configs": [{}]}, 1)[2]

@@ -411,6 +411,35 @@ def test_a_journal_keeps_only_sound_lines_of_its_own_group(tmp_path: Path) -> No
     assert not path.exists()
 
 
+def test_a_folder_of_parts_reads_the_runs_its_journals_hold(tmp_path: Path, fmt: str) -> None:
+    """A review: ``cptbt plot`` on a study stopped part way tabled 48 of the 63 runs the batch
+    said were saved (a group under way keeps its runs in its journal). Sound lines of groups
+    with no part count; a group's journal left beside its part (killed between the two) does
+    not count twice; another study's lines do not count."""
+    from cptbt.batch.journal import journal_line
+
+    store = opened(tmp_path, fmt)
+    done, under_way, stale = tasks(replicates=3, starts=3)[:3]
+    store.write_group(done, rows_of(done))
+    rows = rows_of(under_way)
+    store.journal_path(under_way.key).write_text(
+        journal_line(store.fingerprint, under_way.key, rows[0])
+        + journal_line(store.fingerprint, under_way.key, rows[2])
+        + journal_line("another study", under_way.key, rows[1]), encoding="utf-8")
+    store.write_group(stale, rows_of(stale))
+    store.journal_path(stale.key).write_text(  # a leftover journal beside its part
+        journal_line(store.fingerprint, stale.key, rows_of(stale)[0]), encoding="utf-8")
+    got = load_results(tmp_path)
+    assert [(r["replicate"], r["start"]) for r in got] == [
+        (done.replicate, 0), (done.replicate, 1), (done.replicate, 2),
+        (stale.replicate, 0), (stale.replicate, 1), (stale.replicate, 2),
+        (under_way.replicate, 0), (under_way.replicate, 2)]
+    for p in store.parts.glob(f"*{'.parquet' if fmt == 'parquet' else '.csv'}"):
+        p.unlink()  # a study stopped in its first group: its journal alone
+    assert [(r["replicate"], r["start"]) for r in load_results(tmp_path)] == [
+        (under_way.replicate, 0), (under_way.replicate, 2), (stale.replicate, 0)]
+
+
 def test_a_journal_survives_arrays_and_a_torn_line_before_it(tmp_path: Path) -> None:
     """A review: a row holding a numpy array failed the whole group (JSON cannot hold it);
     a line appended after one a kill tore joined it and was lost with it."""
