@@ -64,7 +64,8 @@ def pairings(groups: dict[str, Rows]) -> tuple[bool, list[tuple[str, str, list[t
                          if changes_world(k)})
 
     def world(rows: Rows) -> tuple[Any, ...]:
-        return tuple(rows[0].get(k) for k in world_keys) if rows else ()
+        # repr: a swept value may be a list (environment.source: a review's crash, unhashable)
+        return tuple(repr(rows[0].get(k)) for k in world_keys) if rows else ()
 
     first: dict[tuple[Any, ...], str] = {}
     for label, rows in groups.items():

@@ -95,6 +95,17 @@ class StudyGeometry:
             return None
 
 
+def config_geometries(study: dict[str, Any]) -> dict[int, StudyGeometry]:
+    """Each configuration's own map geometry (its flow and sources), by configuration index,
+    from the study's record (empty for a record written before it was kept)."""
+    data = study.get("config_geometry")
+    if not isinstance(data, list):
+        return {}
+    out = {i: g for i, d in enumerate(data)
+           if isinstance(d, dict) and (g := StudyGeometry.from_data(d)) is not None}
+    return out if len(out) == len(data) else {}
+
+
 def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
     """Wilson score interval of a proportion (95% by default); (nan, nan) for n = 0."""
     if n == 0:
@@ -258,7 +269,8 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
     if not figures:
         return [p for p in written if p is not None]
     plt = pyplot()
-    written.append(_map(groups, out / "time_to_source_map.png", plt, geometry))
+    per_config = config_geometries(study if study is not None else study_json(out))
+    written.append(_map(groups, out / "time_to_source_map.png", plt, geometry, per_config))
     written.append(_line(groups, out / "time_vs_start.png", plt))
     if is_maintain_study(rows):
         written.append(maintain_figure(groups, out / "maintain_time.png", plt))

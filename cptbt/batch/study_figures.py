@@ -51,13 +51,15 @@ def _edges(centres: list[float]) -> np.ndarray:
     return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
 
 
-def _map(groups: dict[str, Rows], path: Path, plt: Any,
-         geometry: StudyGeometry | None) -> Path | None:
+def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry | None,
+         per_config: dict[int, StudyGeometry] | None = None) -> Path | None:
     """Mean time to source over start positions (AB Figs. 6 and 11), one panel per config.
 
     A heat map on the real aspect ratio, planning frame with y drawn down (as TRO and AB draw
-    it), with the OpArea, the true source and the mean flow; contours are added on grids of at
-    least 10 × 10 starts. As in AB, a search that fails counts with the time limit.
+    it), with the OpArea, the true source and the mean flow, each panel its configuration's
+    own (``per_config``, by configuration index; else ``geometry`` for all); contours are
+    added on grids of at least 10 × 10 starts. As in AB, a search that fails counts with the
+    time limit; the colour scale reaches the largest mean drawn.
     """
     if not _any_time(groups):
         return None
@@ -83,12 +85,17 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
     axes = grid_axes.ravel()[:n]
     for spare in grid_axes.ravel()[n:]:
         spare.remove()
-    # one colour scale for every panel (a review saw 0-950 s beside 0-1200 s)
-    vmax = max(_mean([_search_time(r) for r in rows]) for rows in groups.values())
-    limit = max(float(r.get("sim_time_s") or 0) for rows in groups.values() for r in rows)
-    top = max(vmax, limit, 1.0)
+    # One colour scale for every panel (a review saw 0-950 s beside 0-1200 s), up to the
+    # largest cell drawn: a review's start of one failure in two (1495 s) had been drawn in
+    # the top colour of a bar ending at its configuration's mean, 1267 s.
+    cells = [_mean([_search_time(r) for r in runs]) for rows in groups.values()
+             for runs in _per_start(rows).values()]
+    flown = max(float(r.get("sim_time_s") or 0) for rows in groups.values() for r in rows)
+    top = max([c for c in cells if math.isfinite(c)] + [flown, 1.0])
     for ax, (label, rows) in zip(axes, groups.items(), strict=True):
         by = _per_start(rows)
+        key = rows[0].get("config") if rows else None
+        here = (per_config or {}).get(int(key), geometry) if key is not None else geometry
         xs = sorted({k[0] for k in by})
         ys = sorted({k[1] for k in by})
         grid = np.full((len(ys), len(xs)), np.nan)
@@ -128,16 +135,16 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any,
                     ax.text(x, at, f"n={len(runs)}", ha="center", va="top", fontsize=6,
                             color="black" if light else "white")
                     labels.append((x, at))
-        if geometry is not None:
-            x0, x1, y0, y1 = geometry.area
+        if here is not None:
+            x0, x1, y0, y1 = here.area
             ax.add_patch(plt.Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ec="black",
                                        lw=1.2))
-            stars = np.asarray([geometry.source, *geometry.extra_sources], dtype=float)
+            stars = np.asarray([here.source, *here.extra_sources], dtype=float)
             ax.plot(stars[:, 0], stars[:, 1], "*", color="gold", mec="black", ms=15, ls="none",
                     label="source" if len(stars) == 1 else "sources")
-            if geometry.flow_deg is not None:  # off the starts and sources where it can be
+            if here.flow_deg is not None:  # off the starts and sources where it can be
                 marks = np.asarray([*by, *labels, *stars.tolist()], dtype=float)
-                flow_arrow(ax, OpArea(x0, x1, y0, y1), geometry.flow_deg, marks)
+                flow_arrow(ax, OpArea(x0, x1, y0, y1), here.flow_deg, marks)
         runs_n = sorted(set(counts[counts > 0].ravel().tolist()))
         per_cell = f"n = {runs_n[0]}" if len(runs_n) == 1 else f"n = {runs_n[0]}–{runs_n[-1]}"
         ok = sum(bool(r["success"]) for r in rows)

@@ -291,6 +291,9 @@ def cmd_batch(args: argparse.Namespace) -> int:
         "starts": starts, "runs_per_start": runs_per_start, "root_seed": seed,
         "time_limit_s": time_limit, "start_mode": start_mode, "total_runs": study.total_runs,
         "heading_deg": env.launch_heading_deg, "geometry": geometry.to_data(),
+        # each configuration's own (a swept flow or source: a review's maps had drawn the
+        # mission's current in every panel, against the flow flown in one)
+        "config_geometry": [geometry_of(c.mission).to_data() for c in configs],
         "code_version": _git_version(),
         "planner": _planner_record(configs, len(starts), str(args.mission)),
         "seeding": "SeedSequence(root_seed, spawn_key=(replicate, 0)) for the plume; "

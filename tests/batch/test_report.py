@@ -686,3 +686,56 @@ def test_the_header_counts_the_studys_configurations_not_those_with_runs() -> No
     assert "2 configurations (1 with runs so far);" in study_header(meta, 1)[2]
     assert "2 configurations;" in study_header(meta, 2)[2]
     assert "1 configuration;" in study_header({**meta, "configs": [{}]}, 1)[2]
+
+
+def test_each_map_panel_draws_its_own_flow_and_the_scale_reaches_every_cell(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review: a flow-direction sweep's maps drew the mission's current in every panel (in
+    one, opposite to the flow flown), and a start of one failure in two (mean 1495 s) was drawn
+    in the top colour of a bar ending at 1267 s, its configuration's mean."""
+    import matplotlib.pyplot as real_plt
+
+    from cptbt.batch import study_figures
+    from cptbt.batch.report import config_geometries
+
+    arrows: list[float] = []
+    monkeypatch.setattr(study_figures, "flow_arrow",
+                        lambda ax, area, deg, marks: arrows.append(deg))
+    kept: list[Any] = []
+
+    class Plt:
+        subplots, Rectangle = staticmethod(real_plt.subplots), real_plt.Rectangle
+
+        @staticmethod
+        def close(fig: Any) -> None:
+            kept.append(fig)
+
+    rows = grid_rows()
+    for r in rows:
+        r["run_time_limit_s"], r["sim_time_s"] = 1800.0, 600.0
+        if r["config"] == 1 and r["start"] == 3:
+            r["success"], r["t3"] = r["replicate"] == 0, 1190.0 if r["replicate"] == 0 else None
+    study = {"config_geometry": [
+        StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), deg).to_data() for deg in (0, 90)]}
+    per = config_geometries(study)
+    assert [g.flow_deg for g in per.values()] == [0.0, 90.0]
+    groups = compared(rows, None)[0]
+    study_figures._map(groups, tmp_path / "m.png", Plt, None, per)
+    assert arrows == [0.0, 90.0]
+    (fig,) = kept
+    vmax = max(c.norm.vmax for ax in fig.axes for c in ax.collections
+               if c.norm is not None and c.norm.vmax is not None)
+    assert vmax >= (1190.0 + 2 * 1800.0) / 3  # that start's mean, a failure at the limit
+    real_plt.close(fig)
+    assert config_geometries({"config_geometry": [{"area": "?"}]}) == {}  # malformed: none
+
+
+def test_a_swept_list_valued_world_setting_is_tabled(tmp_path: Path) -> None:
+    """A review: sweeping ``environment.source`` flew every run, then the report stopped on
+    "unhashable type: 'list'" and wrote nothing (the pairing keyed worlds by the values)."""
+    rows = grid_rows()
+    for r in rows:
+        r["environment.source"] = [60, 10] if r["config"] == 0 else [-20, -40]
+    names = {p.name for p in write_report(rows, tmp_path, figures=False)}
+    assert names == {"tables.md"}
+    assert "## Paired comparisons" not in (tmp_path / "tables.md").read_text()  # two worlds
