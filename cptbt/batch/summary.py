@@ -353,16 +353,24 @@ def _with_error(out: dict[str, float] | None, p: Point,
 def _farthest_outside(mission: MissionBase, true: NDArray[np.float64]) -> float:
     """How far outside the OpArea a true track went, m (0: it stayed inside), once it was in:
     the way in from a start placed outside (``allow_outside: [start]``) is the mission's, not
-    an excursion (a review's start 20 m out read "left the OpArea: 19.8 m"); how much farther
-    out than its start it went before getting in is one (a detour), and so is all of a track
-    that never got in."""
+    an excursion (a review's start 20 m out read "left the OpArea: 19.8 m"). Going farther out
+    than the start before getting in, or without ever getting in, is one (a detour), and
+    counts as far out as the track went: a review's start 25 m out, turned away and given
+    back 30 m out, had read "at most 4.5 m outside it" (the detour's depth beyond its start,
+    not a distance outside)."""
     if not len(true):
         return 0.0
     far = mission.op_area_geometry().distance_outside_array(true[:, 0], true[:, 1])
     inside = np.flatnonzero(far == 0.0)
     entry = int(inside[0]) if len(inside) else len(far)
-    detour = float(np.nanmax(far[:entry]) - far[0]) if entry else 0.0
+    before = float(np.nanmax(far[:entry], initial=0.0))
+    detour = before if before - far[0] >= DETOUR_NOTED_M else 0.0
     return max(detour, float(np.nanmax(far[entry:], initial=0.0)), 0.0)
+
+
+DETOUR_NOTED_M = 0.05
+"""A track from a start outside the OpArea that goes this much farther out before getting in
+(or never gets in) has left it (``cptbt.batch.comparison.OUTSIDE_NOTED_M``, the same mark)."""
 
 
 def _maintain_time(run: VehicleRun) -> float | None:

@@ -184,7 +184,11 @@ def test_the_way_in_from_a_start_placed_outside_is_not_an_excursion() -> None:
     out_again = np.vstack([way_in, [[a.xmax + 3.0, y], [a.xmax - 1.0, y]]])
     assert _farthest_outside(mission, out_again) == pytest.approx(3.0)
     never_in = np.array([[a.xmin - 20.0, y], [a.xmin - 26.0, y], [a.xmin - 10.0, y]])
-    assert _farthest_outside(mission, never_in) == pytest.approx(6.0)  # 6 m farther out
+    # 6 m farther out than its start: 26 m outside (a review: "at most 4.5 m outside it" for a
+    # track given back 30 m out)
+    assert _farthest_outside(mission, never_in) == pytest.approx(26.0)
+    heading_in = np.array([[a.xmin - 20.0, y], [a.xmin - 12.0, y], [a.xmin - 4.0, y]])
+    assert _farthest_outside(mission, heading_in) == 0.0  # on its way in when the run ended
     # a detour on the way in (a review of the change: it had scored 0)
     detour = np.array([[a.xmin - 5.0, y], [a.xmin - 20.0, y], [a.xmin + 5.0, y]])
-    assert _farthest_outside(mission, detour) == pytest.approx(15.0)
+    assert _farthest_outside(mission, detour) == pytest.approx(20.0)
