@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSche
 from cptbt.batch.sim_advice import (
     adcp_advice,
     dropout_advice,
+    flow_direction_advice,
     launch_turn_advice,
     leaf_advice,
     noise_advice,
@@ -242,7 +243,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
         params = None
     if params is not None:
         out += [a for advice in (noise_advice, dropout_advice, adcp_advice, leaf_advice,
-                                 pace_advice, turn_guard_advice)
+                                 pace_advice, turn_guard_advice, flow_direction_advice)
                 for a in advice(mission, params)]
         out += launch_turn_advice(mission, params, launch_pose(mission))
     try:

@@ -286,6 +286,32 @@ def turn_guard_advice(mission: MissionBase, params: EnvironmentParams) -> list[P
              "turning circle inside (1%; missions/small_oparea.yaml)")]
 
 
+def _under(v: float) -> str:
+    """A distance found under a mark, shown to 0.1 m without rounding up to it (a review's
+    14.99999 m read "15.0 m ... under two of the 7.5-m turning radii")."""
+    return f"{math.floor(v * 10) / 10:.1f}"
+
+
+def flow_direction_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """A compass mission whose simulated current has no compass direction: without
+    ``environment.flow_toward_deg`` (or ``environment.flow.mean_dir_deg``) the preset's
+    direction is taken in the planning frame, along the OpArea's x axis, so turning the box
+    (or which side is longer) turns the ocean (a review's N-S box flowed toward 2°, the same
+    box rotated 30° toward 32°, both validated ``ok``)."""
+    env = mission.environment
+    if (mission.frame == "planning" or env is None
+            or getattr(env, "flow_toward_deg", None) is not None
+            or "mean_dir_deg" in (getattr(env, "flow", None) or {})):
+        return []
+    frame = mission.op_area_geometry().frame
+    compass = (frame.x_bearing_deg + params.flow.mean_dir_deg) % 360
+    return [(("environment",),
+             f"no flow_toward_deg: the simulated current takes its preset's direction, "
+             f"{plain(round(params.flow.mean_dir_deg, 1))}° from the OpArea's x axis, which "
+             f"here is toward compass {compass:.1f}°, and turns with the box; set "
+             "environment.flow_toward_deg (compass) for the ocean you mean")]
+
+
 def source_wall_advice(mission: MissionBase, params: EnvironmentParams,
                        sources: list[Point]) -> list[Problem]:
     """A source whose plume leaves the OpArea at once, or one near a wall (a review: a source
@@ -327,7 +353,7 @@ def source_wall_advice(mission: MissionBase, params: EnvironmentParams,
                      ((area.ymax if uy > 0 else area.ymin) - s.y) / uy if uy else math.inf)
         if params.flow.mean_speed_mps > 0 and inside < reach:
             out.append((key, f"the mean flow carries this source's plume out of the OpArea "
-                        f"{inside:.1f} m down-flow of it: detections outside the OpArea are "
+                        f"{_under(inside)} m down-flow of it: detections outside the OpArea are "
                         "ignored (TRO V), so there is hardly a plume to find and track; move "
                         "the source up-flow, or the OpArea's down-flow wall out"))
         depth = area.depth_inside(s.x, s.y)
@@ -337,7 +363,7 @@ def source_wall_advice(mission: MissionBase, params: EnvironmentParams,
                    "turn_guard_radius_m shortens those turns but does not keep them in (a "
                    "source 3 m inside a corner of the 50-m box: 6 runs of 6 outside, up to "
                    "11.2 m)")
-            out.append((key, f"{depth:.1f} m from an OpArea wall, under two of the simulated "
+            out.append((key, f"{_under(depth)} m from an OpArea wall, under two of the simulated "
                         f"vehicle's {plain(r)}-m turning radii: the turns about the source "
                         "carry the vehicle outside and safety takes over (8 runs 3-8 m from "
                         f"the up-flow wall: every one outside, up to 11.5 m); {fix}, or place "

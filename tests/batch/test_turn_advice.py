@@ -128,3 +128,26 @@ def test_a_flow_along_a_wall_does_not_carry_the_plume_out() -> None:
         leaves = direction == 90.0  # toward +y: out through that wall at once
         assert any("carries this source's plume out" in m for m in said) == leaves, said
         assert any("0.0 m from an OpArea wall" in m for m in said), said
+
+
+def test_a_compass_mission_without_a_flow_direction_is_told_which_it_gets() -> None:
+    """A review: without ``flow_toward_deg`` the current took the preset's direction along the
+    OpArea's x axis, so the same box drawn rotated 30° flowed 30° elsewhere, validated ``ok``."""
+    text = (ROOT / "missions/small_oparea.yaml").read_text(encoding="utf-8")
+    assert "  flow_toward_deg: 200" in text
+    plain = loads_mission(text.replace("  flow_toward_deg: 200", ""), "m.yaml",
+                          default_registry(), Environment)
+    said = [(loc, m) for loc, m in advisories(plain) if "no flow_toward_deg" in m]
+    bearing = plain.op_area_geometry().frame.x_bearing_deg % 360
+    ((loc, msg),) = said
+    assert loc == ("environment",) and f"toward compass {(bearing + 2) % 360:.1f}°" in msg, msg
+    given = loads_mission(text, "m.yaml", default_registry(), Environment)
+    assert not [m for _, m in advisories(given) if "no flow_toward_deg" in m]
+
+
+def test_a_distance_under_a_mark_is_not_shown_rounded_up_to_it() -> None:
+    """A review: 14.99999 m read "15.0 m from an OpArea wall, under two of the ... 7.5-m
+    turning radii"."""
+    from cptbt.batch.sim_advice import _under
+
+    assert _under(14.99999) == "14.9" and _under(3.25) == "3.2" and _under(0.0) == "0.0"
