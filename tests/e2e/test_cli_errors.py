@@ -206,6 +206,15 @@ def test_plot_of_garbage_csv_is_one_line_exit_1(
     assert one_line(cptbt("plot", str(table)), 1) == f"cptbt: {table}: {expected}"
 
 
+def test_plot_of_a_mission_file_says_it_is_no_results_table() -> None:
+    """A review: ``cptbt plot MISSION.yaml`` read the mission as CSV ("a row has more fields
+    than the header")."""
+    mission = ROOT / "missions" / "omae2003.yaml"
+    assert one_line(cptbt("plot", str(mission)), 1) == (
+        f"cptbt: {mission} is not a results table (results.parquet or results.csv) or a "
+        "study's folder")
+
+
 def test_plot_of_a_folder_of_garbage_parts_is_one_line_exit_1(tmp_path: Path) -> None:
     part = tmp_path / "parts" / "c000-r00000.parquet"
     part.parent.mkdir()
