@@ -254,6 +254,15 @@ def advisories(mission: MissionBase) -> list[Problem]:
         out += source_wall_advice(mission, params, truth)
     if mission.evaluation.criterion != "declaration":
         return out
+    area, r = mission.op_area_geometry(), mission.evaluation.success_radius_m
+    for j, s in enumerate(truth):
+        d = area.distance_outside(s.x, s.y)
+        if d > r:  # a review's source 20 m beyond the up-flow wall: declared at the wall, failed
+            out.append((("environment", "source") if j == 0 else
+                        ("environment", "extra_sources", j - 1),
+                        f"{metres_text(d)} m outside the OpArea, farther than the success radius "
+                        f"({r:g} m): detections outside it are ignored (TRO V), so a declaration "
+                        "is made inside and no run can succeed"))
     if len(truth) < 2:
         return out
     r = mission.evaluation.success_radius_m

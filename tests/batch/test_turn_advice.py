@@ -151,3 +151,24 @@ def test_a_distance_under_a_mark_is_not_shown_rounded_up_to_it() -> None:
     from cptbt.batch.sim_advice import _under
 
     assert _under(14.99999) == "14.9" and _under(3.25) == "3.2" and _under(0.0) == "0.0"
+
+
+def test_a_source_farther_outside_than_the_success_radius_is_told_no_run_can_succeed() -> None:
+    """A review: a source 20 m beyond the up-flow wall (``allow_outside: [source]``) validated
+    ``ok``; the run declared at the wall, 25.5 m off, a failure no setting could avoid."""
+    text = (ROOT / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8")
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    a = mission.op_area_geometry()
+
+    def told(outside: float) -> list[str]:
+        from cptbt.types import Point
+
+        p = mission.to_ne(Point(a.xmin - outside, 0.5 * (a.ymin + a.ymax)))
+        moved = text.replace("source: [43, -55]", f"source: [{p[0]:.3f}, {p[1]:.3f}]").replace(
+            "\nbehaviours:", "\nallow_outside: [source]\nbehaviours:")
+        m = loads_mission(moved, "m.yaml", default_registry(), Environment)
+        return [msg for loc, msg in advisories(m) if "no run can succeed" in msg]
+
+    (msg,) = told(20.0)
+    assert msg.startswith("20.0 m outside the OpArea, farther than the success radius (15 m)")
+    assert told(10.0) == []  # within the radius of the wall: a declaration there can succeed
