@@ -162,10 +162,12 @@ class Perception:
         self.rejected_fixes = 0  # navigation fixes ignored as impossibly far out
         self.late_samples = 0  # fluorometer samples stamped well before the previous cycle
         self._held_max = -math.inf  # such samples of this cycle, held until it closes ...
+        self._held_min = math.inf
         self._held_n = 0  # ... how many ...
         self._held_t = math.nan  # ... and the latest one's stamp
         self._run_value = math.nan  # the latest sample, and since when it has read so
         self._run_t = math.nan
+        self._stuck_now = False  # the latest sample was judged stuck
         self.latest: Percept | None = None
 
     def faults(self) -> dict[str, int]:
@@ -202,6 +204,7 @@ class Perception:
             # the clock stepped back instead (a diff review: a step back had dropped the next
             # cycle's samples, called late): then they count; else they are dropped, counted.
             self._held_max = max(self._held_max, concentration)
+            self._held_min = min(self._held_min, concentration)
             self._held_n += 1
             self._held_t = t
             return
@@ -221,8 +224,10 @@ class Perception:
         assert limit is not None
         if value != self._run_value or abs(value) <= STUCK_FLOOR:
             self._run_value, self._run_t = value, t
+            self._stuck_now = False
             return False
-        return t - self._run_t >= limit - TIME_EPS_S
+        self._stuck_now = t - self._run_t >= limit - TIME_EPS_S
+        return self._stuck_now
 
     def add_flow(self, t: float, vx: float, vy: float) -> None:
         """One flow-over-ground sample (planning frame, m/s); impossible samples are ignored."""
@@ -311,7 +316,11 @@ class Perception:
         t = self._cycle_time(t)
         if self._held_n:
             if self.clock_corrections > corrected:  # the clock stepped back: on the new clock
-                self._cycle_max = max(self._cycle_max, self._held_max)
+                if self._held_min == self._held_max == self._run_value and self._stuck_now:
+                    # the stuck reading again (a review: held samples skipped the stuck check)
+                    self.stuck_samples += self._held_n
+                else:
+                    self._cycle_max = max(self._cycle_max, self._held_max)
             else:
                 before = self.late_samples
                 self.late_samples += self._held_n
@@ -323,7 +332,7 @@ class Perception:
                         "after %s cycle: dropped as late (%d so far)", self._held_n,
                         "s" * (self._held_n != 1), self._held_t,
                         "its" if self._held_n == 1 else "their", n)
-            self._held_max, self._held_n = -math.inf, 0
+            self._held_max, self._held_min, self._held_n = -math.inf, math.inf, 0
         pose = self._pose
         conc = self._cycle_max if self._cycle_max > -math.inf else math.nan
         self._cycle_max = -math.inf

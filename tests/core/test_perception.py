@@ -340,6 +340,23 @@ def test_a_clock_step_back_is_no_late_delivery() -> None:
     assert p.faults()["late_samples"] == 0 and p.faults()["clock_corrections"] == 1
 
 
+def test_a_stuck_reading_across_a_clock_step_back_stays_dropped() -> None:
+    """Samples held aside as possibly late skipped the stuck check: a sensor frozen at 0.9
+    gave a detection at the cycle that found the clock stepped back."""
+    p = make()
+    p.set_pose(Pose(50, 0))
+    assert all(math.isnan(c) for c in sampled(p, [0.9] * 10, t0=100.0)[4:])
+    for k in range(1, 10):
+        p.add_sample(50.0 + k / 10, 0.9)  # stamped after a step back of the clock
+    per = p.cycle(51.0)
+    assert math.isnan(per.concentration) and not per.detected
+    assert p.faults()["clock_corrections"] == 1 and p.faults()["late_samples"] == 0
+    stuck = p.stuck_samples
+    for k in range(1, 10):  # the reading changes: read again
+        p.add_sample(51.0 + k / 10, 0.3)
+    assert p.cycle(52.0).concentration == 0.3 and p.stuck_samples == stuck
+
+
 def test_lateness_is_judged_against_a_second_not_a_10_hz_period() -> None:
     """A diff review: at 10 Hz, the measured period (0.1 s) dropped every sample of a steady
     0.25-s latency; the measured period after a gap (up to 60 s) kept a minute-old one."""
