@@ -59,7 +59,7 @@ def north_corner(area: OpArea, marks: NDArray[np.float64],
     return choice
 
 
-def _north_arrow(ax: Any, mission: MissionBase, area: OpArea, corner: int = 0) -> None:
+def _north_arrow(ax: Any, area: OpArea, corner: int = 0) -> None:
     """A north arrow in an OpArea corner (:func:`north_corner`; planning frame, y drawn
     down)."""
     x0, y0, size, north = _north_geometry(area, corner)

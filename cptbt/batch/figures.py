@@ -237,7 +237,7 @@ def trajectory_figure(
         _map_panel(ax_map, belief, area, truth, declared, run.declaration_report or {}, plt)
         ax.tick_params(labelbottom=True)  # shared x: the top panel's numbers too
     if mission.frame != "planning":
-        _north_arrow(ax, mission, area, north or 0)
+        _north_arrow(ax, area, north or 0)
     ax.set_aspect("equal")
     if turn is not None:  # every panel turned; the limits as the planning frame's, turned
         for panel_ax in [ax] + ([ax_map] if belief is not None else []):

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from cptbt.batch.compass import _north_arrow, _north_points, north_corner
 from cptbt.batch.figures import flow_arrow
 from cptbt.batch.report import (
     Rows,
@@ -142,8 +143,13 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry 
             stars = np.asarray([here.source, *here.extra_sources], dtype=float)
             ax.plot(stars[:, 0], stars[:, 1], "*", color="gold", mec="black", ms=15, ls="none",
                     label="source" if len(stars) == 1 else "sources")
-            if here.flow_deg is not None:  # off the starts and sources where it can be
-                marks = np.asarray([*by, *labels, *stars.tolist()], dtype=float)
+            marks = np.asarray([*by, *labels, *stars.tolist()], dtype=float)
+            if here.ne_frame is not None:  # a compass: the north arrow, as run figures have
+                area = OpArea(x0, x1, y0, y1, here.ne_frame)
+                corner = north_corner(area, marks, np.empty((0, 2)))
+                _north_arrow(ax, area, corner)
+                marks = np.concatenate([marks, _north_points(area, corner)])
+            if here.flow_deg is not None:  # off the starts, sources and north where it can be
                 flow_arrow(ax, OpArea(x0, x1, y0, y1), here.flow_deg, marks)
         runs_n = sorted(set(counts[counts > 0].ravel().tolist()))
         per_cell = f"n = {runs_n[0]}" if len(runs_n) == 1 else f"n = {runs_n[0]}–{runs_n[-1]}"

@@ -726,7 +726,17 @@ def test_each_map_panel_draws_its_own_flow_and_the_scale_reaches_every_cell(
     vmax = max(c.norm.vmax for ax in fig.axes for c in ax.collections
                if c.norm is not None and c.norm.vmax is not None)
     assert vmax >= (1190.0 + 2 * 1800.0) / 3  # that start's mean, a failure at the limit
+    # no compass (a planning-frame study): no north arrow
+    assert not [t for ax in fig.axes for t in ax.texts if t.get_text() == "N"]
     real_plt.close(fig)
+    from cptbt.frames import PlanningFrame
+
+    rotated = StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0, (),
+                            PlanningFrame(30.0, 0.0, 0.0))
+    study_figures._map(groups, tmp_path / "n.png", Plt, rotated)
+    norths = [t for ax in kept[-1].axes for t in ax.texts if t.get_text() == "N"]
+    assert len(norths) == 2  # a compass study: a north arrow in each panel
+    real_plt.close(kept[-1])
     assert config_geometries({"config_geometry": [{"area": "?"}]}) == {}  # malformed: none
 
 
