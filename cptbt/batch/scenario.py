@@ -324,6 +324,17 @@ def to_sim_params(mission: MissionBase, seed: int | None = None) -> EnvironmentP
     return EnvironmentParams.model_validate(_merge(base, over))
 
 
+def mean_flow(mission: MissionBase) -> dict[str, Any]:
+    """The simulated current's mean, for ``summary.json``: toward which compass bearing (a
+    planning-frame mission: which planning angle) and how fast (a review could tell the
+    direction a mission without ``flow_toward_deg`` flew only from its figure)."""
+    flow = to_sim_params(mission).flow
+    if mission.frame == "planning":
+        return {"toward_planning_deg": flow.mean_dir_deg, "speed_mps": flow.mean_speed_mps}
+    bearing = mission.op_area_geometry().frame.x_bearing_deg + flow.mean_dir_deg
+    return {"toward_deg": round(bearing % 360, 6), "speed_mps": flow.mean_speed_mps}
+
+
 def true_sources(mission: MissionBase) -> list[Point]:
     """Every true source of a mission's environment (planning frame), ``source`` first."""
     env = environment_of(mission)

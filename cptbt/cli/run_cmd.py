@@ -15,7 +15,13 @@ from cptbt.batch.errors import BatchError
 from cptbt.batch.figures import plume_grid, trajectory_figure
 from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.phased import phase_summary, simulate_phased
-from cptbt.batch.scenario import Environment, launch_pose, to_sim_params, true_sources
+from cptbt.batch.scenario import (
+    Environment,
+    launch_pose,
+    mean_flow,
+    to_sim_params,
+    true_sources,
+)
 from cptbt.batch.summary import summarise
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError
@@ -218,6 +224,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if made and out.is_dir() and not any(out.iterdir()):
             out.rmdir()
         raise
+    summary["mean_flow"] = mean_flow(mission)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     trace_path = write_trace(run, out)
     figure = None
@@ -321,6 +328,7 @@ def refly(args: argparse.Namespace) -> int:
         Path("runs") / f"{mission.name}-row{args.row}-{task.key}")
     out.mkdir(parents=True, exist_ok=True)
     label = ", ".join(f"{k}={v}" for k, v in coords.items())
+    summary["mean_flow"] = mean_flow(mission)
     summary["refly"] = {"results": str(results), "row": args.row, "same_as_study": not diff,
                         "differs_in": diff, "configuration": coords}
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")

@@ -85,6 +85,9 @@ def test_cptbt_run_writes_summary_trace_and_figure(tmp_path: Path) -> None:
     home = summary["home"]
     assert home["north"] == pytest.approx(-100) and home["east"] == pytest.approx(40)
     assert set(summary["home"]) == set(src)
+    # the simulated current flown, in the mission's compass (a review could tell it only from
+    # the figure when the mission did not give it)
+    assert summary["mean_flow"] == {"toward_deg": 135.0, "speed_mps": 0.1}
     assert (tmp_path / "trace.parquet").exists() or (tmp_path / "trace.csv").exists()
     png = (tmp_path / "trajectory.png").read_bytes()
     assert png.startswith(b"\x89PNG") and len(png) > 20_000
