@@ -418,8 +418,8 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
     lines += paired_table(groups)
     lines += ["", "## Evaluation protocol", "",
               "Times to source over the successful runs (a failure counts in P(fail) only; "
-              f"the 90th and 99th percentiles from {PERCENTILE_RUNS[90]} and "
-              f"{PERCENTILE_RUNS[99]} of them, — before); "
+              f"the 90th and 99th percentiles once there are {PERCENTILE_RUNS[90]} and "
+              f"{PERCENTILE_RUNS[99]} of them, — with fewer); "
               "path efficiency = straight line from the start to the true source / true path "
               "flown to success; D0/D3 the mean of each declaration's ratio of TRO's D0 and D3 "
               "(SPEC §11; not the ratio of the means, and not a column of TRO Table IV, which "
