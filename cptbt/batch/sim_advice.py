@@ -331,7 +331,7 @@ def source_wall_advice(mission: MissionBase, params: EnvironmentParams,
     ``turn_guard_radius_m``, which shortens the excursions but does not end them (a review of
     the change: the 50-m box's guarded mission, its source 3 m inside a corner, 6 of 6 runs
     outside, up to 11.2 m), within one turning radius: ``missions/small_oparea.yaml``'s source,
-    13 m in with a guard, leaves the box by 3.8 m on average (README), which is the small box's
+    13 m in with a guard, leaves the box by 4.1 m on average (README), which is the small box's
     own (:func:`turn_guard_advice`), and is not warned of.
     """
     if params.vehicle.heading_mode != "turn_radius":
