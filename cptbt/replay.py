@@ -155,7 +155,7 @@ def story(log: LogData) -> list[str]:
     for c in log.cycles:
         t = float(c["t"])
         active = c["active"]
-        cycles_in[active or "none"] = cycles_in.get(active or "none", 0) + 1
+        cycles_in[active or "no output"] = cycles_in.get(active or "no output", 0) + 1
         fam = active.split(".")[0] if active else None
         if fam != family:
             family = fam

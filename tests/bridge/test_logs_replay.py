@@ -100,6 +100,9 @@ def test_the_story_tells_the_phases_and_the_declaration(logged: Path) -> None:
     shares = story(read_log(logged))[-1]
     assert shares.startswith("cycles in each behaviour:")
     assert "maintain_plume.track_in" in shares and "maintain_plume.track_out" in shares
+    # cycles without a command read as `cptbt run` says them (a review: "none 0%")
+    assert "none" not in shares and ("no output" in shares) == any(
+        c["active"] is None for c in read_log(logged).cycles)
     # ... so its lines name the family, not whichever leaf it happened to start in.
     assert "behaviour maintain_plume\n" in text + "\n" and "behaviour maintain_plume." not in text
 
