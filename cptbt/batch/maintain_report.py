@@ -45,7 +45,8 @@ def _se_text(se: float) -> str:
 
 def maintain_table(groups: dict[str, Rows]) -> list[str]:
     """Markdown lines: T_M per configuration (runs without a contact are counted, not averaged)."""
-    lines = ["## Maintain time (AB eq. 3: T_M = T_Last − T_First, until contact is lost for good)",
+    lines = ["## Maintain time (AB eq. 3: T_M = T_Last − T_First of each contact, summed until "
+             "contact is lost for good)",
              "", "| configuration | runs | with a contact | mean T_M ± SE (s) | median T_M (s) "
              "| came within the success radius |", "|---|---:|---:|---:|---:|---:|"]
     for label, rows in groups.items():
