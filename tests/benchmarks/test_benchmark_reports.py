@@ -54,6 +54,23 @@ def test_ab_quick_grid_section_sets_nothing_against_97(tmp_path: Path) -> None:
     assert (tmp_path / "fig11_grid.png").exists()
 
 
+def test_ab_quick_line_section_gives_no_verdict(tmp_path: Path) -> None:
+    """A review: the quick report's Fig. 10 prose said "agrees with AB in sign" on 8 plumes
+    after its head said too few plumes to judge."""
+    pytest.importorskip("matplotlib")
+    ab = script("ab2001_reproduction.py")
+
+    def line(offset: float) -> list[dict[str, object]]:
+        return [{"success": True, "replicate": r, "start_x": float(x), "start_y": 0.0,
+                 "T_total": 100.0 + offset + r} for x in (70, 80, 90, 15, 20, 25) for r in range(4)]
+
+    rows = {"I": line(0.0), "III_last": line(-35.0)}
+    judged = "\n".join(ab.line_section(rows, tmp_path, judged=True)[0])
+    quick = "\n".join(ab.line_section(rows, tmp_path, judged=False)[0])
+    assert "agrees with AB" in judged
+    assert "agrees with AB" not in quick and "not judged: too few plumes" in quick
+
+
 def test_likelihood_map_header_records_the_whole_command(tmp_path: Path) -> None:
     out = tmp_path / "study.md"
     args = ["--runs", "1", "--two-runs", "0", "--configs", "upflow_cluster", "--cost-seeds",
