@@ -127,6 +127,7 @@ class MavlinkLink:
         self._base = 0
         self._mission_state: int | None = None
         self._mission_seq = 0
+        self._begun = False  # the vehicle's mission seen running, or a waypoint reached
         self._yaw_deg: float | None = None
         self._airspeed = math.nan
         self._t = 0.0
@@ -284,7 +285,12 @@ class MavlinkLink:
                                             str(m.text)[len(mw.REFUSED):]))
 
     def _mode(self) -> str:
-        return mw.vehicle_mode(self._custom, self._base, self._mission_state)
+        if not self._begun:
+            running = self._mission_state in (mavlink.MISSION_STATE_ACTIVE,
+                                              mavlink.MISSION_STATE_PAUSED)
+            self._begun = (running or self._mission_seq >= 2
+                           or (self._custom == mw.AUTO and self._base & mw.ARMED != 0))
+        return mw.vehicle_mode(self._custom, self._base, self._mission_state, self._begun)
 
     def _mode_changed(self) -> None:
         guided = self._custom == mw.GUIDED and self._mode() == "override"

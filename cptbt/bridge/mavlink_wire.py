@@ -71,27 +71,32 @@ TYPE_MASK_POSVEL_YAW = (mavlink.POSITION_TARGET_TYPEMASK_AX_IGNORE
                         | mavlink.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE)
 
 
-def vehicle_mode(custom_mode: int | None, base_mode: int, mission_state: int | None
-                 ) -> VehicleMode:
+def vehicle_mode(custom_mode: int | None, base_mode: int, mission_state: int | None,
+                 begun: bool = True) -> VehicleMode:
     """The AMP's reading of the vehicle's mode.
 
     ``MISSION_CURRENT.mission_state`` COMPLETE is ``post_mission``; disarmed before that is
     ``pre_launch``, and so is armed in a pilot's mode (neither AUTO nor GUIDED) while the
-    mission has not started (its state NOT_STARTED, NO_MISSION, UNKNOWN or not yet heard): the
-    launch is the vehicle starting its mission, and a pilot driving it off the dock in MANUAL
-    had counted as launched, so that ``amp_enable_s`` later the AMP switched it to GUIDED out
-    of the pilot's hands (a review). GUIDED is ``override``; AUTO with the mission PAUSED is
-    ``returning`` (the vehicle transits back to the break-off point before resuming, as the
-    REMUS does; a vehicle that resumes at once is simply ``mission``); any other armed mode is
-    the vehicle flying on its own, ``mission`` (a pilot's mode once the mission has started
-    too: the AMP cannot tell a pilot from a failsafe there).
+    mission has not ``begun``: the launch is the vehicle starting its mission, and a pilot
+    driving it off the dock in MANUAL had counted as launched, so that ``amp_enable_s`` later
+    the AMP switched it to GUIDED out of the pilot's hands (a review). ``begun`` is the link's
+    (:class:`~cptbt.bridge.mavlink_link.MavlinkLink`): the mission running (ACTIVE or PAUSED,
+    or armed in AUTO) heard since the link opened, or a waypoint reached (MISSION_CURRENT seq
+    of 2 or more). Not the mission state alone: ArduSub stops its mission whenever it leaves
+    AUTO, and a stopped mission reads NOT_STARTED, so a pilot mid-mission read as the dock (a
+    diff review: a serve restarted then took the vehicle over once the pilot gave AUTO back).
+    GUIDED is ``override``; AUTO with the mission PAUSED is ``returning`` (the vehicle transits
+    back to the break-off point before resuming, as the REMUS does; a vehicle that resumes at
+    once is simply ``mission``); any other armed mode is the vehicle flying on its own,
+    ``mission`` (a pilot's mode once the mission has begun too: the AMP cannot tell a pilot
+    from a failsafe there). Left: a serve started while a pilot drives a vehicle that had
+    reached no waypoint reads it at the dock.
     """
     if mission_state == mavlink.MISSION_STATE_COMPLETE:
         return "post_mission"
     if not base_mode & ARMED:
         return "pre_launch"
-    started = mission_state in (mavlink.MISSION_STATE_ACTIVE, mavlink.MISSION_STATE_PAUSED)
-    if not started and custom_mode not in (AUTO, GUIDED):
+    if not begun and custom_mode not in (AUTO, GUIDED):
         return "pre_launch"
     if custom_mode == GUIDED:
         return "override"

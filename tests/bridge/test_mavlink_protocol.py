@@ -209,26 +209,56 @@ def test_a_mavlink_link_needs_its_mission() -> None:
         open_link("mavlink:udp:127.0.0.1:14550")
 
 
-@pytest.mark.parametrize("mode, custom, armed, state", [
-    ("pre_launch", mw.MANUAL, False, mavlink.MISSION_STATE_NOT_STARTED),
-    ("mission", mw.AUTO, True, mavlink.MISSION_STATE_ACTIVE),
-    ("mission", mw.POSHOLD, True, mavlink.MISSION_STATE_ACTIVE),  # a pilot, mid-mission
-    # armed in a pilot's mode, the mission not started: a pilot at the dock, not the launch
-    ("pre_launch", mw.POSHOLD, True, None),
-    ("pre_launch", mw.MANUAL, True, mavlink.MISSION_STATE_NOT_STARTED),
-    ("pre_launch", mw.STABILIZE, True, mavlink.MISSION_STATE_UNKNOWN),
-    ("mission", mw.AUTO, True, None),
-    ("mission", mw.AUTO, True, mavlink.MISSION_STATE_NOT_STARTED),
-    ("override", mw.GUIDED, True, mavlink.MISSION_STATE_ACTIVE),
-    ("returning", mw.AUTO, True, mavlink.MISSION_STATE_PAUSED),
-    ("post_mission", mw.SURFACE, True, mavlink.MISSION_STATE_COMPLETE),
+@pytest.mark.parametrize("mode, custom, armed, state, begun", [
+    ("pre_launch", mw.MANUAL, False, mavlink.MISSION_STATE_NOT_STARTED, False),
+    ("mission", mw.AUTO, True, mavlink.MISSION_STATE_ACTIVE, True),
+    # ArduSub stops its mission on leaving AUTO: a pilot mid-mission reads NOT_STARTED
+    ("mission", mw.POSHOLD, True, mavlink.MISSION_STATE_NOT_STARTED, True),
+    ("mission", mw.SURFACE, True, mavlink.MISSION_STATE_NOT_STARTED, True),
+    # armed in a pilot's mode before the mission has begun: a pilot at the dock, no launch
+    ("pre_launch", mw.POSHOLD, True, None, False),
+    ("pre_launch", mw.MANUAL, True, mavlink.MISSION_STATE_NOT_STARTED, False),
+    ("pre_launch", mw.STABILIZE, True, mavlink.MISSION_STATE_UNKNOWN, False),
+    ("mission", mw.AUTO, True, None, False),
+    ("mission", mw.AUTO, True, mavlink.MISSION_STATE_NOT_STARTED, False),
+    ("override", mw.GUIDED, True, mavlink.MISSION_STATE_ACTIVE, True),
+    ("returning", mw.AUTO, True, mavlink.MISSION_STATE_PAUSED, True),
+    ("post_mission", mw.SURFACE, True, mavlink.MISSION_STATE_COMPLETE, True),
 ])
-def test_the_mode_table(mode: str, custom: int, armed: bool, state: int | None) -> None:
-    assert mw.vehicle_mode(custom, mw.CUSTOM | (mw.ARMED if armed else 0), state) == mode
-    if (state is not None and mode in mw.WIRE_MODES and custom not in (mw.POSHOLD, mw.STABILIZE)
-            and (custom, armed) != (mw.MANUAL, True)
-            and (custom, state) != (mw.AUTO, mavlink.MISSION_STATE_NOT_STARTED)):
-        assert mw.WIRE_MODES[mode] == (custom, armed, state)
+def test_the_mode_table(mode: str, custom: int, armed: bool, state: int | None,
+                        begun: bool) -> None:
+    assert mw.vehicle_mode(custom, mw.CUSTOM | (mw.ARMED if armed else 0), state,
+                           begun) == mode
+    if mode in mw.WIRE_MODES and (custom, armed, state) == mw.WIRE_MODES[mode]:
+        assert begun or mode == "pre_launch"
+
+
+def test_a_pilot_reads_at_the_dock_only_before_the_mission_has_begun() -> None:
+    """A review: armed in MANUAL at the dock counted as the launch, and the AMP took the
+    vehicle to GUIDED from its pilot amp_enable_s later. A diff review: reading a pilot's mode
+    as the dock whenever the mission state said NOT_STARTED took ArduSub's mid-mission pilot
+    (its mission stops on leaving AUTO) for the dock too, and a restarted serve took over."""
+    def says(w: Wire, custom: int, state: int, seq: int) -> str:
+        hb = w.codec.mav.heartbeat_encode(mavlink.MAV_TYPE_SUBMARINE,
+                                          mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                          mw.CUSTOM | mw.ARMED, custom, mavlink.MAV_STATE_ACTIVE)
+        cur = w.codec.mav.mission_current_encode(seq, 0, state, 0)
+        w.raw(hb.pack(w.codec.mav) + cur.pack(w.codec.mav))
+        return w.link._mode()
+
+    dock = mavlink.MISSION_STATE_NOT_STARTED
+    w = Wire(MSN007, MavlinkCodec(MSN007))
+    try:
+        assert says(w, mw.MANUAL, dock, 1) == "pre_launch"  # a pilot off the dock
+        assert says(w, mw.AUTO, mavlink.MISSION_STATE_ACTIVE, 1) == "mission"  # the launch
+        assert says(w, mw.MANUAL, dock, 1) == "mission"  # a pilot (or failsafe) mid-mission
+    finally:
+        w.close()
+    w = Wire(MSN007, MavlinkCodec(MSN007))  # a serve started while a pilot drives mid-mission
+    try:
+        assert says(w, mw.POSHOLD, dock, 3) == "mission"  # waypoints reached: under way
+    finally:
+        w.close()
 
 
 def test_a_lost_take_or_give_is_asked_again() -> None:
