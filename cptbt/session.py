@@ -60,11 +60,13 @@ again)."""
 
 NO_OUTPUT_S = 5.0
 """Under override, the AMP gives back (``amp_abort``) when its planner has given no command for
-this long, or three planning cycles if longer (counted in cycles, whatever the clock does): a
-planner with no output leaves the vehicle on the AMP's last command, which nothing then steers
-or keeps in the OpArea (a review's dead current sensor: no flow estimate, no behaviour drove,
-and only the vehicle's own 30-s watchdog ended the override). A run's last cycle, after the
-declaration and the trip home, is no command for one cycle only."""
+this long, or three planning cycles if longer, on the vehicle's clock from the first cycle
+without one (its forward steps: a step back adds nothing): a planner with no output leaves the
+vehicle on the AMP's last command, which nothing then steers or keeps in the OpArea (a
+review's dead current sensor: no flow estimate, no behaviour drove, and only the vehicle's own
+30-s watchdog ended the override). Time, not cycles: the session plans at most once a report,
+and counted in cycles a 10-Hz mission on 1-Hz reports gave back after 51 s (a diff review). A
+run's last cycle, after the declaration and the trip home, is no command for one cycle only."""
 
 MAX_REPORT_STEP_S = 1.0
 """The most one report's stamp counts toward :data:`NAV_TIMEOUT_S` past the latest before it."""
@@ -127,8 +129,10 @@ class AmpSession:
         self._heard: dict[type, list[float]] = {}
         self._fix_t = -math.inf  # the time of the latest report with a usable position
         self._nav_timeout = max(NAV_TIMEOUT_S, 3 * self._period)
-        self._silent_cycles = 0  # planning cycles in a row without a command
-        self._silent_limit = max(3, math.ceil(NO_OUTPUT_S * mission.cycle_hz - 1e-9))
+        self._silent_cycles = 0  # planning cycles in a row without a command ...
+        self._silent_s = 0.0  # ... and the vehicle time they span (forward steps)
+        self._silent_t = math.nan  # the vehicle time of the latest planning cycle
+        self._silent_limit_s = max(NO_OUTPUT_S, 3 * self._period)
         self._launch_base: float | None = None  # the vehicle time the launch counts from
         self._launch_offset = 0.0  # the clock's steps back since the launch, added back
         self._launch_prev_t = math.nan  # the latest state time since the launch
@@ -377,14 +381,20 @@ class AmpSession:
 
     def _silent_give_back(self, t: float) -> None:
         """Give back once the planner has had no command for :data:`NO_OUTPUT_S`."""
-        self._silent_cycles = 0 if self.command is not None else self._silent_cycles + 1
-        if self._silent_cycles < self._silent_limit:
+        before, self._silent_t = self._silent_t, t  # the previous cycle's time, and this one's
+        if self.command is not None:
+            self._silent_cycles, self._silent_s = 0, 0.0
+            return
+        if math.isfinite(before):  # since the last command: its cycle's time on
+            self._silent_s += max(t - before, 0.0)
+        self._silent_cycles += 1
+        if self._silent_s + 1e-9 < self._silent_limit_s:
             return
         self.link.send(OverrideRelease())
         why = getattr(self.planner, "silence", None)
+        n = self._silent_cycles
         self.phases.fire("amp_abort", t, f"the planner gave no command for "
-                         f"{self._silent_cycles} planning cycles "
-                         f"({self._silent_cycles * self._period:.3g} s)"
+                         f"{self._silent_s:.3g} s ({n} planning cycle{'s' * (n != 1)})"
                          + (f": {why()}" if callable(why) else ""))
 
     def _tick(self, t: float) -> None:

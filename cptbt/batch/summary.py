@@ -314,7 +314,7 @@ def summarise(
         unchecked=report.get("unchecked"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
         farthest_outside_m=max(_farthest_outside(mission, true), run.outside_m),
-        T_M=(_maintain_time(run, mission.perception.lambda_s)
+        T_M=(_maintain_time(run, mission.perception.lambda_s, 1.0 / mission.cycle_hz)
              if mission.evaluation.criterion == "maintain" else None),
         path_m=path_m,
         start_to_source_m=straight,
@@ -374,11 +374,13 @@ DETOUR_NOTED_M = 0.05
 (or never gets in) has left it (``cptbt.batch.comparison.OUTSIDE_NOTED_M``, the same mark)."""
 
 
-def _maintain_time(run: VehicleRun, lambda_s: float) -> float | None:
+def _maintain_time(run: VehicleRun, lambda_s: float, period_s: float) -> float | None:
     """AB's maintain time, "the total time in the plume": eq. 3's ``T_Lost - T_First - λ``
-    (the last detection of a contact less its first) summed over the contacts, a contact
-    ending when no detection follows within ``lambda_s`` (the perception's λ); None without a
-    detection.
+    (the last detection of a contact less its first) summed over the contacts; None without a
+    detection. A contact ends as the perception ends it: at a planning cycle more than
+    ``lambda_s`` after the last detection, so detections more than λ plus a cycle
+    (``period_s``) apart (a diff review: split at λ, a gap the planner never left the plume in
+    was dropped).
 
     Reading chosen (a review, AB §3 and §4.2): AB keeps the time spent reacquiring, ``T_R``,
     apart from ``T_M`` ("the total amount of time in contact with the plume, i.e. the time
@@ -391,7 +393,7 @@ def _maintain_time(run: VehicleRun, lambda_s: float) -> float | None:
     hits = run.path_t[run.recorder.column("detected", run.index)]
     if not len(hits):
         return 0.0
-    breaks = np.flatnonzero(np.diff(hits) > lambda_s + 1e-9)
+    breaks = np.flatnonzero(np.diff(hits) > lambda_s + period_s + 1e-9)
     firsts = np.concatenate([hits[:1], hits[breaks + 1]])
     lasts = np.concatenate([hits[breaks], hits[-1:]])
     return float(np.sum(lasts - firsts))

@@ -556,7 +556,7 @@ def test_a_planner_with_no_output_gives_back() -> None:
     assert isinstance(link.sent[-1], OverrideRelease)
     gave = s.phases.timeline[-1]
     assert gave.trigger == "amp_abort" and gave.t_s == 108.0
-    assert gave.detail == "the planner gave no command for 5 planning cycles (5 s)"
+    assert gave.detail == "the planner gave no command for 5 s (5 planning cycles)"
 
 
 def test_a_dead_current_sensor_gives_back_and_says_why() -> None:
@@ -576,5 +576,24 @@ def test_a_dead_current_sensor_gives_back_and_says_why() -> None:
     assert step(s, link, state(245.0, "override", x=at.x, y=at.y)) == "amp.give_back"
     gave = s.phases.timeline[-1]
     assert gave.trigger == "amp_abort" and gave.t_s == 245.0
-    assert gave.detail == ("the planner gave no command for 5 planning cycles (5 s): no flow "
+    assert gave.detail == ("the planner gave no command for 5 s (5 planning cycles): no flow "
                            "estimate (no usable flow sample has arrived)")
+
+
+def test_no_output_is_timed_on_the_vehicles_clock_not_in_cycles() -> None:
+    """A diff review: counted in cycles, a 10-Hz mission on 1-Hz reports (the session plans at
+    most once a report) gave back after 51 s, past the vehicle's 30-s watchdog."""
+    fast = loads_mission(
+        "name: phased\nframe: planning\nop_area:\n  corners: [[0, -50], [100, -50], [100, 50], "
+        "[0, 50]]\nhome: [5, 0]\ntime_limit_s: 300\ncycle_hz: 10\nbehaviours:\n  - safety: {}\n"
+        "mission_a:\n  waypoints: [[10, 0], [50, 0], [90, 0]]\n  amp_enable_s: 100\n"
+        "  watchdog_s: 20\n", "phased.yaml", REG)
+    link, planner = FakeLink(), StubPlanner()
+    s = AmpSession(fast, planner, link)  # type: ignore[arg-type]
+    into_override(s, link)
+    planner.tick = lambda t: None  # type: ignore[assignment,method-assign]
+    for t in (101.0, 102.0, 103.0, 104.0):
+        assert step(s, link, state(t, "override")) == "amp.override"
+    assert step(s, link, state(105.0, "override")) == "amp.give_back"
+    detail = s.phases.timeline[-1].detail
+    assert detail == "the planner gave no command for 5 s (5 planning cycles)"

@@ -7,6 +7,7 @@ contacts (the time spent reacquiring between them is AB's ``T_R``, not ``T_M``).
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -68,15 +69,17 @@ def test_fig9_run_ends_when_find_plume_takes_over(seed: int) -> None:
     summary = summarise(run, mission, Point(20, 0), seed, 0.0)
     # each contact's span, a contact ending when no detection follows within λ (a review: the
     # span over the whole run had counted the casts between contacts as time in the plume)
-    lam = mission.perception.lambda_s
+    # (the planner's contacts: one ends at a cycle more than λ after its last detection)
+    lam, dt = mission.perception.lambda_s, 1.0 / mission.cycle_hz
     contacts, first = [], hits[0]
-    for a, b in zip(hits[:-1], hits[1:], strict=True):
-        if b - a > lam + 1e-9:
+    for a, b in itertools.pairwise(hits):
+        if b - a > lam + dt + 1e-9:
             contacts.append(a - first)
             first = b
     contacts.append(hits[-1] - first)
-    assert summary.T_M is not None and summary.T_M == pytest.approx(sum(contacts), abs=1e-9)
-    assert summary.T_M <= hits[-1] - hits[0] + 1e-9
+    assert summary.T_M is not None
+    assert pytest.approx(sum(contacts), abs=1e-9) == summary.T_M
+    assert hits[-1] - hits[0] + 1e-9 >= summary.T_M
     assert summary.outcome == "contact_lost"
     assert summary.closest_approach_m is not None and summary.closest_approach_m <= 60.0
 
@@ -102,3 +105,26 @@ def test_maintain_criterion_needs_a_maintain_behaviour(tmp_path: Path, capsys) -
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
     assert "evaluation.criterion" in err[0] and "there is none" in err[0]
+
+
+@pytest.mark.parametrize(("hits", "t_m"), [
+    ([2.0], 0.0),  # a single detection
+    ([2.0, 3.0], 1.0),  # λ apart: one contact
+    ([2.0, 3.1], 1.1),  # λ + a cycle: no cycle out of the plume between, one contact
+    ([2.0, 3.2], 0.0),  # a cycle out of the plume between: two contacts of 0 s
+    ([2.0, 2.5, 3.0, 4.2, 5.0], 1.0 + 0.8),  # two contacts; the 1.2-s gap is AB's T_R
+])
+def test_t_m_sums_the_planners_contacts(hits: list[float], t_m: float) -> None:
+    """AB's T_M is the time in contact (a reviewer of the papers: the whole span had counted
+    the casts between contacts); a contact ends where the planner's does, at a cycle more
+    than λ after its last detection (a diff review: split at λ, a gap the planner never left
+    the plume in was dropped). λ = 1 s at 10 Hz, as AB's Fig. 9 missions."""
+    from types import SimpleNamespace
+
+    from cptbt.batch.summary import _maintain_time
+
+    t = np.round(np.arange(0.0, 6.0, 0.1), 9)
+    detected = np.isin(t, np.round(hits, 9))
+    run = SimpleNamespace(t1=hits[0], path_t=t, index=0,
+                          recorder=SimpleNamespace(column=lambda name, i: detected))
+    assert _maintain_time(run, 1.0, 0.1) == pytest.approx(t_m, abs=1e-9)  # type: ignore[arg-type]
