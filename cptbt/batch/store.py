@@ -28,6 +28,7 @@ from cptbt.batch.integrity import fingerprint, rows_checksum
 from cptbt.batch.journal import JOURNAL_SUFFIX, read_journal, unsettled_rows
 from cptbt.batch.study import GroupTask
 from cptbt.batch.study_diff import differences
+from cptbt.batch.tabular import as_csv_reads, columns, csv_rows
 
 try:  # Parquet when pyarrow is installed (the ``results`` extra), CSV otherwise
     import pyarrow as pa
@@ -78,7 +79,7 @@ class _Parquet:
             raise BatchError("writing Parquet needs pyarrow: pip install 'cptbt[results]'")
         # from_pylist takes its columns from the first row: give every row every column, or a
         # column only later rows have (a behaviour one vehicle never used) would be dropped.
-        cols = _columns(rows)
+        cols = columns(rows)
         table = pa.Table.from_pylist([{c: r.get(c) for c in cols} for r in rows])
         meta = {**meta, "rows": table.num_rows, "sha256": rows_checksum(table.to_pylist())}
         table = table.replace_schema_metadata({META_KEY: json.dumps(meta)})
@@ -102,11 +103,11 @@ class _Csv:
 
     def write(self, path: Path, rows: Rows, meta: dict[str, Any]) -> None:
         buffer = io.StringIO(newline="")
-        writer = csv.DictWriter(buffer, fieldnames=_columns(rows))
+        writer = csv.DictWriter(buffer, fieldnames=columns(rows))
         writer.writeheader()
         writer.writerows(rows)
         text = buffer.getvalue()
-        seen = _csv_rows(text)  # the checksum is of what a reader will see
+        seen = csv_rows(text)  # the checksum is of what a reader will see
         meta = {**meta, "rows": len(seen), "sha256": rows_checksum(seen)}
         # Sidecar first: a crash between the two renames leaves a mismatch, never a false match.
         _atomic_write(_sidecar(path), lambda f: f.write(json.dumps(meta).encode("utf-8")))
@@ -115,7 +116,7 @@ class _Csv:
     def read(self, path: Path) -> tuple[Rows, dict[str, Any] | None]:
         _check_not_empty(path)
         try:
-            rows = _csv_rows(path.read_text(encoding="utf-8"))
+            rows = csv_rows(path.read_text(encoding="utf-8"))
         except (OSError, ValueError, csv.Error) as exc:
             raise PartError(f"unreadable ({_first_line(exc)})") from None
         sidecar = _sidecar(path)
@@ -320,7 +321,7 @@ class ResultStore:
     def consolidate(self, tasks: Sequence[GroupTask]) -> Path:
         """Write the single results table (``results.parquet`` or ``results.csv``)."""
         rows = self.rows(tasks)
-        cols = _columns(rows)
+        cols = columns(rows)
         path = self.folder / f"results{self.format.suffix}"
         try:
             self.format.write(path, [{c: r.get(c) for c in cols} for r in rows],
@@ -372,12 +373,13 @@ def load_results(path: Path) -> Rows:
         for fmt in _FORMATS.values():
             if (path / f"results{fmt.suffix}").exists():
                 return load_results(path / f"results{fmt.suffix}")
-        rows = []
+        rows, found = [], _FORMATS[DEFAULT_FORMAT]
         for fmt_name, fmt in _FORMATS.items():
             if any((path / "parts").glob(f"*{fmt.suffix}")):
-                rows = ResultStore(path, fmt_name).rows()
+                rows, found = ResultStore(path, fmt_name).rows(), fmt
                 break
-        rows += unsettled_rows(path)  # runs of groups stopped part way
+        unsettled = unsettled_rows(path)  # runs of groups stopped part way, as parts read
+        rows += as_csv_reads(unsettled) if isinstance(found, _Csv) else unsettled
         if not rows:
             raise BatchError(f"{path} holds no results table (results.parquet or results.csv) "
                              "and no parts/")
@@ -440,15 +442,6 @@ def _parse_meta(raw: bytes) -> dict[str, Any]:
     return meta
 
 
-def _csv_rows(text: str) -> Rows:
-    rows = []
-    for row in csv.DictReader(io.StringIO(text, newline="")):
-        if None in row:
-            raise ValueError("a row has more fields than the header")
-        rows.append(_typed(row))
-    return rows
-
-
 def _sidecar(path: Path) -> Path:
     return path.with_name(f"{path.name}.json")
 
@@ -470,28 +463,3 @@ def _atomic_write(path: Path, write: Callable[[BinaryIO], object]) -> None:
     except BaseException:  # a full disk, say, or Ctrl-C mid-write: leave no half-written file
         tmp.unlink(missing_ok=True)
         raise
-
-
-def _columns(rows: Rows) -> list[str]:
-    cols: dict[str, None] = {}
-    for r in rows:
-        cols.update(dict.fromkeys(r))
-    return list(cols)
-
-
-def _typed(row: dict[str, str | None]) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for k, v in row.items():
-        if v == "" or v is None:
-            out[k] = None
-        elif v in ("True", "False"):
-            out[k] = v == "True"
-        else:
-            try:
-                out[k] = int(v)
-            except ValueError:
-                try:
-                    out[k] = float(v)
-                except ValueError:
-                    out[k] = v
-    return out

@@ -440,6 +440,22 @@ def test_a_folder_of_parts_reads_the_runs_its_journals_hold(tmp_path: Path, fmt:
         (under_way.replicate, 0), (under_way.replicate, 2), (stale.replicate, 0)]
 
 
+def test_journal_rows_read_as_the_parts_beside_them_do(tmp_path: Path, fmt: str) -> None:
+    """A diff review: beside CSV parts, which give a list-valued setting back as its text, a
+    journal's rows kept the list, and a stopped study's configurations were no longer paired
+    (their pairing keys differed)."""
+    from cptbt.batch.journal import journal_line
+
+    store = opened(tmp_path, fmt)
+    done, under_way = tasks(replicates=2, starts=2)
+    store.write_group(done, [{**r, "environment.source": [40, 10]} for r in rows_of(done)])
+    store.journal_path(under_way.key).write_text("".join(
+        journal_line(store.fingerprint, under_way.key, {**r, "environment.source": [40, 10]})
+        for r in rows_of(under_way)), encoding="utf-8")
+    got = load_results(tmp_path)
+    assert len(got) == 4 and len({repr(r["environment.source"]) for r in got}) == 1, got
+
+
 def test_a_journal_survives_arrays_and_a_torn_line_before_it(tmp_path: Path) -> None:
     """A review: a row holding a numpy array failed the whole group (JSON cannot hold it);
     a line appended after one a kill tore joined it and was lost with it."""
