@@ -161,13 +161,10 @@ class Perception:
         self.missing_samples = 0  # fluorometer samples not finite (dropouts)
         self.rejected_fixes = 0  # navigation fixes ignored as impossibly far out
         self.late_samples = 0  # fluorometer samples stamped well before the previous cycle
-        self._held_max = -math.inf  # such samples of this cycle, held until it closes ...
-        self._held_min = math.inf
-        self._held_n = 0  # ... how many ...
-        self._held_t = math.nan  # ... and the latest one's stamp
+        self._held: list[tuple[float, float]] = []  # such samples (stamp, value) of this cycle,
+        # held until it closes
         self._run_value = math.nan  # the latest sample, and since when it has read so
         self._run_t = math.nan
-        self._stuck_now = False  # the latest sample was judged stuck
         self.latest: Percept | None = None
 
     def faults(self) -> dict[str, int]:
@@ -203,11 +200,12 @@ class Perception:
             # source 15.7 m off, nothing said). Held aside until the next cycle says whether
             # the clock stepped back instead (a diff review: a step back had dropped the next
             # cycle's samples, called late): then they count; else they are dropped, counted.
-            self._held_max = max(self._held_max, concentration)
-            self._held_min = min(self._held_min, concentration)
-            self._held_n += 1
-            self._held_t = t
+            self._held.append((t, concentration))
             return
+        self._take(t, concentration)
+
+    def _take(self, t: float, concentration: float) -> None:
+        """A finite sample on time: dropped if stuck, else into this cycle's maximum."""
         if self.settings.stuck_after_s is not None and self._stuck(self._clock(t), concentration):
             self.stuck_samples += 1
             level = logging.INFO if self.stuck_samples == 1 else logging.DEBUG
@@ -224,10 +222,8 @@ class Perception:
         assert limit is not None
         if value != self._run_value or abs(value) <= STUCK_FLOOR:
             self._run_value, self._run_t = value, t
-            self._stuck_now = False
             return False
-        self._stuck_now = t - self._run_t >= limit - TIME_EPS_S
-        return self._stuck_now
+        return t - self._run_t >= limit - TIME_EPS_S
 
     def add_flow(self, t: float, vx: float, vy: float) -> None:
         """One flow-over-ground sample (planning frame, m/s); impossible samples are ignored."""
@@ -314,25 +310,22 @@ class Perception:
         """
         corrected = self.clock_corrections
         t = self._cycle_time(t)
-        if self._held_n:
-            if self.clock_corrections > corrected:  # the clock stepped back: on the new clock
-                if self._held_min == self._held_max == self._run_value and self._stuck_now:
-                    # the stuck reading again (a review: held samples skipped the stuck check)
-                    self.stuck_samples += self._held_n
-                else:
-                    self._cycle_max = max(self._cycle_max, self._held_max)
+        if self._held:
+            held, self._held = self._held, []
+            if self.clock_corrections > corrected:  # the clock stepped back: on the new clock,
+                for ts, value in held:  # each through the stuck check, in order (a review)
+                    self._take(ts, value)
             else:
                 before = self.late_samples
-                self.late_samples += self._held_n
+                self.late_samples += len(held)
                 n = self.late_samples
                 # said the first time and at each power of ten passed, not every cycle
                 loud = before == 0 or int(math.log10(n)) > int(math.log10(before))
                 log.log(logging.WARNING if loud else logging.DEBUG,
                         "%d fluorometer sample%s (the latest stamped %g s) reached the planner "
-                        "after %s cycle: dropped as late (%d so far)", self._held_n,
-                        "s" * (self._held_n != 1), self._held_t,
-                        "its" if self._held_n == 1 else "their", n)
-            self._held_max, self._held_min, self._held_n = -math.inf, math.inf, 0
+                        "after %s cycle: dropped as late (%d so far)", len(held),
+                        "s" * (len(held) != 1), held[-1][0],
+                        "its" if len(held) == 1 else "their", n)
         pose = self._pose
         conc = self._cycle_max if self._cycle_max > -math.inf else math.nan
         self._cycle_max = -math.inf

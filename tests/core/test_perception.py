@@ -357,6 +357,20 @@ def test_a_stuck_reading_across_a_clock_step_back_stays_dropped() -> None:
     assert p.cycle(52.0).concentration == 0.3 and p.stuck_samples == stuck
 
 
+def test_held_samples_are_judged_stuck_one_by_one() -> None:
+    """A diff review: held samples were dropped as stuck only when every one read the frozen
+    value, so a sensor frozen at 0.9 that recovered to 0.0 within the held cycle gave a
+    detection of 0.9."""
+    p = make()
+    p.set_pose(Pose(50, 0))
+    sampled(p, [0.9] * 10, t0=100.0)
+    for k in range(1, 9):
+        p.add_sample(50.0 + k / 10, 0.9)  # after a step back of the clock, still frozen ...
+    p.add_sample(50.95, 0.0)  # ... then clean water
+    per = p.cycle(51.0)
+    assert per.concentration == 0.0 and not per.detected
+
+
 def test_lateness_is_judged_against_a_second_not_a_10_hz_period() -> None:
     """A diff review: at 10 Hz, the measured period (0.1 s) dropped every sample of a steady
     0.25-s latency; the measured period after a gap (up to 60 s) kept a minute-old one."""
