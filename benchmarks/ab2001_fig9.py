@@ -2,7 +2,8 @@
 
 AB §4.3: 100 searchers start at (60, 5) in one plume, fly the same plume-finding path until the
 first detection, then each maintains with its own parameter; a searcher that does not reacquire
-within λ after losing the plume stops, and its maintain time T_M = T_Last - T_First (AB eq. 3) is
+within λ after losing the plume stops, and its maintain time T_M (AB eq. 3's T_Last - T_First of
+each contact, summed over its contacts: the time in the plume, AB's T_R between them left out) is
 recorded; 100 such iterations are averaged. Four panels, each for the large and small meander:
 
 - left: T_M against the largest |beta| (0..75°) — constant beta (AB eq. 4 and Fig. 3, held
@@ -315,8 +316,9 @@ def main() -> int:
         "realisations per value (AB: 100), the same R plumes for every value (paired).",
         "- The run ends when contact, once made, is lost for good (`evaluation: {criterion: "
         "maintain}`): λ = 1 s, then a ±90° cast for λ more (T_W = 2 s, our reading of "
-        "\"reacquired the plume within λ\"); T_M = T_Last − T_First (AB eq. 3) over all "
-        "reacquisitions.",
+        "\"reacquired the plume within λ\"); T_M = T_Last − T_First (AB eq. 3) of each "
+        "contact, summed over the contacts (the time in the plume; AB's T_R, the time "
+        "reacquiring between them, is left out, as it was not before 2026-11-29).",
         "- Strategy III uses `timer: last_detection` (as the other AB missions; see "
         "`report.md`). Mean ± SE over the runs that made contact; `no contact` counts runs "
         "that never detected within 300 s.", "",

@@ -139,8 +139,8 @@ def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
              "configuration, " if starts and isinstance(reps, int) else "")
     planned = meta.get("configs")
     planned = len(planned) if isinstance(planned, list) and planned else configurations
-    count = (f"{planned} configuration{'s' * (planned != 1)}" if planned == configurations
-             else f"{planned} configurations ({configurations} with runs so far)")
+    count = f"{planned} configuration{'s' * (planned != 1)}" + (
+        "" if planned == configurations else f" ({configurations} with runs so far)")
     lines = ["## What was flown", "",
              f"- Mission `{meta['mission']}` ({meta.get('mission_name', '')}), root seed "
              f"{meta.get('root_seed')}; {flown}{count}; time limit "

@@ -294,19 +294,22 @@ def _under(v: float) -> str:
 
 def flow_direction_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """A compass mission whose simulated current has no compass direction: without
-    ``environment.flow_toward_deg`` (or ``environment.flow.mean_dir_deg``) the preset's
-    direction is taken in the planning frame, along the OpArea's x axis, so turning the box
-    (or which side is longer) turns the ocean (a review's N-S box flowed toward 2°, the same
-    box rotated 30° toward 32°, both validated ``ok``)."""
+    ``environment.flow_toward_deg`` the direction is the preset's, or
+    ``environment.flow.mean_dir_deg``, both from the OpArea's x axis (planning frame), so
+    turning the box (or which side is longer) turns the ocean (a review's N-S box flowed toward
+    2°, the same box rotated 30° toward 32°, both validated ``ok``; a diff review: the same
+    with ``flow.mean_dir_deg`` set)."""
     env = mission.environment
-    if (mission.frame == "planning" or env is None
-            or getattr(env, "flow_toward_deg", None) is not None
-            or "mean_dir_deg" in (getattr(env, "flow", None) or {})):
+    if mission.frame == "planning" or env is None or getattr(env, "flow_toward_deg", None) \
+            is not None:
         return []
     frame = mission.op_area_geometry().frame
     compass = (frame.x_bearing_deg + params.flow.mean_dir_deg) % 360
+    given = "mean_dir_deg" in (getattr(env, "flow", None) or {})
+    whose = ("environment.flow.mean_dir_deg, a planning-frame angle" if given
+             else "its preset's direction")
     return [(("environment",),
-             f"no flow_toward_deg: the simulated current takes its preset's direction, "
+             f"no flow_toward_deg: the simulated current takes {whose}, "
              f"{plain(round(params.flow.mean_dir_deg, 1))}° from the OpArea's x axis, which "
              f"here is toward compass {compass:.1f}°, and turns with the box; set "
              "environment.flow_toward_deg (compass) for the ocean you mean")]

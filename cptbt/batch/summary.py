@@ -204,8 +204,9 @@ def summarise(
     the AMP drove (0 when it stayed inside; a review missed it, the README quoting it).
     ``closest_approach_m`` is the vehicle's closest true approach to the true source while the
     AMP drove; ``T_M`` (``evaluation.criterion: maintain`` only, AB Fig. 9) is AB eq. 3's
-    maintain time ``T_Last - T_First``, accumulated over reacquisitions: the last detection before
-    contact was lost for good (or the time limit) minus the first detection.
+    maintain time ``T_Last - T_First`` of each contact, summed over the contacts until contact
+    was lost for good (or the time limit): the time in the plume, the time reacquiring between
+    contacts left out (:func:`_maintain_time`).
 
     Path efficiency (issue 14; OTTO's and olfactory-navigation's measure, for any criterion):
     ``path_m`` is the true path flown from ``t0`` to success (the declaration, or the arrival)
@@ -362,10 +363,14 @@ def _farthest_outside(mission: MissionBase, true: NDArray[np.float64]) -> float:
     if not len(true):
         return 0.0
     far = mission.op_area_geometry().distance_outside_array(true[:, 0], true[:, 1])
+    known = np.flatnonzero(np.isfinite(far))
+    if not len(known):
+        return 0.0
     inside = np.flatnonzero(far == 0.0)
     entry = int(inside[0]) if len(inside) else len(far)
     before = float(np.nanmax(far[:entry], initial=0.0))
-    detour = before if before - far[0] >= DETOUR_NOTED_M else 0.0
+    # from the first known point (a diff review: a NaN first one made every detour 0)
+    detour = before if before - far[known[0]] >= DETOUR_NOTED_M else 0.0
     return max(detour, float(np.nanmax(far[entry:], initial=0.0)), 0.0)
 
 

@@ -143,6 +143,11 @@ def test_a_compass_mission_without_a_flow_direction_is_told_which_it_gets() -> N
     assert loc == ("environment",) and f"toward compass {(bearing + 2) % 360:.1f}°" in msg, msg
     given = loads_mission(text, "m.yaml", default_registry(), Environment)
     assert not [m for _, m in advisories(given) if "no flow_toward_deg" in m]
+    # a planning-frame flow.mean_dir_deg turns with the box too (a diff review)
+    planning = loads_mission(text.replace("  flow_toward_deg: 200", "  flow: {mean_dir_deg: 0}"),
+                             "m.yaml", default_registry(), Environment)
+    (msg,) = [m for _, m in advisories(planning) if "no flow_toward_deg" in m]
+    assert "environment.flow.mean_dir_deg, a planning-frame angle" in msg, msg
 
 
 def test_a_distance_under_a_mark_is_not_shown_rounded_up_to_it() -> None:

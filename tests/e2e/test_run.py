@@ -192,6 +192,8 @@ def test_the_way_in_from_a_start_placed_outside_is_not_an_excursion() -> None:
     assert _farthest_outside(mission, never_in) == pytest.approx(26.0)
     heading_in = np.array([[a.xmin - 20.0, y], [a.xmin - 12.0, y], [a.xmin - 4.0, y]])
     assert _farthest_outside(mission, heading_in) == 0.0  # on its way in when the run ended
+    unknown_first = np.vstack([[[np.nan, np.nan]], never_in])  # (a diff review: read 0)
+    assert _farthest_outside(mission, unknown_first) == pytest.approx(26.0)
     # a detour on the way in (a review of the change: it had scored 0)
     detour = np.array([[a.xmin - 5.0, y], [a.xmin - 20.0, y], [a.xmin + 5.0, y]])
     assert _farthest_outside(mission, detour) == pytest.approx(20.0)
