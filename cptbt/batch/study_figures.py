@@ -165,7 +165,7 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry 
         ax.set_aspect("equal", adjustable="box" if aspect >= 0.75 else "datalim")
         ax.invert_yaxis()
         # the planning frame (x along the OpArea's long axis), whatever frame --starts took
-        frame = geometry.ne_frame if geometry is not None else None
+        frame = here.ne_frame if here is not None else None  # the panel's own
         # with a compass, its bearing (a review's rotated box had none to read)
         ax.set_xlabel("start x (m), planning frame" + (
             f", compass bearing {frame.x_bearing_deg % 360:.1f}°" if frame is not None else ""))
