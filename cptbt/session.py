@@ -97,7 +97,8 @@ class AmpSession:
         command: the planner's command this update (None if none or no tick).
         ticked: whether the planner ticked this update.
         amp_elapsed_s: the AMP's time in control, what its time limit counts: the vehicle
-            clock's forward steps since the take-over (a step back adds nothing).
+            clock's forward steps since the take-over (a step back, or a leap beyond
+            :data:`~cptbt.perception.MAX_CLOCK_JUMP_S`, adds nothing).
         refusals: how many commands the vehicle refused.
     """
 
@@ -364,8 +365,12 @@ class AmpSession:
         t = self.state.t_s
         # The time limit counts the clock's forward steps only: measured as t - t_amp_start,
         # a vehicle clock stepped back 900 s gave the AMP 2 700 s against a limit of 1 800 s
-        # (a review); a forward jump still counts in full (the safe side).
-        self.amp_elapsed_s += max(t - self._elapsed_t, 0.0)
+        # (a review); a forward jump counts in full (the safe side), but not a leap beyond
+        # MAX_CLOCK_JUMP_S, a corrupt or re-based stamp, which counts as a step back does
+        # (a review: one nav stamped 4e9 s ended the search on the time limit). Counting
+        # goes on from the new time either way, so a clock that did jump keeps counting.
+        step = t - self._elapsed_t
+        self.amp_elapsed_s += step if 0.0 < step <= MAX_CLOCK_JUMP_S else 0.0
         self._elapsed_t = t
         due = give_back_trigger(
             self.planner.done,

@@ -597,3 +597,22 @@ def test_no_output_is_timed_on_the_vehicles_clock_not_in_cycles() -> None:
     assert step(s, link, state(105.0, "override")) == "amp.give_back"
     detail = s.phases.timeline[-1].detail
     assert detail == "the planner gave no command for 5 s (5 planning cycles)"
+
+
+def test_a_corrupt_leap_of_the_clock_does_not_end_the_search_on_its_time_limit() -> None:
+    """A review: one navigation report stamped 4e9 s under override ended the AMP's search on
+    its 300-s time limit. A leap beyond an hour counts as a step back does; a clock that has
+    really jumped keeps counting from its new time."""
+    s, link, _ = session()
+    into_override(s, link)
+    step(s, link, state(101.0, "override"))
+    assert step(s, link, state(4e9, "override")) == "amp.override"
+    for t in (102.0, 103.0, 104.0):
+        assert step(s, link, state(t, "override")) == "amp.override"
+    assert s.amp_elapsed_s == pytest.approx(3.0)  # 101-102 lost to the leap, then counted
+    assert step(s, link, state(10_000.0, "override")) == "amp.override"  # jumped for good
+    for t in range(10_001, 10_297):
+        step(s, link, state(float(t), "override"))
+    assert s.phases.state == "amp.override" and s.amp_elapsed_s == pytest.approx(299.0)
+    assert step(s, link, state(10_297.0, "override")) == "amp.give_back"  # 300 s counted
+    assert s.phases.timeline[-1].trigger == "amp_time_limit"
