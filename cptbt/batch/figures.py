@@ -232,7 +232,7 @@ def trajectory_figure(
     if flow_deg is not None:
         drawn = np.concatenate([track, det.reshape(-1, 2), spots])
         flow_arrow(ax, area, flow_deg, drawn,
-                   _north_points(area, north) if north is not None else None, turn)
+                   _north_points(area, north) if north is not None else None, turn, spots)
     if belief is not None:
         _map_panel(ax_map, belief, area, truth, declared, run.declaration_report or {}, plt)
         ax.tick_params(labelbottom=True)  # shared x: the top panel's numbers too
@@ -295,10 +295,13 @@ def _home_radius(mission: MissionBase) -> float | None:
 
 def flow_arrow(ax: Any, area: OpArea, flow_deg: float,
                track: NDArray[np.float64] | None = None,
-               avoid: NDArray[np.float64] | None = None, turn: Any = None) -> None:
+               avoid: NDArray[np.float64] | None = None, turn: Any = None,
+               marks: NDArray[np.float64] | None = None) -> None:
     """The mean current's direction, in the OpArea corner that covers least of what else is
     drawn (``track``: the track, detections and markers as points), never the north arrow
-    (``avoid``) if a corner is clear of it; among equals, the one farthest from the track
+    (``avoid``) if a corner is clear of it, and a marker (``marks``: start, home, sources)
+    counted as ten track points (a new user's label sat on the start markers, the corner having
+    fewer track points than the others); among equals, the one farthest from the track
     (the plume alone can mislead: the meander bends it; in a small area a fixed corner put the
     arrow and its label on the track). Dark with a white halo: readable on white and on a
     colour map alike. The axes draw y downward; the label sits on the side of the tail the
@@ -316,6 +319,7 @@ def flow_arrow(ax: Any, area: OpArea, flow_deg: float,
                (area.xmin + m, area.ymin + m), (area.xmax - m, area.ymin + m)]
     pts = track[np.isfinite(track).all(axis=1)] if track is not None else np.empty((0, 2))
     keep_off = avoid if avoid is not None else np.empty((0, 2))
+    spots = marks[np.isfinite(marks).all(axis=1)] if marks is not None else np.empty((0, 2))
 
     # the arrow spans about a size from its tail, the label below it: the box they fill
     def gaps(c: tuple[float, float], p: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -325,8 +329,12 @@ def flow_arrow(ax: Any, area: OpArea, flow_deg: float,
 
     def rank(c: tuple[float, float]) -> tuple[int, int, float]:
         g = gaps(c, pts)
+        # a marker near the box is under the label, which reaches past it, and weighs as ten
+        # track points: first the marker's (a new user's north-up figure), but not the arrow on
+        # a stretch of track either (a small OpArea's corners all have one or the other)
+        covered = 10 * int(np.count_nonzero(gaps(c, spots) < 0.4 * size))
         return (int(np.count_nonzero(gaps(c, keep_off) == 0.0)),
-                int(np.count_nonzero(g == 0.0)), -float(g.min()) if len(g) else 0.0)
+                covered + int(np.count_nonzero(g == 0.0)), -float(g.min()) if len(g) else 0.0)
 
     # drawn bottom left (y down) unless something else is there: the first of the best
     cx, cy = min(corners, key=rank)

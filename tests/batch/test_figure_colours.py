@@ -67,3 +67,28 @@ def test_the_current_arrows_label_keeps_off_its_head() -> None:
         if abs(head_y - tail_y) > 1e-9:  # the label lies away from the head
             assert (label.get_position()[1] - tail_y) * (head_y - tail_y) < 0, flow_deg
         plt.close(fig)
+
+
+def test_the_current_arrow_keeps_off_the_markers_before_the_track() -> None:
+    """A review's north-up figure had the "mean current" label on the start markers: their
+    corner had the fewest track points. A corner clear of markers wins over fewer track
+    points, and a marker just beside the arrow's box counts (the label reaches past it)."""
+    import numpy as np
+
+    from cptbt.batch.figures import flow_arrow, pyplot
+    from cptbt.frames import OpArea
+
+    plt = pyplot()
+    area = OpArea(-100, 100, -50, 50)  # size 12 m; corners inset 16.8 m
+    track = np.array([[83.2, 33.2], [-83.2, -33.2], [83.2, -33.2]])  # one in three corners
+    start = np.array([[-80.0, 20.0]])  # 1.2 m beyond the fourth corner's box
+
+    def tail(**marks: object) -> tuple[float, float]:
+        fig, ax = plt.subplots()
+        flow_arrow(ax, area, 0.0, np.vstack([track, start]), **marks)  # type: ignore[arg-type]
+        at = next(t for t in ax.texts if t.get_text() == "").xyann
+        plt.close(fig)
+        return (round(at[0], 6), round(at[1], 6))
+
+    assert tail() == (-83.2, 33.2)  # markers only as points of the track: on the start
+    assert tail(marks=start) != (-83.2, 33.2)  # told as markers: kept clear of them
