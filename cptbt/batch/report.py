@@ -32,6 +32,7 @@ from cptbt.batch.maintain_report import (
 )
 from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.frames import PlanningFrame
+from cptbt.mission import MissionBase
 
 Rows = list[dict[str, Any]]
 
@@ -73,6 +74,17 @@ class StudyGeometry:
     """How planning points turn into the mission's North-East metres (None: a planning-frame
     mission, which has no compass): the tables give places in the frame the mission is
     written in."""
+
+    @classmethod
+    def of(cls, mission: MissionBase) -> StudyGeometry:
+        """A mission's: its OpArea, true sources and mean flow (planning frame)."""
+        from cptbt.batch.scenario import to_sim_params
+
+        area = mission.op_area_geometry()
+        params = to_sim_params(mission)
+        return cls((area.xmin, area.xmax, area.ymin, area.ymax), params.source_xy_m,
+                   params.flow.mean_dir_deg, tuple(params.extra_sources_xy_m),
+                   None if mission.frame == "planning" else area.frame)
 
     def to_data(self) -> dict[str, Any]:
         """For ``study.json``."""

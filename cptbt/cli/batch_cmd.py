@@ -15,7 +15,7 @@ from cptbt.batch.comparison import command_faults, excursions
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
-from cptbt.batch.scenario import environment_of, starts_at_a_source, to_sim_params
+from cptbt.batch.scenario import environment_of, starts_at_a_source
 from cptbt.batch.starts import grid_starts
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
 from cptbt.batch.study import GroupTask, Study, Sweep, log_sample, study_notes
@@ -168,15 +168,6 @@ def _planning(mission: MissionBase, coord: tuple[float, float]) -> tuple[float, 
     return p.x, p.y
 
 
-def geometry_of(mission: MissionBase) -> StudyGeometry:
-    """What the study maps draw besides the results: OpArea, true source, mean flow."""
-    area = mission.op_area_geometry()
-    params = to_sim_params(mission)
-    return StudyGeometry((area.xmin, area.xmax, area.ymin, area.ymax), params.source_xy_m,
-                         params.flow.mean_dir_deg, tuple(params.extra_sources_xy_m),
-                         None if mission.frame == "planning" else area.frame)
-
-
 def _check_planner(mission: MissionBase) -> None:
     """``$CPTBT_PLANNER``: a known value, and ``fleet`` only for a mission it can fly (before any
     folder is made)."""
@@ -282,7 +273,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
                        "replicates": "until_sem" if adaptive else "any"})
     code = code_identity(study_of(1).flies())
     store = ResultStore(Path(args.out))
-    geometry = geometry_of(mission)
+    geometry = StudyGeometry.of(mission)
     metadata = {
         "mission": str(args.mission), "mission_name": mission.name,
         "sweeps": {s.name: list(s.values) for s in sweeps},
@@ -291,9 +282,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         "starts": starts, "runs_per_start": runs_per_start, "root_seed": seed,
         "time_limit_s": time_limit, "start_mode": start_mode, "total_runs": study.total_runs,
         "heading_deg": env.launch_heading_deg, "geometry": geometry.to_data(),
-        # each configuration's own (a swept flow or source: a review's maps had drawn the
-        # mission's current in every panel, against the flow flown in one)
-        "config_geometry": [geometry_of(c.mission).to_data() for c in configs],
+        "config_geometry": [StudyGeometry.of(c.mission).to_data() for c in configs],
         "code_version": _git_version(),
         "planner": _planner_record(configs, len(starts), str(args.mission)),
         "seeding": "SeedSequence(root_seed, spawn_key=(replicate, 0)) for the plume; "
