@@ -60,8 +60,8 @@ again)."""
 
 NO_OUTPUT_S = 5.0
 """Under override, the AMP gives back (``amp_abort``) when its planner has given no command for
-this long, or three planning cycles if longer, on the vehicle's clock from the first cycle
-without one (its forward steps: a step back adds nothing): a planner with no output leaves the
+this long, or three planning cycles if longer, on the vehicle's clock from the last cycle
+with one (its forward steps: a step back adds nothing): a planner with no output leaves the
 vehicle on the AMP's last command, which nothing then steers or keeps in the OpArea (a
 review's dead current sensor: no flow estimate, no behaviour drove, and only the vehicle's own
 30-s watchdog ended the override). Time, not cycles: the session plans at most once a report,

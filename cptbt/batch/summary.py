@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cptbt.batch.comparison import OUTSIDE_NOTED_M
 from cptbt.batch.engine import VehicleRun
 from cptbt.batch.outcome import Verdict, judge
 from cptbt.mission import MissionBase
@@ -370,13 +371,8 @@ def _farthest_outside(mission: MissionBase, true: NDArray[np.float64]) -> float:
     entry = int(inside[0]) if len(inside) else len(far)
     before = float(np.nanmax(far[:entry], initial=0.0))
     # from the first known point (a diff review: a NaN first one made every detour 0)
-    detour = before if before - far[known[0]] >= DETOUR_NOTED_M else 0.0
+    detour = before if before - far[known[0]] >= OUTSIDE_NOTED_M else 0.0
     return max(detour, float(np.nanmax(far[entry:], initial=0.0)), 0.0)
-
-
-DETOUR_NOTED_M = 0.05
-"""A track from a start outside the OpArea that goes this much farther out before getting in
-(or never gets in) has left it (``cptbt.batch.comparison.OUTSIDE_NOTED_M``, the same mark)."""
 
 
 def _maintain_time(run: VehicleRun, lambda_s: float, period_s: float) -> float | None:
