@@ -298,8 +298,11 @@ class AmpSession:
                 self._last_refusal = msg.reason
                 self.phases.fire("command_refused", msg.t_s, msg.reason)
         elif isinstance(msg, OverrideEnded) and msg.reason == "watchdog" and self.in_override:
+            # (over MAVLink, any mode change out of GUIDED the AMP did not ask for: a field
+            # re-test's pilot read as "no accepted command" while set-points went out)
             self.phases.fire("watchdog_timeout", msg.t_s,
-                             f"no accepted command for {self.spec.watchdog_s:g} s")
+                             "the vehicle left the override: its watchdog (no accepted command "
+                             f"for {self.spec.watchdog_s:g} s), a failsafe or a pilot")
 
     def _follow_vehicle_mode(self, s: VehicleState) -> None:
         ph = self.phases
@@ -390,8 +393,10 @@ class AmpSession:
         if self.command is not None:
             self._silent_cycles, self._silent_s = 0, 0.0
             return
-        if math.isfinite(before):  # since the last command: its cycle's time on
-            self._silent_s += max(t - before, 0.0)
+        step = t - before if math.isfinite(before) else 0.0  # since the last command's cycle
+        # (a leap beyond MAX_CLOCK_JUMP_S, a corrupt stamp, counts nothing, as for the time
+        # limit: a field re-test's 4e9 had given back "after 4e+09 s")
+        self._silent_s += step if 0.0 < step <= MAX_CLOCK_JUMP_S else 0.0
         self._silent_cycles += 1
         if self._silent_s + 1e-9 < self._silent_limit_s:
             return

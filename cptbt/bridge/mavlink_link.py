@@ -138,6 +138,7 @@ class MavlinkLink:
         self._want = False
         self._given = False
         self._previous_mode = mw.AUTO
+        self._asked = False  # a take (GUIDED) sent since the AMP last wanted control
         self._break_off: tuple[float, float] | None = None
         self._in_guided = False
         self._refused_take = ""
@@ -158,16 +159,14 @@ class MavlinkLink:
     def send(self, message: OutMessage) -> None:
         """Take control (GUIDED), give it back (the previous mode), or send a set-point."""
         if isinstance(message, OverrideRequest):
-            if not self._want:
-                self._previous_mode = (self._custom if self._custom not in (None, mw.GUIDED)
-                                       else mw.AUTO)
             self._want, self._given, self._refused_take = True, False, ""
             self._break_off = self._xy
-            self._set_mode(mw.GUIDED)
+            self._take()
         elif isinstance(message, OverrideRelease):
-            if self._want or self._in_guided:
+            if self._asked or self._in_guided:
                 self._want, self._given = False, True
                 self._set_mode(self._previous_mode)
+            self._want = self._asked = False
         elif isinstance(message, HeadingSpeedCommand):
             self._last_cmd = message
             if self._refused_take and not self._in_guided:
@@ -217,13 +216,30 @@ class MavlinkLink:
             self.target[0], self.target[1], mavlink.MAV_CMD_DO_SET_MODE, 0,
             mw.CUSTOM, custom_mode, 0, 0, 0, 0, 0))
 
+    def _take(self) -> None:
+        """Ask for GUIDED, only from the vehicle's own mission (AUTO): a review's AMP took a
+        vehicle out of a failsafe SURFACE, or from its pilot in MANUAL, mid-mission and dived it
+        to ``amp_depth_m``. In another mode the take waits (asked again while the AMP wants it,
+        :meth:`_ask_again`), and every command is refused saying why, so the session gives
+        back after ``watchdog_s`` if the vehicle does not go back to its mission."""
+        if self._custom != mw.AUTO and not self._in_guided:
+            mode = (mw.MODE_NAMES.get(self._custom, str(self._custom))
+                    if self._custom is not None else "an unknown mode")
+            self._refused_take = (f"the vehicle is in {mode}, not its mission (AUTO): a pilot or "
+                                  "a failsafe has it, and the AMP does not take it")
+            return
+        if not self._asked and not self._in_guided:
+            self._previous_mode = mw.AUTO
+        self._asked, self._refused_take = True, ""
+        self._set_mode(mw.GUIDED)
+
     def _ask_again(self) -> None:
         """Repeat a mode change the vehicle has not made after :data:`RETAKE_S`."""
         if self._t - self._asked_t < RETAKE_S:
             return
         if self._want and not self._in_guided:
-            self.counts["mode_requests_repeated"] += 1
-            self._set_mode(mw.GUIDED)
+            self.counts["mode_requests_repeated"] += self._custom == mw.AUTO
+            self._take()
         elif self._given and self._in_guided:
             self.counts["mode_requests_repeated"] += 1
             self._set_mode(self._previous_mode)
@@ -301,7 +317,7 @@ class MavlinkLink:
         if self._in_guided and not guided:
             reason = ("released" if self._given else
                       "mission_end" if self._mode() == "post_mission" else "watchdog")
-            self._want = self._given = False
+            self._want = self._given = self._asked = False
             b = self._break_off or self._xy or (math.nan, math.nan)
             self._out.append(OverrideEnded(self._t, reason, b))  # type: ignore[arg-type]
             self._break_off = None

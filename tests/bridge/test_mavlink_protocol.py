@@ -137,24 +137,41 @@ def test_a_command_reaches_the_vehicle_as_the_same_heading_speed_and_depth(wire:
         assert cmd.depth_m == pytest.approx(4.0, abs=1e-6)
 
 
-def test_take_control_is_guided_and_giving_back_restores_the_previous_mode() -> None:
+def test_take_control_is_guided_and_giving_back_restores_the_mission() -> None:
     w = Wire(MSN007, MavlinkCodec(MSN007))
     try:
-        hb = w.codec.mav.heartbeat_encode(mavlink.MAV_TYPE_SUBMARINE,
-                                          mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
-                                          mw.CUSTOM | mw.ARMED, mw.POSHOLD, 0).pack(w.codec.mav)
         w.send(VehicleState(10.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 0))  # AUTO
-        w.raw(hb)  # the pilot switched to POSHOLD
-        sent = []
         w.link.send(OverrideRequest())
         w.link.send(OverrideRelease())
         raw = [w.sock.recvfrom(65535)[0] for _ in range(2)]
         parser = mw.DatagramParser(1, 1)
-        for d in raw:
-            sent += [(m.command, m.param2) for m in parser.feed(d)
-                     if m.get_type() == "COMMAND_LONG"]
+        sent = [(m.command, m.param2) for d in raw for m in parser.feed(d)
+                if m.get_type() == "COMMAND_LONG"]
         assert sent == [(mavlink.MAV_CMD_DO_SET_MODE, mw.GUIDED),
-                        (mavlink.MAV_CMD_DO_SET_MODE, mw.POSHOLD)]
+                        (mavlink.MAV_CMD_DO_SET_MODE, mw.AUTO)]
+    finally:
+        w.close()
+
+
+def test_a_vehicle_a_pilot_or_failsafe_has_is_not_taken() -> None:
+    """A field re-test: at the take-over time the AMP took a vehicle out of a failsafe SURFACE
+    (or from its pilot in MANUAL) mid-mission and dived it to amp_depth_m. The take waits for
+    the vehicle's own mission (AUTO); meanwhile every command is refused saying why."""
+    w = Wire(MSN007, MavlinkCodec(MSN007))
+    try:
+        w.send(VehicleState(10.0, 5.0, 5.0, 0.0, 1.5, 3.0, "mission", 2))  # AUTO, under way
+        hb = w.codec.mav.heartbeat_encode(mavlink.MAV_TYPE_SUBMARINE,
+                                          mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                          mw.CUSTOM | mw.ARMED, mw.SURFACE, 0).pack(w.codec.mav)
+        w.raw(hb)  # a failsafe
+        w.link.send(OverrideRequest())
+        assert w.amp_sent(0) == []  # no mode change
+        w.link.send(HeadingSpeedCommand(30.0, 1.5, 3.0))
+        refused = [m for m in w.link.receive() if isinstance(m, CommandRefused)]
+        assert refused and "in SURFACE, not its mission (AUTO)" in refused[0].reason
+        w.amp_sent(0)  # (the set-point went out: the vehicle ignores it outside GUIDED)
+        w.link.send(OverrideRelease())
+        assert w.amp_sent(0) == []  # nothing to give back
     finally:
         w.close()
 

@@ -616,3 +616,18 @@ def test_a_corrupt_leap_of_the_clock_does_not_end_the_search_on_its_time_limit()
     assert s.phases.state == "amp.override" and s.amp_elapsed_s == pytest.approx(299.0)
     assert step(s, link, state(10_297.0, "override")) == "amp.give_back"  # 300 s counted
     assert s.phases.timeline[-1].trigger == "amp_time_limit"
+
+
+def test_a_corrupt_leap_does_not_time_out_a_silent_planner() -> None:
+    """A field re-test: with the planner silent, one nav stamped 4e9 s gave back at once,
+    "no command for 4e+09 s", the timeline at t = 4e9."""
+    s, link, planner = session()
+    into_override(s, link)
+    planner.tick = lambda t: None  # type: ignore[assignment,method-assign]
+    assert step(s, link, state(101.0, "override")) == "amp.override"
+    assert step(s, link, state(4e9, "override")) == "amp.override"
+    for t in (102.0, 103.0, 104.0):
+        assert step(s, link, state(t, "override")) == "amp.override"
+    assert step(s, link, state(106.0, "override")) == "amp.give_back"
+    gave = s.phases.timeline[-1]
+    assert gave.t_s == 106.0 and "for 5 s" in gave.detail, gave
