@@ -165,6 +165,7 @@ class Perception:
         # held until it closes
         self._run_value = math.nan  # the latest sample, and since when it has read so
         self._run_t = math.nan
+        self._flow_held = False  # the flow estimate is held for want of samples (said once)
         self.latest: Percept | None = None
 
     def faults(self) -> dict[str, int]:
@@ -273,8 +274,17 @@ class Perception:
             self.rejected_flow_samples += sum(f[0] > hi for f in self._flows)
             self._flows = kept
         if not self._flows:
-            # Keep the last known estimate rather than forgetting the flow in a long dropout.
-            return self.latest.flow if self.latest is not None else None
+            # Keep the last known estimate rather than forgetting the flow in a long dropout,
+            # and say so once an outage (a field re-test: a current sensor dead after the
+            # take-over went unnoticed for 920 s of planning on the held average)
+            held = self.latest.flow if self.latest is not None else None
+            if held is not None and not self._flow_held:
+                log.warning("no flow sample for %g s (t = %g s on the planner clock): the flow "
+                            "estimate is the last one, held until samples come back",
+                            self.flow_window_s, t)
+            self._flow_held = held is not None
+            return held
+        self._flow_held = False
         n = len(self._flows)
         return FlowEstimate(
             math.fsum(f[1] for f in self._flows) / n, math.fsum(f[2] for f in self._flows) / n
