@@ -87,8 +87,8 @@ def sensor_faults_line(s: dict[str, Any]) -> str | None:
                        "the OpArea)"),
                       ("rejected_flow_samples", "flow sample{} rejected (not finite, or faster "
                        "than perception.max_flow_speed_mps)"),
-                      ("clock_corrections", "cycle time{} not after the previous one, taken as "
-                       "one period later")):
+                      ("clock_corrections", "cycle time{} not after the previous one, or "
+                       "leaping more than an hour past it, taken as one period later")):
         n = s.get(key) or 0
         if n:
             parts.append(f"{n} " + what.format("s" * (n != 1)))

@@ -107,7 +107,8 @@ def test_sensor_faults_are_told_only_when_there_were_some() -> None:
                     "dropout); 976 fluorometer samples dropped as stuck (the same reading "
                     "for perception.stuck_after_s); 1 flow sample rejected (not finite, or "
                     "faster than perception.max_flow_speed_mps); 2 cycle times not after the "
-                    "previous one, taken as one period later")
+                    "previous one, or leaping more than an hour past it, taken as one period "
+                    "later")
 
 
 def test_the_sources_line_says_how_the_search_for_more_ended() -> None:
