@@ -139,6 +139,7 @@ class MavlinkLink:
         self._given = False
         self._previous_mode = mw.AUTO
         self._asked = False  # a take (GUIDED) sent since the AMP last wanted control
+        self._heard_state = False  # a vehicle state has been passed on
         self._break_off: tuple[float, float] | None = None
         self._in_guided = False
         self._refused_take = ""
@@ -336,11 +337,20 @@ class MavlinkLink:
             # position before the first HEARTBEAT and took over a vehicle already under way)
             self.counts["before_heartbeat"] += 1
             return
+        mode = self._mode()
+        if not self._heard_state and mode == "pre_launch" and self._base & mw.ARMED:
+            # (a field re-test: a serve restarted under a pilot, no waypoint reached yet, read
+            # the vehicle at the dock and took over once the pilot gave AUTO back)
+            log.warning("the vehicle is armed in %s when first heard: read as at the dock until "
+                        "its mission starts; if it is already under way (a restarted serve), "
+                        "the AMP would take it over amp_enable_s after AUTO: start serve before "
+                        "arming", mw.MODE_NAMES.get(self._custom or 0, str(self._custom)))
+        self._heard_state = True
         compass = hdg if hdg is not None else self._yaw_deg
         heading = self.frames.planning_deg(compass) if compass is not None else math.nan
         self._out.append(VehicleState(
             t_s=t, x_m=x, y_m=y, heading_deg=heading, speed_mps=self._airspeed, depth_m=depth,
-            mode=self._mode(),  # type: ignore[arg-type]
+            mode=mode,  # type: ignore[arg-type]
             waypoints_reached=max(0, self._mission_seq - 1)))
 
     def _named(self, boot_ms: int, name: str, value: float) -> None:

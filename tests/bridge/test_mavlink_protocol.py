@@ -250,7 +250,8 @@ def test_the_mode_table(mode: str, custom: int, armed: bool, state: int | None,
         assert begun or mode == "pre_launch"
 
 
-def test_a_pilot_reads_at_the_dock_only_before_the_mission_has_begun() -> None:
+def test_a_pilot_reads_at_the_dock_only_before_the_mission_has_begun(
+        caplog: pytest.LogCaptureFixture) -> None:
     """A review: armed in MANUAL at the dock counted as the launch, and the AMP took the
     vehicle to GUIDED from its pilot amp_enable_s later. A diff review: reading a pilot's mode
     as the dock whenever the mission state said NOT_STARTED took ArduSub's mid-mission pilot
@@ -267,6 +268,11 @@ def test_a_pilot_reads_at_the_dock_only_before_the_mission_has_begun() -> None:
     w = Wire(MSN007, MavlinkCodec(MSN007))
     try:
         assert says(w, mw.MANUAL, dock, 1) == "pre_launch"  # a pilot off the dock
+        # armed when first heard: said (a serve restarted under a pilot would read the dock)
+        w.codec._mode = "pre_launch"  # a position alone, no HEARTBEAT of the codec's own
+        with caplog.at_level("WARNING", logger="cptbt.bridge.mavlink_link"):
+            w.send(VehicleState(5.0, 1.0, 1.0, 0.0, 1.5, 0.0, "pre_launch", 0))
+        assert "armed in MANUAL when first heard" in caplog.text
         assert says(w, mw.AUTO, mavlink.MISSION_STATE_ACTIVE, 1) == "mission"  # the launch
         assert says(w, mw.MANUAL, dock, 1) == "mission"  # a pilot (or failsafe) mid-mission
     finally:
