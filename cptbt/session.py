@@ -212,8 +212,12 @@ class AmpSession:
             self.link.send(OverrideRelease())
             what = ("did not grant the override" if self._control_t is None
                     else "left the override without saying so")
+            # the link's last refusal says why, where it knows (a field re-test read "mode
+            # mission" for a vehicle in a failsafe SURFACE the AMP would not take)
+            why = (f"; {self._last_refusal}" if self._last_refusal and self._control_t is None
+                   else "")
             self.phases.fire("watchdog_timeout", t, f"the vehicle {what}: mode "
-                             f"{self.state.mode} for {t - since:g} s")
+                             f"{self.state.mode} for {t - since:g} s{why}")
             return False
         if self._control_t is None and t - self._take_t >= RETAKE_S:
             self.link.send(OverrideRequest())  # the take may have been lost on the way

@@ -301,6 +301,18 @@ def test_a_take_the_vehicle_does_not_grant_is_sent_again_then_given_up() -> None
     assert last.detail == "the vehicle did not grant the override: mode mission for 20 s"
 
 
+def test_a_take_refused_in_vain_says_why_in_the_give_back() -> None:
+    """A field re-test: a vehicle in a failsafe the AMP would not take was given back to
+    "mode mission for 30 s", the link's reason (its refusals) left out of the detail."""
+    s, link, _ = session()
+    into_override(s, link)
+    why = "the vehicle is in SURFACE, not its mission (AUTO): a pilot or a failsafe has it"
+    step(s, link, state(101.0), CommandRefused(101.0, HeadingSpeedCommand(30.0, 1.5, 3.0), why))
+    assert step(s, link, state(120.0)) == "amp.give_back"
+    assert s.phases.timeline[-1].detail == (
+        f"the vehicle did not grant the override: mode mission for 20 s; {why}")
+
+
 def test_a_vehicle_that_leaves_the_override_unsaid_is_given_back_to() -> None:
     s, link, _ = session()
     into_override(s, link)
