@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -38,29 +39,35 @@ def _plain(value: Any) -> Any:
     return as_list() if callable(as_list) else str(value)
 
 
-def read_journal(path: Path, tag: str, task: GroupTask) -> Rows:
-    """The rows of ``task``'s runs the journal at ``path`` holds, one per start, in start
-    order; lines torn by a kill, edited, of another study (``tag``) or group, or of a start
-    not in the task are left out (those runs are flown again)."""
+def _sound_rows(path: Path, tag: str, key: str) -> Iterator[dict[str, Any]]:
+    """The rows of the journal at ``path`` whose lines are whole, unedited (their checksum
+    holds) and of study ``tag`` and group ``key``; none if the file cannot be read."""
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):
-        return []
-    ids = set(task.ids)
-    rows: dict[int, dict[str, Any]] = {}
+        return
     for line in text.splitlines():
         try:
             entry = json.loads(line)
             row = entry["row"]
-            start = row["start"]
-            ok = (entry["study"] == tag and entry["group"] == task.key
-                  and entry["sha256"] == rows_checksum([row])
-                  and row.get("config") == task.config
-                  and row.get("replicate") == task.replicate)
+            ok = (entry["study"] == tag and entry["group"] == key
+                  and entry["sha256"] == rows_checksum([row]) and isinstance(row["start"], int))
         except (ValueError, TypeError, KeyError):
             continue
-        if ok and start in ids:
-            rows.setdefault(start, row)
+        if ok:
+            yield row
+
+
+def read_journal(path: Path, tag: str, task: GroupTask) -> Rows:
+    """The rows of ``task``'s runs the journal at ``path`` holds, one per start, in start
+    order; lines torn by a kill, edited, of another study (``tag``) or group, or of a start
+    not in the task are left out (those runs are flown again)."""
+    ids = set(task.ids)
+    rows: dict[int, dict[str, Any]] = {}
+    for row in _sound_rows(path, tag, task.key):
+        if (row["start"] in ids and row.get("config") == task.config
+                and row.get("replicate") == task.replicate):
+            rows.setdefault(row["start"], row)
     return [rows[i] for i in sorted(rows)]
 
 
@@ -79,22 +86,8 @@ def unsettled_rows(folder: Path) -> Rows:
     rows: dict[tuple[str, int], dict[str, Any]] = {}
     for path in sorted(parts.glob(f"*{JOURNAL_SUFFIX}")):
         key = path.name[: -len(JOURNAL_SUFFIX)]
-        if key in settled:
-            continue
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError):
-            continue
-        for line in text.splitlines():
-            try:
-                entry = json.loads(line)
-                row = entry["row"]
-                ok = (entry["study"] == tag and entry["group"] == key
-                      and entry["sha256"] == rows_checksum([row])
-                      and isinstance(row["start"], int))
-            except (ValueError, TypeError, KeyError):
-                continue
-            if ok:
+        if key not in settled:
+            for row in _sound_rows(path, tag, key):
                 rows.setdefault((key, row["start"]), row)
     return [rows[k] for k in sorted(rows)]
 
