@@ -98,6 +98,7 @@ class FleetPerception:
         self._lost: list[list[Point]] = [[] for _ in range(n)]
         self._t_prev = -math.inf
         self.rejected_flow_samples = np.zeros(n, dtype=np.int64)
+        self.flow_held_cycles = np.zeros(n, dtype=np.int64)  # planned on a held estimate
         self.stuck_samples = np.zeros(n, dtype=np.int64)
         self.missing_samples = np.zeros(n, dtype=np.int64)
         self._run_value = np.full(n, np.nan)  # each vehicle's latest sample, since when
@@ -155,10 +156,12 @@ class FleetPerception:
         while flows and flows[0][0] <= t - self.settings.flow_window_s:
             flows.popleft()
         if not flows:
+            self.flow_held_cycles[ids] += self._has_flow[ids]
             return  # keep the last estimates
         ok = np.stack([f[3][ids] for f in flows])
         count = ok.sum(axis=0)
         some = count > 0
+        self.flow_held_cycles[ids] += ~some & self._has_flow[ids]  # kept: held
         if len(flows) == 1:
             sx, sy = flows[0][1][ids], flows[0][2][ids]
         elif len(flows) == 2 and ok.all():
@@ -233,7 +236,7 @@ class FleetPerception:
                 "stuck_samples": int(self.stuck_samples[i]), "late_samples": 0,
                 "rejected_fixes": 0,
                 "rejected_flow_samples": int(self.rejected_flow_samples[i]),
-                "clock_corrections": 0}
+                "clock_corrections": 0, "flow_held_cycles": int(self.flow_held_cycles[i])}
 
     def lost_contacts(self, i: int) -> tuple[Point, ...]:
         """Vehicle ``i``'s lost-contact points, oldest first."""

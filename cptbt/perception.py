@@ -166,16 +166,19 @@ class Perception:
         self._run_value = math.nan  # the latest sample, and since when it has read so
         self._run_t = math.nan
         self._flow_held = False  # the flow estimate is held for want of samples (said once)
+        self.flow_held_cycles = 0  # cycles planned on a held flow estimate
         self.latest: Percept | None = None
 
     def faults(self) -> dict[str, int]:
         """What the perception has dropped or corrected so far (the run summary's sensor
         faults): fluorometer samples missing (not finite) or dropped as stuck or late, flow
-        samples and navigation fixes rejected, clock steps back corrected."""
+        samples and navigation fixes rejected, clock steps back corrected, and the cycles planned
+        on a held flow estimate (no usable flow sample in the window)."""
         return {"missing_samples": self.missing_samples, "stuck_samples": self.stuck_samples,
                 "late_samples": self.late_samples, "rejected_fixes": self.rejected_fixes,
                 "rejected_flow_samples": self.rejected_flow_samples,
-                "clock_corrections": self.clock_corrections}
+                "clock_corrections": self.clock_corrections,
+                "flow_held_cycles": self.flow_held_cycles}
 
     def on_clock(self, t: float) -> float:
         """A vehicle time stamp on the planner's clock (shifted by the steps back so far): the
@@ -283,6 +286,7 @@ class Perception:
                             "estimate is the last one, held until samples come back",
                             self.flow_window_s, t)
             self._flow_held = held is not None
+            self.flow_held_cycles += held is not None
             return held
         self._flow_held = False
         n = len(self._flows)

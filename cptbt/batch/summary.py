@@ -125,6 +125,7 @@ class RunSummary:
     rejected_fixes: int = 0
     rejected_flow_samples: int = 0
     clock_corrections: int = 0
+    flow_held_cycles: int = 0
     nonfinite_commands: int = 0
     unflyable_commands: int = 0
     command_faults: str | None = None
@@ -178,7 +179,9 @@ def summarise(
     away from zero; samples stamped more than 5 s, or a planning period, before the previous
     cycle; navigation
     fixes more than 1000 km outside the OpArea; impossible
-    flow samples, cycle times not after the previous one) up to the end of the AMP's part.
+    flow samples, cycle times not after the previous one) up to the end of the AMP's part;
+    ``flow_held_cycles`` the cycles planned on a held flow estimate (no usable flow sample in
+    ``perception.flow_window_s``: the last estimate stands in for the current).
     ``nonfinite_commands`` counts the cycles a behaviour asked ``command()`` for a non-finite
     heading or speed (none was sent: the behaviour below drove), ``unflyable_commands`` those
     whose speed the simulated vehicle cannot fly (it flew the nearest it can), and

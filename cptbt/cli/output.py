@@ -88,7 +88,9 @@ def sensor_faults_line(s: dict[str, Any]) -> str | None:
                       ("rejected_flow_samples", "flow sample{} rejected (not finite, or faster "
                        "than perception.max_flow_speed_mps)"),
                       ("clock_corrections", "cycle time{} not after the previous one, or "
-                       "leaping more than an hour past it, taken as one period later")):
+                       "leaping more than an hour past it, taken as one period later"),
+                      ("flow_held_cycles", "cycle{} planned on the last flow estimate, held (no "
+                       "usable flow sample for perception.flow_window_s)")):
         n = s.get(key) or 0
         if n:
             parts.append(f"{n} " + what.format("s" * (n != 1)))

@@ -404,3 +404,36 @@ def test_a_current_sensor_gone_silent_is_said_once(caplog: pytest.LogCaptureFixt
         for k in range(301, 500):  # ... and gone again: said again
             p.cycle(float(k))
         assert len([r for r in caplog.records if "no flow sample for" in r.getMessage()]) == 2
+    # ... and counted for the run's summary: the cycles planned on the held estimate (the
+    # sample of t = 9 leaves the 100-s window at t = 109, that of t = 300 at t = 400)
+    assert p.settings.flow_window_s == 100.0
+    assert p.faults()["flow_held_cycles"] == (300 - 109) + (500 - 400)
+
+
+def test_the_fleet_counts_held_flow_cycles_as_the_scalar_perception_does() -> None:
+    """The held-flow count (the summary's ``flow_held_cycles``) of the fleet's perception is
+    the scalar one's: a sensor that goes silent, one whose samples are all rejected (too fast),
+    one that never had an estimate (nothing held), one that keeps reporting."""
+    import numpy as np
+
+    from cptbt.fleet import FleetPerception
+
+    scalars = [make() for _ in range(4)]
+    fleet = FleetPerception(4, AREA, scalars[0].settings)
+    ids = np.arange(4)
+    fleet.set_poses(ids, np.full(4, 50.0), np.zeros(4), np.zeros(4))
+    for p in scalars:
+        p.set_pose(Pose(50, 0))
+    for k in range(400):
+        t = float(k)
+        vx = np.array([0.1 if k < 20 else math.nan, 0.1 if k < 30 else 9.0,
+                       math.nan, 0.2])
+        for p, v in zip(scalars, vx, strict=True):
+            p.add_flow(t, float(v), 0.0)
+        fleet.add_flows(t, ids, vx, np.zeros(4))
+        fleet.cycle(t + 0.5, ids)
+        for p in scalars:
+            p.cycle(t + 0.5)
+    held = [p.faults()["flow_held_cycles"] for p in scalars]
+    assert held == [400 - 119, 400 - 129, 0, 0]
+    assert [fleet.faults(i)["flow_held_cycles"] for i in ids] == held
