@@ -9,6 +9,7 @@ criterion, on reaching the true source; rows are kept by a :class:`Recorder`.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -210,6 +211,19 @@ def collect_declarations(run: VehicleRun, planner: Planner) -> None:
         run.declaration_report["map_at"] = "end"
 
 
+_FAILED_VEHICLE = "cptbt_failed_vehicle"
+
+
+def failed_vehicle(exc: BaseException) -> int | None:
+    """The index (into :func:`simulate`'s ``starts``) of the vehicle whose planner, or whose
+    run's end (``on_end``), raised ``exc``; None when the error is not one vehicle's (the world,
+    or the fleet planner, which ticks every vehicle at once). The other vehicles' runs are
+    their own: each start's seeds are its own, so flown without that vehicle they are the same
+    runs (:func:`cptbt.batch.worker.run_group` flies them again so)."""
+    index = getattr(exc, _FAILED_VEHICLE, None)
+    return index if isinstance(index, int) else None
+
+
 def simulate(
     mission: MissionBase,
     params: EnvironmentParams,
@@ -292,15 +306,20 @@ def simulate(
             world.set_commands(cmd_heading, cmd_speed)
             commanded = False
 
+    current = -1  # the vehicle whose planner (or run's end) is being handled: an error names it
+
     def observe(out: StepOutput) -> bool:
-        nonlocal active, next_tick, commanded
+        nonlocal active, next_tick, commanded, current
         t = out.t_s
         if out.fluorometer is not None:
             for i in active:
+                current = int(i)
                 planners[i].add_sample(t, float(out.fluorometer[i]))
         if out.adcp_flow is not None:
             for i in active:
+                current = int(i)
                 planners[i].add_flow(t, float(out.adcp_flow[i, 0]), float(out.adcp_flow[i, 1]))
+        current = -1
         if t + TIME_EPS_S < next_tick and t + TIME_EPS_S < limit:
             return True  # no cycle due; at the time limit one is, on the cycle grid or not
         next_tick += period
@@ -311,6 +330,7 @@ def simulate(
             if trace else {}
         keep = np.ones(m, dtype=bool)
         for j, i in enumerate(active):
+            current = int(i)
             run = runs[i]
             pl = planners[i]
             ex, ey = float(out.nav_xy[i, 0]), float(out.nav_xy[i, 1])
@@ -367,17 +387,26 @@ def simulate(
                 "heading": out.true_heading_deg[active], "heading_est": out.nav_heading_deg[active],
                 "cmd_heading": cmd_heading[active], "cmd_speed": cmd_speed[active],
             }
+        current = -1
         rec.add(active, values, detected, codes)
         cmd_speed[active[~keep]] = 0.0
         if on_end is not None:
             for i in active[~keep]:
+                current = int(i)
                 on_end(int(i), runs[i])
+            current = -1
         active = active[keep]
         commanded = True
         return len(active) > 0
 
     if n:
-        run_loop(world, prepare, observe)
+        try:
+            run_loop(world, prepare, observe)
+        except Exception as exc:
+            if current >= 0:  # one vehicle's: the others' runs are not its (failed_vehicle)
+                with contextlib.suppress(AttributeError, TypeError):
+                    setattr(exc, _FAILED_VEHICLE, current)
+            raise
     for pl in planners:
         pl.close()
     return runs, world, time.perf_counter() - wall0

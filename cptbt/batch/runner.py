@@ -12,10 +12,9 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 from cptbt.batch.errors import BatchError
-from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.store import ResultStore
 from cptbt.batch.study import GroupTask
-from cptbt.batch.worker import error_rows, init_worker, run_group
+from cptbt.batch.worker import init_worker, run_group
 
 Rows = list[dict[str, Any]]
 Groups = Generator[tuple[GroupTask, Rows], None, None]
@@ -177,14 +176,8 @@ def run_study(
         for task, rows in source:
             kept = resume.partial.get(task.key, [])
             full = whole[task.key]
-            if kept and rows and all(r.get("outcome") == ERROR_OUTCOME for r in rows):
-                # the rest met a bug: the whole group is error rows, as flown uninterrupted
-                # (a review's resumed table had kept the runs before it as successes)
-                done = [r["start"] for r in kept]
-                kept = error_rows(dataclasses.replace(
-                    full, starts=tuple(full.starts[full.ids.index(i)] for i in done),
-                    start_ids=tuple(done)), str(rows[0].get("error", "")))
             # the runs kept from an interrupted flight of the group, and the rest just flown
+            # (a run that raised is an error row alone, flown whole or resumed: run_group)
             merged = sorted(kept + rows, key=lambda r: full.ids.index(r["start"]))
             store.write_group(full, merged)
             progress.update(rows)

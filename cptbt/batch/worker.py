@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import json
 import os
 import signal
@@ -14,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cptbt.batch.engine import VehicleRun, simulate
+from cptbt.batch.engine import VehicleRun, failed_vehicle, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.integrity import code_identity
 from cptbt.batch.journal import JournalFile
@@ -217,8 +218,9 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
     journal = Journal(task)
     try:
         mission, runs, source, wall = fly_group(task, on_end=journal.ended)
-    except Exception as exc:  # a bug met by one group: recorded, and the study goes on
-        return failed_rows(task, exc)
+    except Exception as exc:  # a bug met by the group: recorded, and the study goes on
+        journal.close()
+        return _after_error(task, exc, journal.rows)
     finally:
         journal.close()
     rows = [journal.rows.get(k) or row_of(task, k, run, mission, source, 0.0)
@@ -226,6 +228,32 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
     for row in rows:  # the group's wall time, shared (as before the journal)
         row["wall_time_s"] = wall / len(runs)
     return rows
+
+
+def _after_error(task: GroupTask, exc: Exception, finished: dict[int, dict[str, Any]]
+                 ) -> list[dict[str, Any]]:
+    """The group's rows when flying it raised ``exc``: the runs that had ended keep their rows
+    (a review's plug-in raised at t = 983 s in one run, and three runs of its group home by
+    474 s had become error rows, each with the other run's error); the run whose planner
+    raised is an error row; the runs still under way are flown again without it (the same
+    runs: each start's seeds are its own), each meeting its own end. An error no single run's
+    (the world's, or the fleet planner's, which ticks every vehicle at once) stops every run
+    still under way."""
+    done = {task.ids[k]: row for k, row in finished.items()}
+    bad = failed_vehicle(exc)
+    stopped = [i for i in task.ids if i not in done and (bad is None or i == task.ids[bad])]
+    rows = list(done.values()) + failed_rows(_only(task, stopped), exc)
+    rest = [i for i in task.ids if i not in done and i not in stopped]
+    if rest:
+        rows += run_group(_only(task, rest))
+    return sorted(rows, key=lambda r: task.ids.index(r["start"]))
+
+
+def _only(task: GroupTask, ids: list[int]) -> GroupTask:
+    """``task`` with only the starts ``ids``."""
+    keep = [task.ids.index(i) for i in ids]
+    return dataclasses.replace(task, starts=tuple(task.starts[k] for k in keep),
+                               start_ids=tuple(ids))
 
 
 class Journal:
@@ -272,14 +300,21 @@ def failed_rows(task: GroupTask, exc: Exception) -> list[dict[str, Any]]:
 def error_rows(task: GroupTask, text: str) -> list[dict[str, Any]]:
     """:func:`failed_rows` with the error's text given: the rows of a group's starts when the
     group stopped on the error ``text``."""
+    limit = task.time_limit_s
     try:
-        name = loads_mission(task.mission_yaml, f"group {task.key}", default_registry(),
-                             Environment).name
+        mission = loads_mission(task.mission_yaml, f"group {task.key}", default_registry(),
+                                Environment)
+        name = mission.name
+        limit = mission.time_limit_s if limit is None else limit
     except Exception:  # the mission itself would not load: name the configuration alone
         name = str(task.config)
+    # a failure, counted at the run's time limit in the mean search time and the maps, as
+    # every failure is (a review: counted as failures in the success rate, the errors had been
+    # left out of the times, so a plug-in that raised looked faster)
     return [{"config": task.config, **task.coords, "replicate": task.replicate, "start": i,
              "outcome": ERROR_OUTCOME, "success": False, "error": text,
-             **_placement(task, k, name)} for k, i in enumerate(task.ids)]
+             **_placement(task, k, name), "run_time_limit_s": limit}
+            for k, i in enumerate(task.ids)]
 
 
 def _placement(task: GroupTask, k: int, mission_name: str) -> dict[str, Any]:

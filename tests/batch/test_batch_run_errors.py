@@ -112,3 +112,69 @@ def test_a_full_disk_names_the_part_keeps_the_finished_groups_and_resumes(
     said = capsys.readouterr().out
     assert "(2 groups resumed from disk)" in said and "none flown" in said, said
     assert len(load_results(out)) == 4
+
+
+def _rows(out: Path) -> list[dict[str, Any]]:
+    return sorted(load_results(out), key=lambda r: (r["replicate"], r["start"]))
+
+
+SAME = ("sim_time_s", "path_m", "closest_approach_m", "farthest_outside_m", "t1")
+"""Columns a run flown again alone gives as it did in its group."""
+
+
+def test_a_run_that_raises_is_the_only_error_of_its_group(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review's plug-in raised in one run at t = 983 s, and every run of its group (a
+    replicate: every start of one plume) became an error row with that run's message, three of
+    them home by 474 s. The run that raised is the error; the others are flown again without it
+    and are the runs a study without the fault flies."""
+    from cptbt.planner import Planner
+
+    clean = tmp_path / "clean"
+    assert main(["batch", MISSION, *STUDY, "--out", str(clean)]) == 0
+    want = _rows(clean)
+    bad_start = (want[1]["start_x"], want[1]["start_y"])
+    real = Planner.tick
+
+    def tick(self: Planner, t: float) -> Any:
+        start = self.context.start
+        if t >= 30.0 and start is not None and (start.x, start.y) == bad_start:
+            raise KeyError("a plug-in's bug")
+        return real(self, t)
+
+    monkeypatch.setattr(Planner, "tick", tick)
+    out = tmp_path / "study"
+    assert main(["batch", MISSION, *STUDY, "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "2 of 4 runs stopped on an error" in err  # start 1 of each replicate, not 4 of 4
+    rows = _rows(out)
+    assert [r["outcome"] == "error" for r in rows] == [False, True, False, True]
+    for got, clean_row in zip(rows[::2], want[::2], strict=True):  # flown again alone
+        assert {k: got[k] for k in SAME} == {k: clean_row[k] for k in SAME}
+    # ... and the errors count at the time limit in the mean search time, as failures do
+    assert all(r["run_time_limit_s"] == 60.0 for r in rows)
+    tables = (out / "tables.md").read_text(encoding="utf-8")
+    assert "**2 of 4 runs stopped on an error" in tables
+
+
+def test_the_runs_that_had_ended_keep_their_rows(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """An error in one run's end (its row) after another run of the group had ended: that run
+    keeps its row, the other is the error."""
+    real = worker.fly_group
+
+    def fly(task: Any, *args: Any, on_end: Any = None, **kwargs: Any) -> Any:
+        def ended(k: int, *rest: Any) -> None:
+            if task.ids[k] == 1:
+                raise ValueError("no row for this one")
+            on_end(k, *rest)
+        return real(task, *args, on_end=ended, **kwargs)
+
+    monkeypatch.setattr(worker, "fly_group", fly)
+    out = tmp_path / "study"
+    assert main(["batch", MISSION, *STUDY, "--out", str(out)]) == 1
+    rows = _rows(out)
+    assert [r["outcome"] == "error" for r in rows] == [False, True, False, True]
+    assert all("ValueError: no row for this one" in r["error"] for r in rows[1::2])
+    assert all(r.get("error") is None and r["sim_time_s"] == 60.0 for r in rows[::2])
