@@ -41,14 +41,16 @@ def _plain(value: Any) -> Any:
 
 def _sound_rows(path: Path, tag: str, key: str) -> Iterator[dict[str, Any]]:
     """The rows of the journal at ``path`` whose lines are whole, unedited (their checksum
-    holds) and of study ``tag`` and group ``key``; none if the file cannot be read."""
+    holds) and of study ``tag`` and group ``key``; none if the file cannot be read. Read line
+    by line as bytes: a line that is not UTF-8 is one bad line (a review: one stray byte had
+    lost every run of the journal)."""
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):
+        data = path.read_bytes()
+    except OSError:
         return
-    for line in text.splitlines():
+    for line in data.splitlines():
         try:
-            entry = json.loads(line)
+            entry = json.loads(line.decode("utf-8"))
             row = entry["row"]
             ok = (entry["study"] == tag and entry["group"] == key
                   and entry["sha256"] == rows_checksum([row]) and isinstance(row["start"], int))
@@ -71,15 +73,23 @@ def read_journal(path: Path, tag: str, task: GroupTask) -> Rows:
     return [rows[i] for i in sorted(rows)]
 
 
+def study_tag(folder: Path) -> str | None:
+    """The fingerprint study ``folder``'s ``study.json`` records (None: none, or unreadable)."""
+    try:
+        tag = json.loads((folder / "study.json").read_text(encoding="utf-8"))["fingerprint"]
+    except (OSError, ValueError, UnicodeDecodeError, TypeError, KeyError):
+        return None
+    return tag if isinstance(tag, str) else None
+
+
 def unsettled_rows(folder: Path) -> Rows:
     """The rows the journals in study ``folder``'s ``parts/`` hold for groups with no part
     (a ``.parquet`` or ``.csv`` file), for a table of a study stopped part way (``cptbt plot``
     had left them out while the batch counted them saved): sound lines of the study its
     ``study.json`` names only (none if it cannot be read), one per group and start, in group
     and start order."""
-    try:
-        tag = json.loads((folder / "study.json").read_text(encoding="utf-8"))["fingerprint"]
-    except (OSError, ValueError, UnicodeDecodeError, TypeError, KeyError):
+    tag = study_tag(folder)
+    if tag is None:
         return []
     parts = folder / "parts"
     settled = {p.stem for p in parts.glob("*") if p.suffix in (".parquet", ".csv")}

@@ -399,7 +399,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
     lines += ["## Per configuration", "",
               f"| configuration | runs | {success_label(every)} "
               + ("| sources found / true | " if multi else "| ")
-              + "false declarations (runs) | mean time to source (s) | sd (s) "
+              + "false declarations (runs) | mean time to source, successes (s) | sd (s) "
               f"| mean search time, a failure at the time limit (s) | {mean_col} | {max_col} |",
               "|---|---:|---:|---:|---:|---:|---:|---:|---:|" + ("---:|" if multi else "")]
     if multi:
@@ -456,7 +456,8 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
                    "compass)." if frame is not None else
                    "Places in the planning frame (x along the OpArea's long axis).")
                   + " D1 ends at t2, the first pass within 13 m of the declared point (SPEC "
-                  "§11), so D1/D0 can be below 1.", ""]
+                  "§11), so D1/D0 can be below 1. The mean row's D1/D0 and T_D share are the "
+                  "means of each run's ratio, not the ratios of the means beside them.", ""]
         axes = "(N, E)" if frame is not None else "(x, y)"
         lines += [f"| run | start {axes} | declared {axes} | error (m) | T_F (s) | T_T (s) "
                   "| T_D (s) | T_D share | D0 (m) | D1 (m) | D2 (m) | D3 (m) | D1/D0 |",

@@ -25,7 +25,7 @@ from typing import Any, BinaryIO
 
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import fingerprint, rows_checksum
-from cptbt.batch.journal import JOURNAL_SUFFIX, read_journal, unsettled_rows
+from cptbt.batch.journal import JOURNAL_SUFFIX, read_journal, study_tag, unsettled_rows
 from cptbt.batch.study import GroupTask
 from cptbt.batch.study_diff import differences
 from cptbt.batch.tabular import as_csv_reads, columns, csv_rows
@@ -300,23 +300,36 @@ class ResultStore:
                              "the same command again to go on") from None
         self.journal_path(task.key).unlink(missing_ok=True)  # its runs are in the part now
 
-    def rows(self, tasks: Sequence[GroupTask] | None = None) -> Rows:
-        """Every run of ``tasks`` (default: of every part in the folder), in group order.
+    def rows(self, tasks: Sequence[GroupTask]) -> Rows:
+        """Every run of ``tasks``, in group order (a folder's parts without its tasks:
+        :func:`load_results`).
 
         Raises:
             BatchError: a part is missing or fails a check.
         """
         out: Rows = []
-        if tasks is None:
-            for path in sorted(self.parts.glob(f"*{self.format.suffix}")):
-                out.extend(_read_checked(self.format, path))
-            return out
         for task in tasks:
             try:
                 out.extend(self._verified(task))
             except (PartError, FileNotFoundError) as exc:
                 raise BatchError(f"{self.path(task.key)}: {exc}") from None
         return out
+
+    def left_out(self, tasks: Sequence[GroupTask]) -> int:
+        """The runs of this study's finished groups on disk that ``tasks`` do not include (a
+        review: a finished study run again with a smaller ``--runs-per-start``, or a looser
+        ``--until-sem``, was tabled from a subset without a word of the rest)."""
+        keys = {t.key for t in tasks}
+        n = 0
+        for path in self.parts.glob(f"*{self.format.suffix}"):
+            if path.stem not in keys:
+                try:
+                    rows, meta = self.format.read(path)
+                except PartError:
+                    continue
+                n += len(rows) if meta is not None and meta.get("study") == self.fingerprint \
+                    else 0
+        return n
 
     def consolidate(self, tasks: Sequence[GroupTask]) -> Path:
         """Write the single results table (``results.parquet`` or ``results.csv``)."""
@@ -359,8 +372,12 @@ class ResultStore:
             _sidecar(self.folder / f"results{fmt.suffix}").unlink(missing_ok=True)
 
 
-def load_results(path: Path) -> Rows:
+def load_results(path: Path, notes: list[str] | None = None) -> Rows:
     """Rows of a results table, a results folder, or a folder of parts.
+
+    A folder without a results table is read from its parts that are its study's (their
+    checksums, fingerprints and groups checked: :func:`_study_parts`); ``notes`` gets a
+    sentence on each part left out, and on parts no ``study.json`` can vouch for.
 
     Raises:
         BatchError: nothing readable there, a checksum that does not match, or a table that is
@@ -374,9 +391,9 @@ def load_results(path: Path) -> Rows:
             if (path / f"results{fmt.suffix}").exists():
                 return load_results(path / f"results{fmt.suffix}")
         rows, found = [], _FORMATS[DEFAULT_FORMAT]
-        for fmt_name, fmt in _FORMATS.items():
+        for fmt in _FORMATS.values():
             if any((path / "parts").glob(f"*{fmt.suffix}")):
-                rows, found = ResultStore(path, fmt_name).rows(), fmt
+                rows, found = _study_parts(path, fmt, notes if notes is not None else []), fmt
                 break
         unsettled = unsettled_rows(path)  # runs of groups stopped part way, as parts read
         rows += as_csv_reads(unsettled) if isinstance(found, _Csv) else unsettled
@@ -389,6 +406,45 @@ def load_results(path: Path) -> Rows:
     else:
         rows = _read_checked(_FORMATS["parquet" if path.suffix == ".parquet" else "csv"], path)
     _check_columns(rows, path)
+    return rows
+
+
+def _study_parts(folder: Path, fmt: _Parquet | _Csv, notes: list[str]) -> Rows:
+    """The rows of the parts in ``folder/parts`` that are its study's, in group order: each
+    part's checksum checked, its fingerprint against ``study.json``'s and its group against its
+    name, and no run twice; a part that fails is left out and said in ``notes`` (a review:
+    ``cptbt plot`` of a stopped study tabled a part copied in from another study, 52 runs under
+    a header of 48, where ``cptbt batch`` refused it; a damaged part stopped the whole plot)."""
+    tag = study_tag(folder)
+    rows: Rows = []
+    seen: set[tuple[Any, Any, Any]] = set()
+    left: list[str] = []
+    for path in sorted((folder / "parts").glob(f"*{fmt.suffix}")):
+        try:
+            got, meta = fmt.read(path)
+            _check_sum(got, meta)
+            assert meta is not None
+            if tag is not None and meta.get("study") != tag:
+                raise PartError("from another study or code version (its fingerprint is not "
+                                "study.json's)")
+            if meta.get("group") != path.stem:
+                raise PartError(f"holds group {meta.get('group')}")
+            keys = [(r.get("config"), r.get("replicate"), r.get("start")) for r in got]
+            if seen.intersection(keys) or len(set(keys)) < len(keys):
+                raise PartError("holds runs another part holds")
+        except PartError as exc:
+            left.append(f"{path.name} ({exc})")
+            continue
+        seen.update(keys)
+        rows.extend(got)
+    if left and not rows and not unsettled_rows(folder):  # nothing to table: why, in a line
+        raise BatchError(f"{folder}: no part could be read: " + "; ".join(left))
+    if left:
+        notes.append(f"{len(left)} part{'s' * (len(left) != 1)} left out of the tables: "
+                     + "; ".join(left))
+    if tag is None and rows:
+        notes.append(f"{folder / 'study.json'} is missing or unreadable: the parts cannot be "
+                     "checked to be one study's (a part copied from another would be tabled)")
     return rows
 
 

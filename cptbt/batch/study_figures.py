@@ -175,7 +175,7 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry 
     beside = aspect >= 0.75
     fig.colorbar(im, ax=axes.tolist(), shrink=0.8 if n == 1 or beside else 0.5,
                  location="right" if beside else "bottom",
-                 label="mean time to source (s);" + ("\n" if beside else " ")
+                 label="mean search time (s);" + ("\n" if beside else " ")
                  + "a failure counts as the time limit")
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -213,7 +213,7 @@ def _line(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
         line = ax.plot(pos, mean, "o-", ms=3, label=f"{label} (n = {per} per start)")
         ax.fill_between(pos, mean - se, mean + se, color=line[0].get_color(), alpha=0.25, lw=0)
     ax.set_xlabel(f"start {axis} (m, planning frame), {fixed}")  # as the map says (a review)
-    ax.set_ylabel("mean time to source (s) ± 1 SE;\na failure counts as the time limit")
+    ax.set_ylabel("mean search time (s) ± 1 SE;\na failure counts as the time limit")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.savefig(path, dpi=130)

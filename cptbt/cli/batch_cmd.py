@@ -379,6 +379,9 @@ def cmd_batch(args: argparse.Namespace) -> int:
         print(f"{runs} mission{'s' * (runs != 1)} ({resumed} groups resumed from disk{also}): "
               f"{outcome}; {pace}")
         print(f"  wrote {table}")
+        if beyond := store.left_out(tasks):
+            print(f"  {beyond} runs of this study on disk, beyond its count, are left out of "
+                  "the tables (kept in parts/)")
         rows = load_results(table)
         left, flown, far, _ = excursions(rows)
         if left:  # a review: every run 5-14 m outside, and the summary said only "success"

@@ -22,7 +22,10 @@ def saved_study(results: Path) -> dict[str, Any]:
 def cmd_plot(args: argparse.Namespace) -> int:
     """Rebuild a study's figures and Markdown tables from its results table."""
     results = Path(args.results)
-    rows = load_results(results)  # before making any folder: a bad input writes nothing
+    notes: list[str] = []
+    rows = load_results(results, notes)  # before making any folder: a bad input writes nothing
+    for note in notes:  # parts left out, or that nothing vouches for
+        print(f"cptbt plot: warning: {note}", file=sys.stderr)
     out = Path(args.out) if args.out else (results if results.is_dir() else results.parent)
     from cptbt.batch.report import compared, write_report
 

@@ -211,8 +211,9 @@ def test_more_runs_per_start_extend_a_study_keeping_its_runs(
     assert [r for r in rows if r["replicate"] < 2] == reference
     assert {(r["replicate"], r["start"]) for r in rows if r["replicate"] == 2} == {(2, 0), (2, 1)}
     assert json.loads((study / "study.json").read_text())["runs_per_start"] == 3
-    assert batch(study).returncode == 0  # and back to the first two
-    assert table(study) == reference
+    res = batch(study)  # and back to the first two, saying that the third's runs are left out
+    assert res.returncode == 0 and table(study) == reference
+    assert "2 runs of this study on disk, beyond its count, are left out" in res.stdout
 
 
 # -- workers die with their parent ------------------------------------------------------------

@@ -69,6 +69,49 @@ def test_parts_of_an_unfinished_study_load_without_a_table(tmp_path: Path, fmt: 
                                                             (1, 0), (1, 1), (1, 2)]
 
 
+def test_a_folder_read_from_its_parts_leaves_out_another_studys(tmp_path: Path,
+                                                                 fmt: str) -> None:
+    """A review: ``cptbt plot`` of a folder without its table (a stopped study) tabled a part
+    copied in from another study (52 runs under a header of 48; a part in place of one of its
+    own gave its runs twice), where ``cptbt batch`` refused it; a damaged part stopped the
+    plot. Each is left out of the rows, and said."""
+    store = opened(tmp_path / "mine", fmt)
+    other = opened(tmp_path / "other", fmt, study="s2")
+    ts = tasks(replicates=3)
+    for t in ts[:2]:
+        store.write_group(t, rows_of(t))
+    other.write_group(ts[0], rows_of(ts[0]))
+
+    def copy(src: Path, dst: Path) -> None:
+        dst.write_bytes(src.read_bytes())
+        if fmt == "csv":
+            dst.with_name(dst.name + ".json").write_bytes(
+                src.with_name(src.name + ".json").read_bytes())
+
+    copy(other.path(ts[0].key), store.path(ts[2].key))  # another study's, under a free name
+    notes: list[str] = []
+    rows = load_results(tmp_path / "mine", notes)
+    assert [(r["replicate"], r["start"]) for r in rows] == [(r, i) for r in (0, 1)
+                                                            for i in range(3)]
+    assert len(notes) == 1 and notes[0].startswith("1 part left out of the tables: ")
+    assert f"{ts[2].key}{store.format.suffix} (from another study" in notes[0]
+    # one of its own parts copied under another's name: its runs are not tabled twice
+    copy(store.path(ts[0].key), store.path(ts[2].key))
+    notes = []
+    assert len(load_results(tmp_path / "mine", notes)) == 6
+    assert f"(holds group {ts[0].key})" in notes[0]
+    # a damaged part: the others are tabled
+    store.path(ts[2].key).write_bytes(b"\xff\xfe garbage \x00" * 40)
+    notes = []
+    assert len(load_results(tmp_path / "mine", notes)) == 6 and "left out" in notes[0]
+    # no study.json: tabled, and said that nothing vouches for the parts
+    store.path(ts[2].key).unlink()
+    (tmp_path / "mine" / "study.json").unlink()
+    notes = []
+    assert len(load_results(tmp_path / "mine", notes)) == 6
+    assert notes and "cannot be checked to be one study's" in notes[-1]
+
+
 def _damage_data(path: Path, fmt: str) -> None:
     """Change one value of a part, keeping its metadata (so its recorded checksum)."""
     if fmt == "csv":
@@ -474,6 +517,10 @@ def test_a_journal_survives_arrays_and_a_torn_line_before_it(tmp_path: Path) -> 
     path.write_text(torn[: len(torn) // 2], encoding="utf-8")  # killed mid-line
     with _open_journal(path) as f:
         f.write(line)
+    assert [r["start"] for r in store.journal_rows(task)] == [1]
+    # one stray byte that is not UTF-8 is one bad line, not a lost journal (a review)
+    with path.open("ab") as raw:
+        raw.write(b"\xff\xfe\n")
     assert [r["start"] for r in store.journal_rows(task)] == [1]
 
 

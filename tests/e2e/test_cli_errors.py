@@ -220,7 +220,8 @@ def test_plot_of_a_folder_of_garbage_parts_is_one_line_exit_1(tmp_path: Path) ->
     part.parent.mkdir()
     part.write_bytes(b"\x00garbage" * 100)
     line = one_line(cptbt("plot", str(tmp_path)), 1)
-    assert line.startswith(f"cptbt: {part}: unreadable ("), line
+    assert line.startswith(f"cptbt: {tmp_path}: no part could be read: {part.name} "
+                           "(unreadable ("), line
 
 
 def test_plot_of_a_folder_without_results_is_one_line_exit_1(tmp_path: Path) -> None:
