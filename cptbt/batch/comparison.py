@@ -117,6 +117,25 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
     return lines
 
 
+def code_change(meta: dict[str, Any], where: str) -> tuple[str, str] | None:
+    """(the code identity a study's record ``meta`` was flown by, this code's) when they
+    differ (its source, a plug-in's or a result dependency changed since); None when they are
+    the same or the record does not say (``where`` names the record in a mission error)."""
+    from cptbt.batch.integrity import code_identity
+    from cptbt.batch.scenario import Environment
+    from cptbt.loader import MissionError, loads_mission
+    from cptbt.registry import default_registry
+
+    try:
+        flies = sorted({(e.family, e.variant) for text in meta["config_missions"]
+                        for e in loads_mission(text, where, default_registry(),
+                                               Environment).entries()})
+    except (MissionError, KeyError, TypeError):
+        return None
+    here, there = code_identity(flies), meta.get("code")
+    return (there, here) if isinstance(there, str) and there != here else None
+
+
 def study_json(folder: Path) -> dict[str, Any]:
     """The study's ``study.json`` in ``folder`` (empty when there is none, or it is unreadable:
     tables written elsewhere, by ``cptbt plot --out``, say)."""

@@ -404,7 +404,14 @@ def load_results(path: Path, notes: list[str] | None = None) -> Rows:
         raise BatchError(f"{path} is not a results table (results.parquet or results.csv) "
                          "or a study's folder")
     else:
-        rows = _read_checked(_FORMATS["parquet" if path.suffix == ".parquet" else "csv"], path)
+        try:
+            rows = _read_checked(_FORMATS["parquet" if path.suffix == ".parquet" else "csv"],
+                                 path)
+        except BatchError as exc:  # a review: the way out was not said
+            if path.stem == "results" and any((path.parent / "parts").glob("*")):
+                raise BatchError(f"{exc}; the study's parts/ are read without it: delete it, "
+                                 "or run the batch command again to write it anew") from None
+            raise
     _check_columns(rows, path)
     return rows
 

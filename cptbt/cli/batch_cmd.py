@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
 import re
 import subprocess
@@ -248,6 +249,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
     if args.log_runs and adaptive:
         raise UsageError("batch: --log-runs and --until-sem do not go together (the runs to log "
                          "are drawn from a study of known size)")
+    if args.log_runs and importlib.util.find_spec("mcap") is None:  # before the folder
+        raise UsageError("batch: --log-runs needs the mcap package: pip install 'cptbt[logs]'")
     if args.max_runs_per_start is not None and not adaptive:
         raise UsageError("batch: --max-runs-per-start caps --until-sem's rounds; without "
                          "--until-sem give --runs-per-start")

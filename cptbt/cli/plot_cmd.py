@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from cptbt.batch.comparison import study_json
+from cptbt.batch.comparison import code_change, study_json
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.store import load_results
 
@@ -38,6 +38,12 @@ def cmd_plot(args: argparse.Namespace) -> int:
     planned = planned if isinstance(planned, int) and not isinstance(planned, bool) else None
     for note in compared(rows, planned)[1]:  # said before the tables that carry it
         print(f"cptbt plot: warning: {note}", file=sys.stderr)
+    change = code_change(study, str(record)) if planned is not None and len(rows) < planned \
+        else None
+    if change is not None:  # "the same arguments resume it" is then not so (a review)
+        print(f"cptbt plot: warning: the study was flown by cptbt {change[0]}, this is "
+              f"{change[1]}: `cptbt batch` resumes it only with the code it was flown by "
+              "(--restart discards its runs)", file=sys.stderr)
     for path in write_report(rows, out, StudyGeometry.from_data(study.get("geometry")),
                              planned_runs=planned, study=study):  # a --out elsewhere has none
         print(f"  wrote {path}")

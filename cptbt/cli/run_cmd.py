@@ -277,6 +277,18 @@ COMPARED_AWAY = ("wall_time_s",)
 """Columns a re-flown row may differ in: how long the computer took."""
 
 
+def _other_code(meta: dict[str, Any], folder: Path) -> str:
+    """``; the study was flown by other code ...`` when this code is not the study's (a
+    review's edited plug-in read as "DIFFERENT", as if a run were not reproducible); else ""."""
+    from cptbt.batch.comparison import code_change
+
+    change = code_change(meta, f"{folder}/study.json")
+    if change is None:
+        return ""
+    return (f"; the study was flown by cptbt {change[0]}, this is {change[1]} (its source, a "
+            "plug-in's or a result dependency changed since): a run of other code may differ")
+
+
 def refly(args: argparse.Namespace) -> int:
     """``cptbt run --from RESULTS --row N``: one study row flown again, alone, and compared."""
     from cptbt.batch.store import load_results
@@ -346,7 +358,8 @@ def refly(args: argparse.Namespace) -> int:
         same = "the same as the study's row, bit for bit" if not diff else (
             f"where the study's row stopped on an error ({row.get('error')})"
             if failed else
-            f"DIFFERENT from the study's row in {', '.join(diff)}")
+            f"DIFFERENT from the study's row in {', '.join(diff)}") + (
+            _other_code(meta, folder) if diff else "")
         print(f"row {args.row} of {results}{f' ({label})' if label else ''} flown again: "
               f"{summary['outcome']} ({short_verdict(summary)}), {same}")
         why = why_ended(summary)

@@ -87,6 +87,26 @@ def test_a_batch_log_is_its_results_row_and_replays_bit_for_bit(logs) -> None:
         assert "study_run_start" in text and "cptbt batch: config 0" in text
 
 
+def test_log_runs_without_mcap_is_a_usage_error_that_writes_nothing(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A review: without the logs extra, --log-runs was an "internal error", and the folder it
+    had made then refused the command without it as another study."""
+    import importlib.util
+
+    from cptbt.cli import main
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "mcap" else real(name, *a))
+    out = tmp_path / "o"
+    assert main(["batch", str(MSN007), "--amp-only", "--grid", "2x1", "--runs-per-start", "1",
+                 "--out", str(out), "--log-runs", "1", "--no-plots", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == ("cptbt batch: error: --log-runs needs the mcap package: pip install "
+                   "'cptbt[logs]'") and not out.exists()
+
+
 def test_more_logs_than_runs_is_a_usage_error(tmp_path: Path) -> None:
     r = subprocess.run(
         [sys.executable, "-m", "cptbt", "batch", str(MSN007), "--amp-only", "--grid", "2x1",

@@ -178,3 +178,53 @@ def test_the_runs_that_had_ended_keep_their_rows(
     assert [r["outcome"] == "error" for r in rows] == [False, True, False, True]
     assert all("ValueError: no row for this one" in r["error"] for r in rows[1::2])
     assert all(r.get("error") is None and r["sim_time_s"] == 60.0 for r in rows[::2])
+
+
+def test_run_from_says_when_the_code_is_not_the_studys(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review edited its plug-in after a study; ``run --from`` said "DIFFERENT" alone, which
+    reads as a run that does not reproduce. It says the code is not the study's."""
+    import json
+
+    out = tmp_path / "study"
+    assert main(["batch", MISSION, *STUDY, "--out", str(out)]) == 0
+    record = out / "study.json"
+    meta = json.loads(record.read_text(encoding="utf-8"))
+    results = str(out / "results.parquet")
+    run = ["run", "--from", results, "--row", "0", "--no-figure", "--out"]
+    capsys.readouterr()
+    assert main([*run, str(tmp_path / "a")]) == 0  # the same code: the same row, nothing said
+    assert "flown by cptbt" not in capsys.readouterr().out
+    record.write_text(json.dumps({**meta, "code": "0.0.1+src.0123456789abcdef"}),
+                      encoding="utf-8")
+    real = worker.row_of
+    monkeypatch.setattr(worker, "row_of", lambda *a, **k: {**real(*a, **k), "path_m": -1.0})
+    assert main([*run, str(tmp_path / "b")]) == 1
+    said = capsys.readouterr().out
+    assert "DIFFERENT from the study's row in path_m; the study was flown by cptbt " \
+           "0.0.1+src.0123456789abcdef, this is " in said
+
+
+def test_plot_of_a_stopped_study_of_other_code_says_the_batch_will_not_resume_it(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A review: ``cptbt plot`` of a stopped study said the same command resumes it, where
+    ``cptbt batch`` refused it, the code having changed since."""
+    import json
+
+    out = tmp_path / "study"
+    assert main(["batch", MISSION, *STUDY, "--out", str(out)]) == 0
+    (out / "results.parquet").unlink()
+    next((out / "parts").glob("*.parquet")).unlink()  # stopped with a group to fly
+    capsys.readouterr()
+    assert main(["plot", str(out)]) == 0
+    assert "was flown by cptbt" not in capsys.readouterr().err
+    record = out / "study.json"
+    meta = json.loads(record.read_text(encoding="utf-8"))
+    record.write_text(json.dumps({**meta, "code": "0.0.1+src.0123456789abcdef"}),
+                      encoding="utf-8")
+    assert main(["plot", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "Incomplete study: 2 of 4 planned runs" in err
+    assert "the study was flown by cptbt 0.0.1+src.0123456789abcdef, this is " in err
+    assert "resumes it only with the code it was flown by" in err

@@ -195,6 +195,11 @@ def test_altered_results_table_is_refused_by_plot(tmp_path: Path, fmt: str) -> N
     _damage_data(table, fmt)
     with pytest.raises(BatchError, match="checksum mismatch"):
         load_results(tmp_path)
+    # ... saying the way out (a review): the parts are read without it
+    with pytest.raises(BatchError, match="the study's parts/ are read without it: delete it"):
+        load_results(table)
+    table.unlink()
+    assert len(load_results(tmp_path)) == 3
 
 
 def test_results_table_made_elsewhere_loads_without_a_checksum(tmp_path: Path) -> None:
