@@ -214,6 +214,25 @@ def collect_declarations(run: VehicleRun, planner: Planner) -> None:
 _FAILED_VEHICLE = "cptbt_failed_vehicle"
 
 
+_PARTIAL = "cptbt_partial_runs"
+
+
+def keep_partial(exc: BaseException, runs: list[VehicleRun], world: World) -> None:
+    """Attach the runs flown until ``exc`` (and their world) to it, for :func:`partial_runs`."""
+    if getattr(exc, _PARTIAL, None) is None:
+        with contextlib.suppress(AttributeError, TypeError):
+            setattr(exc, _PARTIAL, (runs, world))
+
+
+def partial_runs(exc: BaseException) -> tuple[list[VehicleRun], World] | None:
+    """The runs (their rows up to the last whole cycle) and world of a flight that stopped on
+    ``exc`` (:func:`simulate`, :func:`~cptbt.batch.phased.simulate_phased`): ``cptbt run``
+    writes their trace and figure (a review's plug-in raised at t = 319 s and the run wrote
+    nothing to look at). None: not a flight's error."""
+    got = getattr(exc, _PARTIAL, None)
+    return got if isinstance(got, tuple) else None
+
+
 def failed_vehicle(exc: BaseException) -> int | None:
     """The index (into :func:`simulate`'s ``starts``) of the vehicle whose planner, or whose
     run's end (``on_end``), raised ``exc``; None when the error is not one vehicle's (the world,
@@ -406,6 +425,7 @@ def simulate(
             if current >= 0:  # one vehicle's: the others' runs are not its (failed_vehicle)
                 with contextlib.suppress(AttributeError, TypeError):
                     setattr(exc, _FAILED_VEHICLE, current)
+            keep_partial(exc, runs, world)
             raise
     for pl in planners:
         pl.close()

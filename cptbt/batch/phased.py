@@ -20,6 +20,7 @@ from cptbt.batch.engine import (
     PlumeSnapshot,
     VehicleRun,
     collect_declarations,
+    keep_partial,
     note_declarations,
     run_loop,
 )
@@ -171,7 +172,11 @@ def simulate_phased(
             _record_row(rows, one, out, planner if ticked else None, session.phases.state, values)
         return not (session.phases.state == "post_mission" or t + 1e-9 >= cap)
 
-    run_loop(world, prepare, observe)
+    try:
+        run_loop(world, prepare, observe)
+    except Exception as exc:
+        keep_partial(exc, [run], world)  # cptbt run writes the trace up to the error
+        raise
     if run.outcome is None:
         amp_on = session.t_amp_start is not None
         run.outcome = Outcome.AMP_RUNNING if amp_on else Outcome.AMP_NOT_ENABLED

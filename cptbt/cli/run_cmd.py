@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cptbt.batch.engine import PlumeSnapshot, VehicleRun, simulate
+from cptbt.batch.engine import PlumeSnapshot, VehicleRun, partial_runs, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.figures import plume_grid, trajectory_figure
 from cptbt.batch.outcome import ERROR_OUTCOME
@@ -220,7 +220,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             (run,), world, wall = simulate(mission, params, [launch_pose(mission)], trace=True,
                                            plume_grid=grid)
             summary = summarise(run, mission, source, seed, wall, sources=sources).to_dict()
-    except BaseException:
+    except BaseException as exc:
+        flown = partial_runs(exc) if isinstance(exc, Exception) else None
+        if flown is not None and out.is_dir():  # what was flown, to look at
+            _write_partial(flown, out, mission, params, grid, args)
         if made and out.is_dir() and not any(out.iterdir()):
             out.rmdir()
         raise
@@ -232,12 +235,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         if run.plume is None:
             run.plume = PlumeSnapshot.of(world, grid)
         figure = out / "trajectory.png"
-        variants = ", ".join(f"{e.family.split('_')[0]} {e.variant}" for e in mission.entries()
-                             if e.family in ("declare_source", "maintain_plume",
-                                             "reacquire_plume", "find_plume"))
         trajectory_figure(figure, run, mission, source,
                           f"{mission.name} (seed {seed}): {summary['outcome']}, "
-                          f"{short_verdict(summary)}\n{variants}",
+                          f"{short_verdict(summary)}\n{_variants(mission)}",
                           threshold=mission.perception.threshold, waypoints=waypoints,
                           sources=sources, flow_deg=params.flow.mean_dir_deg,
                           north_up=args.north_up)
@@ -271,6 +271,35 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"  wrote {out / 'summary.json'}, {trace_path}" + (f", {figure}" if figure else "")
               + (f", {args.log}" if args.log else ""))
     return 0
+
+
+def _write_partial(flown: tuple[list[VehicleRun], Any], out: Path, mission: MissionBase,
+                   params: Any, grid: Any, args: argparse.Namespace) -> None:
+    """The trace and figure of a run that stopped on an error, up to its last whole cycle (a
+    review's plug-in raised at t = 319 s, and nothing was written to see what it had done)."""
+    (run, *_), world = flown
+    if run.trace_recorder is None or not run.trace_recorder.count[run.index]:
+        return
+    trace_path = write_trace(run, out)
+    t = float(run.trace_recorder.column("t", run.index)[-1])
+    figure = None
+    if grid is not None:
+        run.plume = PlumeSnapshot.of(world, grid)
+        figure = out / "trajectory.png"
+        trajectory_figure(figure, run, mission, Point(*params.source_xy_m),
+                          f"{mission.name} (seed {params.seed}): stopped on an error after "
+                          f"t = {t:.0f} s\n{_variants(mission)}",
+                          threshold=mission.perception.threshold, sources=true_sources(mission),
+                          flow_deg=params.flow.mean_dir_deg, north_up=args.north_up)
+    print(f"  wrote {trace_path}" + (f", {figure}" if figure else "")
+          + f": the run up to t = {t:.0f} s, where it stopped on an error")
+
+
+def _variants(mission: MissionBase) -> str:
+    """The variants the figure names (the finders, trackers, reacquirers and declarers)."""
+    return ", ".join(f"{e.family.split('_')[0]} {e.variant}" for e in mission.entries()
+                     if e.family in ("declare_source", "maintain_plume", "reacquire_plume",
+                                     "find_plume"))
 
 
 COMPARED_AWAY = ("wall_time_s",)

@@ -30,6 +30,16 @@ class Raises(PlanBehaviour):
         return self.context.op_area.no_such_helper()  # type: ignore[union-attr,attr-defined]
 
 
+class RaisesLater(PlanBehaviour):
+    family: ClassVar[str] = "find_plume"
+    variant: ClassVar[str] = "test_raises_later"
+
+    def decide(self, p: Percept) -> Command | None:
+        if p.t >= 60.0:
+            raise RuntimeError("a plug-in's bug, a minute in")
+        return self.command(p.pose.heading_deg)
+
+
 class Tuple(PlanBehaviour):
     family: ClassVar[str] = "find_plume"
     variant: ClassVar[str] = "test_tuple"
@@ -58,7 +68,7 @@ class Slow(PlanBehaviour):
 def faulty(monkeypatch: pytest.MonkeyPatch) -> None:
     """The installed behaviours and the four faulty ones, as the default registry."""
     registry = load_entry_points()
-    for cls in (Raises, Tuple, NaN, Slow):
+    for cls in (Raises, RaisesLater, Tuple, NaN, Slow):
         registry.register(cls)
     monkeypatch.setattr(registry_module, "_DEFAULT", registry)
 
@@ -91,7 +101,28 @@ def test_an_error_a_behaviour_raises_names_it_and_its_line(
     assert err.startswith("cptbt: behaviour find_plume.test_raises raised AttributeError: "), err
     assert f"(at {Path(__file__).name}:{line}) at t = " in err, err
     assert "internal error" not in err and len(err.splitlines()) == 1
-    assert not out.exists()  # no empty folder left for the run that did not fly
+    # the vehicle's own mission until the AMP's first tick raised: written, not an empty folder
+    assert any(out.glob("trace.*")) and not (out / "summary.json").exists()
+
+
+def test_a_run_that_stops_on_an_error_writes_what_it_flew(
+        faulty: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A plug-in author's review: a behaviour raised at t = 319 s and the run wrote nothing
+    (no trace, no figure) to see what it had done until then."""
+    out = tmp_path / "run"
+    assert cli.main(["run", mission(tmp_path, "test_raises_later"), "--out", str(out)]) == 1
+    said = capsys.readouterr()
+    assert "behaviour find_plume.test_raises_later raised RuntimeError" in said.err
+    assert "where it stopped on an error" in said.out
+    assert (out / "trajectory.png").exists() and not (out / "summary.json").exists()
+    trace = next(out.glob("trace.*"))
+    if trace.suffix == ".parquet":
+        import pyarrow.parquet as pq
+
+        t = pq.read_table(trace).column("t").to_pylist()
+    else:
+        t = [float(line.split(",")[0]) for line in trace.read_text().splitlines()[1:]]
+    assert 50.0 <= max(t) < 60.0 + 1e-9
 
 
 def test_a_value_that_is_no_command_is_named_at_its_tick(faulty: None, tmp_path: Path,
