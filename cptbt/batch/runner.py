@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import sys
+import threading
 import time
 from collections.abc import Callable, Generator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -100,13 +101,28 @@ def _dask(tasks: list[GroupTask], address: str,
 
 
 class Progress:
-    """A progress bar with runs done, success so far and ETA; silent when not on a terminal."""
+    """Runs done, success so far and ETA: a bar on a terminal; a line every
+    :attr:`LINE_EVERY_S` otherwise (a review: a study under nohup printed nothing until its
+    end, and a plug-in that hung was not to be told from a slow study). Between the groups'
+    ends, the runs their journals hold count (:meth:`show`): a group is every start of one
+    plume, and a bar that moved per group stood at 0 of 5 000 000 with 1 157 runs saved."""
+
+    LINE_EVERY_S = 60.0
 
     def __init__(self, total: int, done: int, successes: int, quiet: bool) -> None:
         self.successes = successes
         self.done = done
+        self.total = total
         self.bar: Any = None
-        if quiet or not sys.stderr.isatty():
+        self.lines = False  # a line now and then (not on a terminal)
+        self.lock = threading.Lock()
+        self.t0 = time.monotonic()
+        self.last_line = self.t0
+        self.shown = -1
+        if quiet:
+            return
+        if not sys.stderr.isatty():
+            self.lines = True
             return
         try:
             from tqdm import tqdm
@@ -122,16 +138,50 @@ class Progress:
 
     def update(self, rows: Rows) -> None:
         """Count a finished group."""
-        self.done += len(rows)
-        self.successes += sum(bool(r.get("success")) for r in rows)
-        if self.bar is not None:
-            self.bar.update(len(rows))
-            self._postfix()
+        with self.lock:
+            self.done += len(rows)
+            self.successes += sum(bool(r.get("success")) for r in rows)
+            if self.bar is not None:
+                self.bar.n = self.done
+                self._postfix()
+                self.bar.refresh()
+        self.show(0)
+
+    def show(self, under_way: int) -> None:
+        """Show the count with ``under_way`` runs of groups not finished (their journals')."""
+        with self.lock:
+            n = min(self.done + under_way, self.total)
+            if self.bar is not None and n != self.bar.n:
+                self.bar.n = n
+                self.bar.refresh()
+            now = time.monotonic()
+            if self.lines and now - self.last_line >= self.LINE_EVERY_S:
+                self.last_line = now
+                said = "no run has ended since the last line" if n == self.shown else (
+                    f"success {self.successes / self.done:.0%} of the finished groups' runs"
+                    if self.done else "no group finished yet")
+                self.shown = n
+                print(f"cptbt batch: {n} of {self.total} runs done after "
+                      f"{(now - self.t0) / 60:.0f} min ({said})", file=sys.stderr, flush=True)
 
     def close(self) -> None:
         """Finish the bar."""
         if self.bar is not None:
             self.bar.close()
+
+
+def _watch(progress: Progress, live: dict[str, tuple[str, int]], stop: threading.Event) -> None:
+    """Until ``stop``: every second, count the runs the journals of the groups under way hold
+    (``live``: key → (journal, runs it held before this command)), for :meth:`Progress.show`."""
+    while not stop.wait(1.0):
+        under_way = 0
+        for path, before in list(live.values()):
+            try:
+                with open(path, "rb") as f:
+                    under_way += max(f.read().count(b"\n") - before, 0)
+            except OSError:  # not yet written, or removed as its part was written
+                continue
+        progress.show(under_way)
 
 
 def run_study(
@@ -170,10 +220,15 @@ def run_study(
     runs_per_group = len(tasks[0].starts) if tasks else 0
     progress = Progress(len(tasks) * runs_per_group, resume.runs, resume.successes, quiet)
     t0 = time.perf_counter()
+    live = {t.key: (t.journal, len(resume.partial.get(t.key, []))) for t in todo if t.journal}
+    stop = threading.Event()
+    watcher = threading.Thread(target=_watch, args=(progress, live, stop), daemon=True)
+    watcher.start()
     source = (_dask(todo, scheduler, scheduler_timeout_s) if scheduler
               else _local(todo, workers))
     try:
         for task, rows in source:
+            live.pop(task.key, None)
             kept = resume.partial.get(task.key, [])
             full = whole[task.key]
             # the runs kept from an interrupted flight of the group, and the rest just flown
@@ -184,6 +239,7 @@ def run_study(
             if on_group is not None:
                 on_group(full, merged)
     finally:
+        stop.set()
         source.close()  # stops the pool now, not when the traceback is freed
         progress.close()
     return {

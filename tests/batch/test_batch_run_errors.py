@@ -5,6 +5,7 @@ the tables and the command say so, the exit fails, and ``cptbt run --from`` flie
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 from typing import Any
 
@@ -228,3 +229,35 @@ def test_plot_of_a_stopped_study_of_other_code_says_the_batch_will_not_resume_it
     assert "Incomplete study: 2 of 4 planned runs" in err
     assert "the study was flown by cptbt 0.0.1+src.0123456789abcdef, this is " in err
     assert "resumes it only with the code it was flown by" in err
+
+
+def test_a_study_off_a_terminal_says_its_progress(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review: under nohup a study printed nothing until its end, and a hung plug-in could
+    not be told from a slow study. Off a terminal it prints a line now and then, counting the
+    runs of groups under way from their journals."""
+    import threading
+
+    from cptbt.batch import runner
+
+    monkeypatch.setattr(runner.Progress, "LINE_EVERY_S", 0.0)
+    assert main(["batch", MISSION, *STUDY, "--out", str(tmp_path / "s")]) == 0
+    lines = [x for x in capsys.readouterr().err.splitlines() if x.startswith("cptbt batch: ")]
+    assert lines and lines[-1].startswith("cptbt batch: 4 of 4 runs done after ")
+    # the runs a group under way has journalled count before the group ends
+    journal = tmp_path / "j.runs.jsonl"
+    journal.write_bytes(b"{}\n{}\n{}\n{\"torn")  # one run held before this command, one torn
+    progress = runner.Progress(10, 4, 2, quiet=False)
+    stop = threading.Event()
+    watcher = threading.Thread(target=runner._watch,
+                               args=(progress, {"g": (str(journal), 1)}, stop))
+    watcher.start()
+    try:
+        deadline = time.monotonic() + 10.0
+        while "6 of 10 runs done" not in capsys.readouterr().err:
+            assert time.monotonic() < deadline, "the journal's runs were not counted"
+            time.sleep(0.2)
+    finally:
+        stop.set()
+        watcher.join()
