@@ -29,6 +29,12 @@ def differences(old: dict[str, Any], new: dict[str, Any]) -> str:
             continue
         if key == "config_missions":
             said.extend(_mission_differences(a, b))
+        elif key == "sweeps" and isinstance(a, dict) and isinstance(b, dict):
+            # each swept path that differs, with its values (a review: the two JSON texts cut
+            # at 40 characters hid exactly the value that differed)
+            said.extend(f"sweep {k} {_short(a.get(k, 'none'), 60)} there, "
+                        f"{_short(b.get(k, 'none'), 60)} here"
+                        for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k))
         elif key == "starts":
             said.append(f"{name} differ")
         else:

@@ -220,6 +220,16 @@ def test_a_different_study_is_told_by_what_differs(tmp_path: Path) -> None:
     assert str(caught.value) == (f"{tmp_path} holds a different study (root seed 1 there, 2 "
                                  "here; time limit (s) 600.0 there, 900.0 here; starts differ; "
                                  "and 1 more)")  # runs per start: not a different study
+    # a sweep: each swept path that differs, its values whole (a review: the two JSON texts,
+    # cut at 40 characters, hid the value that differed)
+    swept = {"maintain_plume.variant+reacquire_plume.variant": ["strategy_1", "strategy_3"]}
+    ResultStore(tmp_path / "sw").open({**meta, "sweeps": swept}, study="s5", code="c1")
+    with pytest.raises(StudyMismatch) as caught:
+        ResultStore(tmp_path / "sw").open(
+            {**meta, "sweeps": {k: ["strategy_1", "strategy_2"] for k in swept}},
+            study="s6", code="c1")
+    assert ('sweep maintain_plume.variant+reacquire_plume.variant ["strategy_1", "strategy_3"] '
+            'there, ["strategy_1", "strategy_2"] here') in str(caught.value)
     with pytest.raises(StudyMismatch, match=r"\(other missions or options\)$"):
         ResultStore(tmp_path).open(meta, study="s3", code="c1")  # nothing recorded differs
     # the mission's path is no difference (a copy elsewhere is the same study); an option
