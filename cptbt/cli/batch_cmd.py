@@ -17,17 +17,20 @@ from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import environment_of, starts_at_a_source
-from cptbt.batch.starts import grid_starts
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
 from cptbt.batch.study import GroupTask, Study, Sweep, log_sample, study_notes
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
 from cptbt.cli.batch_rounds import next_replicates, worst_rel_sem
+from cptbt.cli.batch_starts import check_starts, study_starts
 from cptbt.cli.batch_sweeps import study_configs
 from cptbt.cli.inspect_cmds import load
 from cptbt.cli.plot_cmd import cmd_plot, saved_study
 from cptbt.mission import MissionBase
-from cptbt.study_spec import StudySpec, study_size_problem
+from cptbt.study_spec import study_size_problem
+
+BIG_STUDY_RUNS = 1000
+"""A study of at least this many runs is announced with its size before it flies."""
 
 
 def _sweep(text: str) -> Sweep:
@@ -124,51 +127,6 @@ def _git_version() -> str:
         return __version__
 
 
-def _starts(args: argparse.Namespace, mission: MissionBase,
-            spec: StudySpec | None) -> list[tuple[float, float]]:
-    """The study's starts (planning frame): the flags, else the study section, else the
-    mission's start."""
-    if args.grid:
-        return grid_starts(mission, *args.grid)
-    if args.starts_x:
-        return [(x, args.y) for x in args.starts_x]
-    if args.starts:
-        return [_planning(mission, c) for c in args.starts]
-    if spec is not None and spec.grid is not None:
-        return grid_starts(mission, *spec.grid)
-    if spec is not None and spec.line is not None:
-        line = spec.line
-        n = int((line.x_to_m - line.x_from_m) / line.step_m + 1e-9) + 1
-        return [(line.x_from_m + k * line.step_m, line.y_m) for k in range(n)]
-    if spec is not None and spec.starts:
-        return [_planning(mission, c) for c in spec.starts]
-    return [_planning(mission, mission.start or mission.home)]
-
-
-def _check_starts(mission: MissionBase, starts: list[tuple[float, float]]) -> None:
-    """Every start inside the OpArea, as ``validate`` asks of the mission's own start.
-
-    A start typed in the wrong frame (N-E metres for a geodetic mission's lat, lon) lands
-    thousands of km away and would fly a silent 0 % study.
-    """
-    if "start" in mission.allow_outside:
-        return
-    area = mission.op_area_geometry()
-    for x, y in starts:
-        if not area.contains(x, y):
-            frame = {"geodetic": "lat, lon in degrees", "ne": "north, east in m"}.get(
-                str(mission.frame), "x, y in m (planning frame)")
-            raise UsageError(
-                f"batch: the start at planning ({x:.1f}, {y:.1f}) m is "
-                f"{area.distance_outside(x, y):.1f} m outside the OpArea (starts are given as "
-                f"{frame}; list 'start' in the mission's allow_outside if that is intended)")
-
-
-def _planning(mission: MissionBase, coord: tuple[float, float]) -> tuple[float, float]:
-    p = mission.to_xy(coord)
-    return p.x, p.y
-
-
 def _check_planner(mission: MissionBase) -> None:
     """``$CPTBT_PLANNER``: a known value, and ``fleet`` only for a mission it can fly (before any
     folder is made)."""
@@ -225,8 +183,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
     _check_planner(mission)
     spec = mission.study
     sweeps, configs = study_configs(args, mission)
-    starts = _starts(args, mission, spec)
-    _check_starts(mission, starts)
+    starts = study_starts(args, mission, spec)
+    check_starts(mission, starts)
     if (at_source := starts_at_a_source(mission, starts)) and not args.quiet:
         print(f"cptbt: note: {at_source}", file=sys.stderr)
     runs_per_start = args.runs_per_start or (spec.runs_per_start if spec else 1)
@@ -317,6 +275,12 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     n = runs_per_start
     wall, flown_groups, flown_runs = 0.0, 0, 0  # this command's work, over its rounds
+    if (planned := study_of(n).total_runs) >= BIG_STUDY_RUNS and not args.quiet:
+        # a review: 5 000 000 missions began without a word (the AB default study: 50 500)
+        print(f"cptbt: note: {planned} missions to fly ({len(configs)} configuration"
+              f"{'s' * (len(configs) != 1)} x {len(starts)} starts x {n} replicates"
+              f"{', a first round' if adaptive else ''}); Ctrl-C keeps every finished run and "
+              "the same command flies the rest", file=sys.stderr)
     while True:
         tasks = study_of(n).tasks(code)
         total = sum(len(t.starts) for t in tasks)
@@ -324,9 +288,6 @@ def cmd_batch(args: argparse.Namespace) -> int:
             raise UsageError(f"batch: --log-runs {args.log_runs}: the study has {total} "
                              f"run{'s' if total != 1 else ''}")
         if args.log_runs:
-            from cptbt.logs import _mcap
-
-            _mcap()  # one clear error before any run if mcap is missing
             tasks = log_sample(tasks, args.log_runs, seed, str(Path(args.out) / "logs"))
         sigterm_as_interrupt()
         try:

@@ -261,3 +261,18 @@ def test_a_study_off_a_terminal_says_its_progress(
     finally:
         stop.set()
         watcher.join()
+
+
+def test_a_big_study_says_its_size_before_it_flies(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review: 5 000 000 missions began without a word (the AB default study is 50 500)."""
+    from cptbt.cli import batch_cmd
+
+    monkeypatch.setattr(batch_cmd, "BIG_STUDY_RUNS", 4)
+    assert main(["batch", MISSION, *STUDY, "--out", str(tmp_path / "s")]) == 0
+    assert ("cptbt: note: 4 missions to fly (1 configuration x 2 starts x 2 replicates); "
+            "Ctrl-C keeps every finished run") in capsys.readouterr().err
+    monkeypatch.setattr(batch_cmd, "BIG_STUDY_RUNS", 5)
+    assert main(["batch", MISSION, *STUDY, "--out", str(tmp_path / "t")]) == 0
+    assert "missions to fly" not in capsys.readouterr().err
