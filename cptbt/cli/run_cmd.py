@@ -237,7 +237,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         figure = out / "trajectory.png"
         trajectory_figure(figure, run, mission, source,
                           f"{mission.name} (seed {seed}): {summary['outcome']}, "
-                          f"{short_verdict(summary)}\n{_variants(mission)}",
+                          f"{short_verdict(summary)}\n{_variants(mission)}"
+                          + _faults_note(run),
                           threshold=mission.perception.threshold, waypoints=waypoints,
                           sources=sources, flow_deg=params.flow.mean_dir_deg,
                           north_up=args.north_up)
@@ -293,6 +294,19 @@ def _write_partial(flown: tuple[list[VehicleRun], Any], out: Path, mission: Miss
                           flow_deg=params.flow.mean_dir_deg, north_up=args.north_up)
     print(f"  wrote {trace_path}" + (f", {figure}" if figure else "")
           + f": the run up to t = {t:.0f} s, where it stopped on an error")
+
+
+def _faults_note(run: VehicleRun) -> str:
+    """The title's word on behaviours whose commands were not flown as asked (a review: a
+    plug-in that only ever asked for NaN headings was named as the variant flown)."""
+    bad = dict(run.nonfinite_commands)
+    for name, (n, _, _) in run.unflyable_speeds.items():
+        bad[name] = bad.get(name, 0) + n
+    if not bad:
+        return ""
+    return "\nbehaviour faults: " + ", ".join(
+        f"{name} not flown as asked in {n} cycle{'s' * (n != 1)}"
+        for name, n in sorted(bad.items()))
 
 
 def _variants(mission: MissionBase) -> str:

@@ -160,6 +160,22 @@ def test_commands_not_flown_as_asked_are_counted_and_named(
         assert summary[key] > 0 and said in summary["command_faults"]
 
 
+def test_the_figure_says_a_behaviour_was_not_flown_as_asked(
+        faulty: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review: a plug-in that only asked for NaN headings was named in the figure as the
+    variant flown, nothing saying it never drove."""
+    from cptbt.cli import run_cmd
+
+    titles: list[str] = []
+    monkeypatch.setattr(run_cmd, "trajectory_figure",
+                        lambda path, run, mission, source, title, **kw: titles.append(title))
+    for variant in ("test_nan", "test_slow"):
+        assert cli.main(["run", mission(tmp_path, variant), "--quiet", "--out",
+                         str(tmp_path / variant)]) == 0
+    assert "\nbehaviour faults: find_plume.test_nan not flown as asked in " in titles[0]
+    assert "\nbehaviour faults: find_plume.test_slow not flown as asked in " in titles[1]
+
+
 def test_a_study_tables_its_behaviour_faults() -> None:
     rows = [{"outcome": "declared", "nonfinite_commands": 0, "unflyable_commands": 0}]
     assert command_fault_table({"a": rows}) == []  # nothing to say: nothing said
