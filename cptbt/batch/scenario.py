@@ -13,6 +13,7 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema
 
+from cptbt.batch.sensing_advice import lambda_advice, threshold_advice
 from cptbt.batch.sim_advice import (
     adcp_advice,
     dropout_advice,
@@ -243,7 +244,8 @@ def advisories(mission: MissionBase) -> list[Problem]:
         params = None
     if params is not None:
         out += [a for advice in (noise_advice, dropout_advice, adcp_advice, leaf_advice,
-                                 pace_advice, turn_guard_advice, flow_direction_advice)
+                                 pace_advice, turn_guard_advice, flow_direction_advice,
+                                 threshold_advice, lambda_advice)
                 for a in advice(mission, params)]
         out += launch_turn_advice(mission, params, launch_pose(mission))
     try:

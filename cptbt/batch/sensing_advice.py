@@ -1,0 +1,84 @@
+"""Warnings on sensing settings the simulated world makes hopeless, for
+:func:`cptbt.batch.scenario.advisories`: a detection threshold the plume never reaches, or
+reaches only next to its source, and a contact-loss time λ longer than the vehicle takes to
+cross the whole OpArea."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cptbt.batch.sim_advice import plain
+from cptbt.mission import MissionBase, Problem
+from cptbt.sim.world import EnvironmentParams, World
+
+MARGIN = 1.5
+"""A threshold is warned of only at this many times the peaks found: they are taken at the
+puffs' centres, and where puffs overlap the sum peaks between them, a few per cent higher
+(4% on AB's plume, 1% on TRO's, against a 2-cm grid)."""
+
+NEAR_SOURCE_M = 10.0
+"""A threshold the plume reaches only within this of a source is warned of: the plume
+cannot be found from afar."""
+
+
+def plume_peaks(params: EnvironmentParams, near_m: float = NEAR_SOURCE_M,
+                ) -> tuple[float, float]:
+    """The plume's highest concentration anywhere, and beyond ``near_m`` of every source,
+    over its first minutes from the source (at least 120 s, and the time the mean flow takes
+    to carry a puff twice ``near_m``, at most 600 s): the largest value at any puff's centre
+    (a puff's peak; a sensor reads no more, before its own lag or noise), sampled every 10 s.
+    The world's own seed: the same numbers every time."""
+    world = World(params, np.zeros((0, 2)))
+    speed = max(params.flow.mean_speed_mps, 1e-3)
+    horizon = min(600.0, max(120.0, 2.0 * near_m / speed))
+    sources = np.asarray(world.sources_xy_m, dtype=float).reshape(-1, 2)
+    plumes = [world.plume, *world.extra_plumes]
+    peak = far = 0.0
+    for _ in range(math.ceil(horizon / 10.0)):
+        world.warm_up(10.0)
+        centres = [p.positions for p in plumes if len(p.positions)]
+        if not centres:
+            continue
+        xy = np.vstack(centres)
+        conc = world.concentration_at(xy)
+        gap = np.min(np.hypot(xy[:, None, 0] - sources[None, :, 0],
+                              xy[:, None, 1] - sources[None, :, 1]), axis=1)
+        peak = max(peak, float(conc.max()))
+        if np.any(gap > near_m):
+            far = max(far, float(conc[gap > near_m].max()))
+    return peak, far
+
+
+def threshold_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """A detection threshold above the plume's peak (no detection but from sensor noise), or
+    above what it reaches beyond :data:`NEAR_SOURCE_M` of a source (a threshold in other units
+    than the simulated plume's, say)."""
+    threshold = mission.perception.threshold
+    peak, far = plume_peaks(params)
+    key = ("perception", "threshold")
+    if threshold >= MARGIN * peak:
+        return [(key, f"{plain(threshold)} is above the simulated plume's highest "
+                      f"concentration (about {peak:.3g}, at its source): no run can detect it but "
+                      "from sensor noise (the plume's units: environment.plume.puff_mass)")]
+    if threshold >= MARGIN * far:
+        return [(key, f"{plain(threshold)} is reached by the simulated plume only within "
+                      f"{NEAR_SOURCE_M:g} m of its source (beyond, about {far:.3g} at most): the "
+                      "plume cannot be found from afar")]
+    return []
+
+
+def lambda_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """A contact-loss time λ in which the vehicle, at its top speed, crosses the whole
+    OpArea: contact once made is never lost inside it (track-out, reacquire and the
+    declarations that count lost contacts never run)."""
+    area = mission.op_area_geometry()
+    across = math.hypot(area.xmax - area.xmin, area.ymax - area.ymin)
+    lam, speed = mission.perception.lambda_s, params.vehicle.max_speed_mps
+    if lam * speed <= across:
+        return []
+    return [(("perception", "lambda_s"),
+             f"{plain(lam)} s: at {speed:g} m/s the vehicle crosses the whole OpArea "
+             f"({across:.0f} m corner to corner) in less, so a contact once made is never "
+             "lost inside it (no track-out, reacquire or lost-contact declaration)")]
