@@ -1,7 +1,6 @@
 """Warnings on sensing settings the simulated world makes hopeless, for
 :func:`cptbt.batch.scenario.advisories`: a detection threshold the plume never reaches, or
-reaches only next to its source, and a contact-loss time λ longer than the vehicle takes to
-cross the whole OpArea."""
+reaches only next to its source, and a contact-loss time λ no shorter than the time limit."""
 
 from __future__ import annotations
 
@@ -70,15 +69,13 @@ def threshold_advice(mission: MissionBase, params: EnvironmentParams) -> list[Pr
 
 
 def lambda_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
-    """A contact-loss time λ in which the vehicle, at its top speed, crosses the whole
-    OpArea: contact once made is never lost inside it (track-out, reacquire and the
-    declarations that count lost contacts never run)."""
-    area = mission.op_area_geometry()
-    across = math.hypot(area.xmax - area.xmin, area.ymax - area.ymin)
-    lam, speed = mission.perception.lambda_s, params.vehicle.max_speed_mps
-    if lam * speed <= across:
+    """A contact-loss time λ as long as the AMP's time limit: contact once made is never lost
+    before the run ends (track-out, reacquire and the declarations that count lost contacts
+    never run)."""
+    lam, limit = mission.perception.lambda_s, mission.time_limit_s
+    if lam < limit:
         return []
     return [(("perception", "lambda_s"),
-             f"{plain(lam)} s: at {speed:g} m/s the vehicle crosses the whole OpArea "
-             f"({across:.0f} m corner to corner) in less, so a contact once made is never "
-             "lost inside it (no track-out, reacquire or lost-contact declaration)")]
+             f"{plain(lam)} s, no shorter than the time limit ({plain(limit)} s): a contact "
+             "once made is never lost before the run ends (no track-out, reacquire or "
+             "lost-contact declaration)")]
