@@ -14,6 +14,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -139,6 +140,8 @@ class VehicleRun:
     ``min_speed_mps``, ``max_speed_mps``; it flew the nearest): the cycles, the slowest and the
     fastest such speed commanded."""
     plume: PlumeSnapshot | None = None
+    error: Exception | None = None
+    """The error this run's planner raised, which ended it (:func:`simulate`'s ``isolate``)."""
 
     @property
     def path_t(self) -> NDArray[np.float64]:
@@ -211,36 +214,34 @@ def collect_declarations(run: VehicleRun, planner: Planner) -> None:
         run.declaration_report["map_at"] = "end"
 
 
-_FAILED_VEHICLE = "cptbt_failed_vehicle"
-
-
 _PARTIAL = "cptbt_partial_runs"
 
 
-def keep_partial(exc: BaseException, runs: list[VehicleRun], world: World) -> None:
-    """Attach the runs flown until ``exc`` (and their world) to it, for :func:`partial_runs`."""
+@dataclass(frozen=True)
+class Partial:
+    """A flight stopped by an error: its runs (their rows up to the last whole cycle), its
+    world, and Mission A's waypoints (a phased run's; None otherwise)."""
+
+    runs: list[VehicleRun]
+    world: World
+    waypoints: list[Point] | None = None
+
+
+def keep_partial(exc: BaseException, runs: list[VehicleRun], world: World,
+                 waypoints: list[Point] | None = None) -> None:
+    """Attach the flight ``exc`` stopped to it, for :func:`partial_runs`."""
     if getattr(exc, _PARTIAL, None) is None:
         with contextlib.suppress(AttributeError, TypeError):
-            setattr(exc, _PARTIAL, (runs, world))
+            setattr(exc, _PARTIAL, Partial(runs, world, waypoints))
 
 
-def partial_runs(exc: BaseException) -> tuple[list[VehicleRun], World] | None:
-    """The runs (their rows up to the last whole cycle) and world of a flight that stopped on
-    ``exc`` (:func:`simulate`, :func:`~cptbt.batch.phased.simulate_phased`): ``cptbt run``
-    writes their trace and figure (a review's plug-in raised at t = 319 s and the run wrote
-    nothing to look at). None: not a flight's error."""
+def partial_runs(exc: BaseException) -> Partial | None:
+    """The flight that stopped on ``exc`` (:func:`simulate`,
+    :func:`~cptbt.batch.phased.simulate_phased`): ``cptbt run`` writes its trace and figure (a
+    review's plug-in raised at t = 319 s and the run wrote nothing to look at). None: not a
+    flight's error."""
     got = getattr(exc, _PARTIAL, None)
-    return got if isinstance(got, tuple) else None
-
-
-def failed_vehicle(exc: BaseException) -> int | None:
-    """The index (into :func:`simulate`'s ``starts``) of the vehicle whose planner, or whose
-    run's end (``on_end``), raised ``exc``; None when the error is not one vehicle's (the world,
-    or the fleet planner, which ticks every vehicle at once). The other vehicles' runs are
-    their own: each start's seeds are its own, so flown without that vehicle they are the same
-    runs (:func:`cptbt.batch.worker.run_group` flies them again so)."""
-    index = getattr(exc, _FAILED_VEHICLE, None)
-    return index if isinstance(index, int) else None
+    return got if isinstance(got, Partial) else None
 
 
 def simulate(
@@ -257,6 +258,7 @@ def simulate(
     logs: Mapping[int, CycleLog] | None = None,
     planner: str | None = None,
     on_end: Callable[[int, VehicleRun], None] | None = None,
+    isolate: bool = False,
 ) -> tuple[list[VehicleRun], World, float]:
     """Fly one planner per start pose (x, y, heading; planning frame) in one shared world.
 
@@ -276,6 +278,14 @@ def simulate(
     ``on_end(i, run)`` hears of each vehicle's run as soon as it is complete (its last cycle
     recorded), while the others fly on: a study keeps it then (an interrupted group had lost
     the runs already done in it).
+
+    ``isolate``: an error one vehicle's planner raises ends that run alone (``run.error``, its
+    outcome None; ``on_end`` hears of it) while the others fly on: they are the runs they would
+    be without it (each vehicle's seeds are its own, and a vehicle that ends, however, only
+    stops). A study flies its groups so (a review's plug-in raised in one run, and every run
+    of its group, every start of one plume, had become an error row); ``cptbt run`` does not,
+    and the error stops the flight, with its runs so far attached (:func:`partial_runs`). The
+    fleet planner ticks every vehicle at once: its errors stop the group either way.
 
     Returns:
         The runs, the world at the end (for plume snapshots) and the wall time spent.
@@ -325,20 +335,44 @@ def simulate(
             world.set_commands(cmd_heading, cmd_speed)
             commanded = False
 
-    current = -1  # the vehicle whose planner (or run's end) is being handled: an error names it
+    failed: dict[int, Exception] = {}  # isolate: the vehicles whose planner raised, not ended
+
+    def guarded(i: int, call: Callable[[], Any]) -> Any:
+        """``call()`` for vehicle ``i``: with ``isolate``, an error it raises ends that run."""
+        if not isolate:
+            return call()
+        try:
+            return call()
+        except Exception as exc:  # one run's: the others fly on (docstring)
+            failed.setdefault(i, exc)
+            return None
+
+    def end_failed(t: float) -> None:
+        """End the runs whose planner raised (``failed``): ``run.error`` set, heard of."""
+        nonlocal active
+        for i, exc in sorted(failed.items()):
+            run = runs[i]
+            run.error, run.t_end = exc, t
+            cmd_speed[i] = 0.0
+            active = active[active != i]
+            if on_end is not None:
+                on_end(i, run)
+        failed.clear()
 
     def observe(out: StepOutput) -> bool:
-        nonlocal active, next_tick, commanded, current
+        nonlocal active, next_tick, commanded
         t = out.t_s
         if out.fluorometer is not None:
             for i in active:
-                current = int(i)
-                planners[i].add_sample(t, float(out.fluorometer[i]))
+                guarded(int(i), partial(planners[i].add_sample, t, float(out.fluorometer[i])))
         if out.adcp_flow is not None:
             for i in active:
-                current = int(i)
-                planners[i].add_flow(t, float(out.adcp_flow[i, 0]), float(out.adcp_flow[i, 1]))
-        current = -1
+                guarded(int(i), partial(planners[i].add_flow, t, float(out.adcp_flow[i, 0]),
+                                        float(out.adcp_flow[i, 1])))
+        if failed:
+            end_failed(t)
+            if not len(active):
+                return False
         if t + TIME_EPS_S < next_tick and t + TIME_EPS_S < limit:
             return True  # no cycle due; at the time limit one is, on the cycle grid or not
         next_tick += period
@@ -349,12 +383,13 @@ def simulate(
             if trace else {}
         keep = np.ones(m, dtype=bool)
         for j, i in enumerate(active):
-            current = int(i)
             run = runs[i]
             pl = planners[i]
             ex, ey = float(out.nav_xy[i, 0]), float(out.nav_xy[i, 1])
             pl.set_pose(ex, ey, float(out.nav_heading_deg[i]))
-            cmd = pl.tick(t)
+            cmd = guarded(int(i), partial(pl.tick, t))
+            if int(i) in failed:  # ended by its error (isolate): no row for this cycle
+                continue
             if logs and int(i) in logs:
                 logs[int(i)].record(t, "amp.override")
             p = pl.percept
@@ -406,15 +441,20 @@ def simulate(
                 "heading": out.true_heading_deg[active], "heading_est": out.nav_heading_deg[active],
                 "cmd_heading": cmd_heading[active], "cmd_speed": cmd_speed[active],
             }
-        current = -1
-        rec.add(active, values, detected, codes)
+        if failed:  # the runs ended by an error this cycle have no row for it
+            ticked = ~np.isin(active, list(failed))
+            rec.add(active[ticked], {k: v[ticked] if isinstance(v, np.ndarray) else v
+                                     for k, v in values.items()}, detected[ticked],
+                    codes[ticked])
+        else:
+            rec.add(active, values, detected, codes)
         cmd_speed[active[~keep]] = 0.0
         if on_end is not None:
             for i in active[~keep]:
-                current = int(i)
                 on_end(int(i), runs[i])
-            current = -1
         active = active[keep]
+        if failed:
+            end_failed(t)
         commanded = True
         return len(active) > 0
 
@@ -422,9 +462,6 @@ def simulate(
         try:
             run_loop(world, prepare, observe)
         except Exception as exc:
-            if current >= 0:  # one vehicle's: the others' runs are not its (failed_vehicle)
-                with contextlib.suppress(AttributeError, TypeError):
-                    setattr(exc, _FAILED_VEHICLE, current)
             keep_partial(exc, runs, world)
             raise
     for pl in planners:

@@ -174,8 +174,10 @@ def simulate_phased(
 
     try:
         run_loop(world, prepare, observe)
-    except Exception as exc:
-        keep_partial(exc, [run], world)  # cptbt run writes the trace up to the error
+    except Exception as exc:  # cptbt run writes the trace up to the error, drawn as a run's
+        if amp_rows.count[0]:
+            run.start = (float(run.path_true[0, 0]), float(run.path_true[0, 1]))
+        keep_partial(exc, [run], world, waypoints)
         raise
     if run.outcome is None:
         amp_on = session.t_amp_start is not None

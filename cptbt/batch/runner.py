@@ -158,8 +158,8 @@ class Progress:
             if self.lines and now - self.last_line >= self.LINE_EVERY_S:
                 self.last_line = now
                 said = "no run has ended since the last line" if n == self.shown else (
-                    f"success {self.successes / self.done:.0%} of the finished groups' runs"
-                    if self.done else "no group finished yet")
+                    f"success {self.successes / self.done:.0%} of the {self.done} runs of "
+                    "groups written or resumed" if self.done else "no group written yet")
                 self.shown = n
                 print(f"cptbt batch: {n} of {self.total} runs done after "
                       f"{(now - self.t0) / 60:.0f} min ({said})", file=sys.stderr, flush=True)
@@ -177,8 +177,8 @@ def _watch(progress: Progress, live: dict[str, tuple[str, int]], stop: threading
         under_way = 0
         for path, before in list(live.values()):
             try:
-                with open(path, "rb") as f:
-                    under_way += max(f.read().count(b"\n") - before, 0)
+                with open(path, "rb") as f:  # whole lines (a torn one has no "}" before "\n")
+                    under_way += max(f.read().count(b"}\n") - before, 0)
             except OSError:  # not yet written, or removed as its part was written
                 continue
         progress.show(under_way)

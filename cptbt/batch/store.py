@@ -25,7 +25,7 @@ from typing import Any, BinaryIO
 
 from cptbt.batch.errors import BatchError, CodeChanged
 from cptbt.batch.integrity import fingerprint, rows_checksum
-from cptbt.batch.journal import JOURNAL_SUFFIX, read_journal, study_tag, unsettled_rows
+from cptbt.batch.journal import JOURNAL_SUFFIX, read_journal, unsettled_rows
 from cptbt.batch.study import GroupTask
 from cptbt.batch.study_diff import differences
 from cptbt.batch.tabular import as_csv_reads, columns, csv_rows
@@ -376,7 +376,8 @@ def load_results(path: Path, notes: list[str] | None = None) -> Rows:
     """Rows of a results table, a results folder, or a folder of parts.
 
     A folder without a results table is read from its parts that are its study's (their
-    checksums, fingerprints and groups checked: :func:`_study_parts`); ``notes`` gets a
+    checksums, fingerprints and groups checked: :func:`~cptbt.batch.study_parts.study_parts`);
+    ``notes`` gets a
     sentence on each part left out, and on parts no ``study.json`` can vouch for.
 
     Raises:
@@ -393,7 +394,9 @@ def load_results(path: Path, notes: list[str] | None = None) -> Rows:
         rows, found = [], _FORMATS[DEFAULT_FORMAT]
         for fmt in _FORMATS.values():
             if any((path / "parts").glob(f"*{fmt.suffix}")):
-                rows, found = _study_parts(path, fmt, notes if notes is not None else []), fmt
+                from cptbt.batch.study_parts import study_parts
+
+                rows, found = study_parts(path, fmt, notes if notes is not None else []), fmt
                 break
         unsettled = unsettled_rows(path)  # runs of groups stopped part way, as parts read
         rows += as_csv_reads(unsettled) if isinstance(found, _Csv) else unsettled
@@ -413,45 +416,6 @@ def load_results(path: Path, notes: list[str] | None = None) -> Rows:
                                  "or run the batch command again to write it anew") from None
             raise
     _check_columns(rows, path)
-    return rows
-
-
-def _study_parts(folder: Path, fmt: _Parquet | _Csv, notes: list[str]) -> Rows:
-    """The rows of the parts in ``folder/parts`` that are its study's, in group order: each
-    part's checksum checked, its fingerprint against ``study.json``'s and its group against its
-    name, and no run twice; a part that fails is left out and said in ``notes`` (a review:
-    ``cptbt plot`` of a stopped study tabled a part copied in from another study, 52 runs under
-    a header of 48, where ``cptbt batch`` refused it; a damaged part stopped the whole plot)."""
-    tag = study_tag(folder)
-    rows: Rows = []
-    seen: set[tuple[Any, Any, Any]] = set()
-    left: list[str] = []
-    for path in sorted((folder / "parts").glob(f"*{fmt.suffix}")):
-        try:
-            got, meta = fmt.read(path)
-            _check_sum(got, meta)
-            assert meta is not None
-            if tag is not None and meta.get("study") != tag:
-                raise PartError("from another study or code version (its fingerprint is not "
-                                "study.json's)")
-            if meta.get("group") != path.stem:
-                raise PartError(f"holds group {meta.get('group')}")
-            keys = [(r.get("config"), r.get("replicate"), r.get("start")) for r in got]
-            if seen.intersection(keys) or len(set(keys)) < len(keys):
-                raise PartError("holds runs another part holds")
-        except PartError as exc:
-            left.append(f"{path.name} ({exc})")
-            continue
-        seen.update(keys)
-        rows.extend(got)
-    if left and not rows and not unsettled_rows(folder):  # nothing to table: why, in a line
-        raise BatchError(f"{folder}: no part could be read: " + "; ".join(left))
-    if left:
-        notes.append(f"{len(left)} part{'s' * (len(left) != 1)} left out of the tables: "
-                     + "; ".join(left))
-    if tag is None and rows:
-        notes.append(f"{folder / 'study.json'} is missing or unreadable: the parts cannot be "
-                     "checked to be one study's (a part copied from another would be tabled)")
     return rows
 
 

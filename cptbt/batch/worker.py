@@ -15,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cptbt.batch.engine import VehicleRun, failed_vehicle, simulate
+from cptbt.batch.engine import VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.integrity import code_identity
 from cptbt.batch.journal import JournalFile
@@ -129,15 +129,16 @@ def worker_code(task: GroupTask) -> str:
 
 
 def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None,
-              on_end: Callable[[int, VehicleRun, MissionBase, Point], None] | None = None
-              ) -> tuple[MissionBase, list[VehicleRun], Point, float]:
+              on_end: Callable[[int, VehicleRun, MissionBase, Point], None] | None = None,
+              isolate: bool = False) -> tuple[MissionBase, list[VehicleRun], Point, float]:
     """Fly every start of one group in one shared world (its replicate's plume).
 
     Under ``start_mode: place`` each vehicle starts at its start point, which is also its
     move-to-field goal; under ``launch`` every vehicle starts at the mission's launch point
     (``environment.launch``, else home) and move-to-field drives it to its start point.
     ``on_end(k, run, mission, source)`` hears of the group's ``k``-th run as soon as it ends
-    (its cycle log, if it has one, closed first).
+    (its cycle log, if it has one, closed first). ``isolate``: a run whose planner raises
+    ends alone, with ``run.error`` (:func:`~cptbt.batch.engine.simulate`).
 
     Returns:
         The group's mission, its runs, the true source and the wall time.
@@ -173,7 +174,7 @@ def fly_group(task: GroupTask, trace: bool = False, plume_grid: Any = None,
         runs, _, wall = simulate(mission, params, poses, env_rng=env_rng,
                                  vehicle_rngs=vehicle_rngs, time_limit_s=task.time_limit_s,
                                  goals=goals, trace=trace, plume_grid=plume_grid, logs=logs,
-                                 on_end=ended)
+                                 on_end=ended, isolate=isolate)
         for k in list(logs):  # a run the loop left without an end (none should be)
             close_log(k, runs[k])
     finally:
@@ -217,9 +218,8 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
                          f"{task.code}: install the same cptbt on every worker")
     journal = Journal(task)
     try:
-        mission, runs, source, wall = fly_group(task, on_end=journal.ended)
-    except Exception as exc:  # a bug met by the group: recorded, and the study goes on
-        journal.close()
+        mission, runs, source, wall = fly_group(task, on_end=journal.ended, isolate=True)
+    except Exception as exc:  # a bug met by the group, not one run's: the study goes on
         return _after_error(task, exc, journal.rows)
     finally:
         journal.close()
@@ -232,20 +232,13 @@ def run_group(task: GroupTask) -> list[dict[str, Any]]:
 
 def _after_error(task: GroupTask, exc: Exception, finished: dict[int, dict[str, Any]]
                  ) -> list[dict[str, Any]]:
-    """The group's rows when flying it raised ``exc``: the runs that had ended keep their rows
-    (a review's plug-in raised at t = 983 s in one run, and three runs of its group home by
-    474 s had become error rows, each with the other run's error); the run whose planner
-    raised is an error row; the runs still under way are flown again without it (the same
-    runs: each start's seeds are its own), each meeting its own end. An error no single run's
-    (the world's, or the fleet planner's, which ticks every vehicle at once) stops every run
-    still under way."""
+    """The group's rows when flying it raised ``exc``, an error no one run's (the world's, or
+    the fleet planner's, which ticks every vehicle at once; a run whose own planner raises
+    ends alone: :func:`fly_group`'s ``isolate``): the runs that had ended keep their rows,
+    every run still under way is an error row."""
     done = {task.ids[k]: row for k, row in finished.items()}
-    bad = failed_vehicle(exc)
-    stopped = [i for i in task.ids if i not in done and (bad is None or i == task.ids[bad])]
+    stopped = [i for i in task.ids if i not in done]
     rows = list(done.values()) + failed_rows(_only(task, stopped), exc)
-    rest = [i for i in task.ids if i not in done and i not in stopped]
-    if rest:
-        rows += run_group(_only(task, rest))
     return sorted(rows, key=lambda r: task.ids.index(r["start"]))
 
 
@@ -270,11 +263,21 @@ class Journal:
         self.t0 = time.perf_counter()
 
     def ended(self, k: int, run: VehicleRun, mission: MissionBase, source: Point) -> None:
-        """Run ``k`` of the group is over: its row, kept and journalled."""
+        """Run ``k`` of the group is over: its row, kept and journalled; an error row for a
+        run its planner's error ended, or whose row could not be made."""
         wall = (time.perf_counter() - self.t0) / len(self.task.starts)
-        self.rows[k] = row_of(self.task, k, run, mission, source, wall)
+        error, row = run.error, None
+        if error is None:
+            try:
+                row = row_of(self.task, k, run, mission, source, wall)
+            except Exception as exc:  # this run's alone: the others fly on
+                error = exc
+        if row is None:
+            assert error is not None
+            (row,) = failed_rows(_only(self.task, [self.task.ids[k]]), error)
+        self.rows[k] = row
         if self.file is not None:
-            self.file.write(self.rows[k])
+            self.file.write(row)
 
     def close(self) -> None:
         """Close the journal file (the study removes it once the group's part is written)."""

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cptbt.batch.engine import PlumeSnapshot, VehicleRun, partial_runs, simulate
+from cptbt.batch.engine import Partial, PlumeSnapshot, VehicleRun, partial_runs, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.figures import plume_grid, trajectory_figure
 from cptbt.batch.outcome import ERROR_OUTCOME
@@ -274,13 +274,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_partial(flown: tuple[list[VehicleRun], Any], out: Path, mission: MissionBase,
-                   params: Any, grid: Any, args: argparse.Namespace) -> None:
+def _write_partial(flown: Partial, out: Path, mission: MissionBase, params: Any, grid: Any,
+                   args: argparse.Namespace) -> None:
     """The trace and figure of a run that stopped on an error, up to its last whole cycle (a
-    review's plug-in raised at t = 319 s, and nothing was written to see what it had done)."""
-    (run, *_), world = flown
+    review's plug-in raised at t = 319 s, and nothing was written to see what it had done);
+    a summary of an earlier run in the folder is removed (it is not this run's)."""
+    run, world = flown.runs[0], flown.world
     if run.trace_recorder is None or not run.trace_recorder.count[run.index]:
         return
+    (out / "summary.json").unlink(missing_ok=True)
     trace_path = write_trace(run, out)
     t = float(run.trace_recorder.column("t", run.index)[-1])
     figure = None
@@ -288,12 +290,14 @@ def _write_partial(flown: tuple[list[VehicleRun], Any], out: Path, mission: Miss
         run.plume = PlumeSnapshot.of(world, grid)
         figure = out / "trajectory.png"
         trajectory_figure(figure, run, mission, Point(*params.source_xy_m),
-                          f"{mission.name} (seed {params.seed}): stopped on an error after "
-                          f"t = {t:.0f} s\n{_variants(mission)}",
-                          threshold=mission.perception.threshold, sources=true_sources(mission),
-                          flow_deg=params.flow.mean_dir_deg, north_up=args.north_up)
-    print(f"  wrote {trace_path}" + (f", {figure}" if figure else "")
-          + f": the run up to t = {t:.0f} s, where it stopped on an error")
+                          f"{mission.name} (seed {params.seed}): stopped on an error, drawn to "
+                          f"its last whole cycle (t = {t:.0f} s)\n{_variants(mission)}",
+                          threshold=mission.perception.threshold, waypoints=flown.waypoints,
+                          sources=true_sources(mission), flow_deg=params.flow.mean_dir_deg,
+                          north_up=args.north_up)
+    if not args.quiet:
+        print(f"  wrote {trace_path}" + (f", {figure}" if figure else "")
+              + f": the run to its last whole cycle (t = {t:.0f} s) before the error")
 
 
 def _faults_note(run: VehicleRun) -> str:
@@ -370,7 +374,17 @@ def refly(args: argparse.Namespace) -> int:
                          f"longer loads{plug}: {said}") from None
     north_up_note(args, mission)
     grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
-    mission, (run,), source, wall = fly_group(task, trace=True, plume_grid=grid)
+    out = Path(args.out) if args.out else fresh_folder(
+        Path("runs") / f"{mission.name}-row{args.row}-{task.key}")
+    try:
+        mission, (run,), source, wall = fly_group(task, trace=True, plume_grid=grid)
+    except Exception as exc:  # the row's error again: what it flew, to look at (a review)
+        flown = partial_runs(exc)
+        if flown is not None:
+            out.mkdir(parents=True, exist_ok=True)
+            _write_partial(flown, out, mission, to_sim_params(mission, task.root_seed), grid,
+                           args)
+        raise
     summary = summarise(run, mission, source, task.root_seed, wall,
                         sources=true_sources(mission)).to_dict()
     again = row_of(task, 0, run, mission, source, wall)
@@ -379,8 +393,6 @@ def refly(args: argparse.Namespace) -> int:
     failed = row.get("outcome") == ERROR_OUTCOME  # the study's row stopped on an error
     if failed:  # and this one did not
         diff = ["outcome"]
-    out = Path(args.out) if args.out else fresh_folder(
-        Path("runs") / f"{mission.name}-row{args.row}-{task.key}")
     out.mkdir(parents=True, exist_ok=True)
     label = ", ".join(f"{k}={v}" for k, v in coords.items())
     summary["mean_flow"] = mean_flow(mission)

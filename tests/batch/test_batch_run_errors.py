@@ -157,6 +157,14 @@ def test_a_run_that_raises_is_the_only_error_of_its_group(
     assert all(r["run_time_limit_s"] == 60.0 for r in rows)
     tables = (out / "tables.md").read_text(encoding="utf-8")
     assert "**2 of 4 runs stopped on an error" in tables
+    # the error row flown again alone meets its error again, and writes what it flew (a review)
+    row = str(next(i for i, r in enumerate(load_results(out)) if r["outcome"] == "error"))
+    again = tmp_path / "again"
+    capsys.readouterr()
+    assert main(["run", "--from", str(out / "results.parquet"), "--row", row, "--out",
+                 str(again)]) != 0
+    assert "KeyError" in capsys.readouterr().err
+    assert (again / "trajectory.png").exists() and any(again.glob("trace.*"))
 
 
 def test_the_runs_that_had_ended_keep_their_rows(
@@ -247,7 +255,7 @@ def test_a_study_off_a_terminal_says_its_progress(
     assert lines and lines[-1].startswith("cptbt batch: 4 of 4 runs done after ")
     # the runs a group under way has journalled count before the group ends
     journal = tmp_path / "j.runs.jsonl"
-    journal.write_bytes(b"{}\n{}\n{}\n{\"torn")  # one run held before this command, one torn
+    journal.write_bytes(b"{}\n{}\n{}\n{\"torn\n{\"torn")  # one held before, two torn
     progress = runner.Progress(10, 4, 2, quiet=False)
     stop = threading.Event()
     watcher = threading.Thread(target=runner._watch,
@@ -276,3 +284,57 @@ def test_a_big_study_says_its_size_before_it_flies(
     monkeypatch.setattr(batch_cmd, "BIG_STUDY_RUNS", 5)
     assert main(["batch", MISSION, *STUDY, "--out", str(tmp_path / "t")]) == 0
     assert "missions to fly" not in capsys.readouterr().err
+
+
+def test_many_runs_that_raise_in_one_group_are_each_its_own_error(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A diff review: each error flew the rest of the group again, one level of recursion per
+    error (600 starts, 570 raising: every run an error, "maximum recursion depth exceeded"),
+    at a cost growing with the square of the errors. A run whose planner raises now ends alone
+    while the others fly on."""
+    from cptbt.planner import Planner
+
+    study = ["--amp-only", "--grid", "6x4", "--runs-per-start", "1", "--time-limit", "60",
+             "--workers", "1", "--no-plots", "--seed", "3"]
+    monkeypatch.setenv("CPTBT_PLANNER", "tree")
+    assert main(["batch", MISSION, *study, "--out", str(tmp_path / "clean")]) == 0
+    want = _rows(tmp_path / "clean")
+    keep = {(want[k]["start_x"], want[k]["start_y"]) for k in (5, 17)}
+    real = Planner.tick
+
+    def tick(self: Planner, t: float) -> Any:
+        start = self.context.start
+        if start is not None and (start.x, start.y) not in keep and t >= 10.0 + start.x % 30:
+            raise KeyError("a plug-in's bug")
+        return real(self, t)
+
+    monkeypatch.setattr(Planner, "tick", tick)
+    assert main(["batch", MISSION, *study, "--out", str(tmp_path / "f")]) == 1
+    rows = _rows(tmp_path / "f")
+    assert [r["start"] for r in rows if r["outcome"] != "error"] == [5, 17]
+    for k in (5, 17):
+        assert {c: rows[k][c] for c in SAME} == {c: want[k][c] for c in SAME}
+    assert all("KeyError" in r["error"] for r in rows if r["outcome"] == "error")
+
+
+@pytest.mark.parametrize("planner", ["tree", "fleet"])
+def test_a_run_whose_row_cannot_be_made_is_its_own_error_under_either_planner(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, planner: str) -> None:
+    """A diff review: under the fleet planner an error making one run's row stopped every run
+    of the group still flying (6 errors where the tree planner gave 1)."""
+    study = ["--grid", "4x2", "--runs-per-start", "1", "--time-limit", "60",
+             "--workers", "1", "--no-plots", "--seed", "3"]
+    monkeypatch.setenv("CPTBT_PLANNER", planner)
+    real = worker.row_of
+
+    def row_of(task: Any, k: int, *args: Any, **kwargs: Any) -> Any:
+        if task.ids[k] == 3:
+            raise ZeroDivisionError("no row for this one")
+        return real(task, k, *args, **kwargs)
+
+    monkeypatch.setattr(worker, "row_of", row_of)
+    ab = str(ROOT / "missions/ab2001_strategy1.yaml")  # one the fleet planner flies
+    assert main(["batch", ab, *study, "--out", str(tmp_path / "s")]) == 1
+    rows = _rows(tmp_path / "s")
+    assert [r["start"] for r in rows if r["outcome"] == "error"] == [3]
+    assert "ZeroDivisionError: no row for this one" in rows[3]["error"]

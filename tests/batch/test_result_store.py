@@ -104,6 +104,16 @@ def test_a_folder_read_from_its_parts_leaves_out_another_studys(tmp_path: Path,
     store.path(ts[2].key).write_bytes(b"\xff\xfe garbage \x00" * 40)
     notes = []
     assert len(load_results(tmp_path / "mine", notes)) == 6 and "left out" in notes[0]
+    # a replicate beyond the study's count (a larger flight's, kept on disk): left out
+    record = tmp_path / "mine" / "study.json"
+    meta = json.loads(record.read_text(encoding="utf-8"))
+    record.write_text(json.dumps({**meta, "runs_per_start": 1}), encoding="utf-8")
+    notes = []
+    assert [r["replicate"] for r in load_results(tmp_path / "mine", notes)] == [0, 0, 0]
+    assert "beyond the study's 1 runs per start" in notes[0]
+    record.write_text(json.dumps({**meta, "runs_per_start": 1, "until_sem": 0.1}),
+                      encoding="utf-8")  # adaptive: its count is the last round's
+    assert len(load_results(tmp_path / "mine", [])) == 6
     # no study.json: tabled, and said that nothing vouches for the parts
     store.path(ts[2].key).unlink()
     (tmp_path / "mine" / "study.json").unlink()

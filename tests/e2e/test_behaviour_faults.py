@@ -113,7 +113,7 @@ def test_a_run_that_stops_on_an_error_writes_what_it_flew(
     assert cli.main(["run", mission(tmp_path, "test_raises_later"), "--out", str(out)]) == 1
     said = capsys.readouterr()
     assert "behaviour find_plume.test_raises_later raised RuntimeError" in said.err
-    assert "where it stopped on an error" in said.out
+    assert "the run to its last whole cycle (t = 59 s) before the error" in said.out
     assert (out / "trajectory.png").exists() and not (out / "summary.json").exists()
     trace = next(out.glob("trace.*"))
     if trace.suffix == ".parquet":
@@ -123,6 +123,33 @@ def test_a_run_that_stops_on_an_error_writes_what_it_flew(
     else:
         t = [float(line.split(",")[0]) for line in trace.read_text().splitlines()[1:]]
     assert 50.0 <= max(t) < 60.0 + 1e-9
+
+
+def test_a_phased_run_that_stops_on_an_error_is_drawn_as_a_phased_run(
+        faulty: None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A diff review: the partial figure of a run with Mission A drew the vehicle at the AMP's
+    start at the launch point, and no Mission A plan."""
+    from cptbt.cli import run_cmd
+
+    drawn: list[tuple[object, dict[str, object]]] = []
+    monkeypatch.setattr(run_cmd, "trajectory_figure",
+                        lambda path, run, mission, source, title, **kw: drawn.append((run, kw)))
+    text = (ROOT / "missions" / "tro2006_msn007.yaml").read_text(encoding="utf-8")
+    text = text.replace("  - find_plume: {variant: billiard, dtheta_up_deg: 125, "
+                        "dtheta_down_deg: 60}", "  - find_plume: {variant: test_raises_later}")
+    assert "test_raises_later" in text
+    path = tmp_path / "m.yaml"
+    path.write_text(text, encoding="utf-8")
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "summary.json").write_text("{}")  # an earlier run's, not this one's
+    assert cli.main(["run", str(path), "--out", str(tmp_path / "out")]) == 1
+    assert "raised RuntimeError" in capsys.readouterr().err
+    ((run, kw),) = drawn
+    assert kw["waypoints"]  # Mission A's plan
+    launch = run.trace["x"][0], run.trace["y"][0]  # type: ignore[attr-defined]
+    assert run.start != launch  # type: ignore[attr-defined]  # where the AMP took over
+    assert not (tmp_path / "out" / "summary.json").exists()
 
 
 def test_a_value_that_is_no_command_is_named_at_its_tick(faulty: None, tmp_path: Path,
