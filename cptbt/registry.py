@@ -201,6 +201,32 @@ def package_of(spec: BehaviourSpec) -> str:
     return "cptbt"
 
 
+def plugin_provenance(pairs: Iterable[tuple[str, str]],
+                      registry: Registry | None = None) -> dict[str, str]:
+    """``family.variant`` → ``package version`` for each of ``pairs`` a plug-in supplies (the
+    built-in left out): what a study's ``study.json`` records, so that its folder names the
+    code that made it (a review: a shared folder did not say which plug-in flew its variant,
+    and "install the plug-in it came from" could not name it)."""
+    from importlib.metadata import PackageNotFoundError, packages_distributions, version
+
+    registry = registry or default_registry()
+    dists = packages_distributions()
+    out: dict[str, str] = {}
+    for family, variant in sorted(set(pairs)):
+        try:
+            package = package_of(registry.get(family, variant))
+        except RegistryError:
+            continue
+        if package == "cptbt":
+            continue
+        dist = (dists.get(package) or [package])[0]
+        try:
+            out[f"{family}.{variant}"] = f"{dist} {version(dist)}"
+        except PackageNotFoundError:
+            out[f"{family}.{variant}"] = package
+    return out
+
+
 def misspelt_slot(family: str) -> str | None:
     """The TRO slot a plug-in family's name is one slip from (``reaquire_plume``:
     ``reacquire_plume``), or None: a new family is allowed, but a misspelt slot is not what its

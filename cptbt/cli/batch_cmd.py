@@ -27,6 +27,7 @@ from cptbt.cli.batch_sweeps import study_configs
 from cptbt.cli.inspect_cmds import load
 from cptbt.cli.plot_cmd import cmd_plot, saved_study
 from cptbt.mission import MissionBase
+from cptbt.registry import plugin_provenance
 from cptbt.study_spec import study_size_problem
 
 BIG_STUDY_RUNS = 1000
@@ -245,6 +246,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         "heading_deg": env.launch_heading_deg, "geometry": geometry.to_data(),
         "config_geometry": [StudyGeometry.of(c.mission).to_data() for c in configs],
         "code_version": _git_version(),
+        "plugins": plugin_provenance(study_of(1).flies()),
         "planner": _planner_record(configs, len(starts), str(args.mission)),
         "seeding": "SeedSequence(root_seed, spawn_key=(replicate, 0)) for the plume; "
                    "(replicate, 1, start) for each vehicle",

@@ -368,8 +368,10 @@ def refly(args: argparse.Namespace) -> int:
                                 Environment)
     except MissionError as exc:  # the stored mission's lines are no lines of study.json
         said = "; ".join(f"{dotted(loc)}: {msg}" for loc, msg in exc.located or []) or str(exc)
+        names = ", ".join(sorted(set((meta.get("plugins") or {}).values())))
         plug = (" (a behaviour the study flew is not installed here: install the plug-in it "
-                "came from)" if "unknown variant" in said or "unknown behaviour" in said else "")
+                f"came from{f', {names}' if names else ''})"
+                if "unknown variant" in said or "unknown behaviour" in said else "")
         raise BatchError(f"{folder}/study.json, configuration {task.config}: its mission no "
                          f"longer loads{plug}: {said}") from None
     north_up_note(args, mission)

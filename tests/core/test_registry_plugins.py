@@ -194,3 +194,18 @@ def test_a_params_field_with_an_alias_registers() -> None:
         Params = AliasedParams
 
     assert Registry().register(Aliased).variant == "aliased"
+
+
+def test_a_plug_ins_variant_is_named_with_its_package(
+        plugin: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A review: a study's folder did not say which plug-in flew its variant, and "install the
+    plug-in it came from" could not name it. The built-in's are left out."""
+    from cptbt.registry import plugin_provenance
+
+    _points(monkeypatch, ("mine", f"{plugin}:GOOD"))
+    registry = load_entry_points()
+    got = plugin_provenance([("reacquire_plume", "mine"), ("reacquire_plume", "mine"),
+                             ("reacquire_plume", "nowhere")], registry)
+    assert got == {"reacquire_plume.mine": plugin}  # not installed: its package's name
+    builtin = registry_module.default_registry()
+    assert plugin_provenance([("reacquire_plume", "cloverleaf")], builtin) == {}

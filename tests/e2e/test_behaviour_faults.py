@@ -232,3 +232,24 @@ def test_a_behaviours_error_keeps_its_own_cause() -> None:
     cause = info.value.__cause__
     assert isinstance(cause, ValueError) and isinstance(cause.__cause__, KeyError)
     assert (blame(cause) or "").startswith("behaviour find_plume.test_chained raised ValueError")
+
+
+def test_a_study_names_the_plug_in_that_flew_its_variant(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A review: a study's folder did not say which plug-in flew its variant, and flown again
+    where the plug-in is not installed, "install the plug-in it came from" could not name it."""
+    registry = load_entry_points()
+    registry.register(Slow)
+    monkeypatch.setattr(registry_module, "_DEFAULT", registry)
+    out = tmp_path / "study"
+    assert cli.main(["batch", mission(tmp_path, "test_slow"), "--runs-per-start", "1",
+                     "--workers", "1", "--no-plots", "--quiet", "--out", str(out)]) == 0
+    package = Slow.__module__.split(".")[0]
+    record = json.loads((out / "study.json").read_text(encoding="utf-8"))
+    assert record["plugins"] == {"find_plume.test_slow": package}
+    monkeypatch.undo()  # the plug-in gone
+    capsys.readouterr()
+    assert cli.main(["run", "--from", str(out / "results.parquet"), "--row", "0",
+                     "--no-figure", "--out", str(tmp_path / "again")]) != 0
+    assert f"install the plug-in it came from, {package})" in capsys.readouterr().err
