@@ -177,6 +177,11 @@ class ResultStore:
         """
         if self.folder.exists() and not self.folder.is_dir():
             raise BatchError(f"{self.folder} exists and is not a folder")
+        ours = [self.folder / f"results{f.suffix}" for f in _FORMATS.values()]
+        if (not (self.folder / "study.json").exists() and any(p.exists() for p in ours)
+                and not any(self.parts.glob("*"))):  # a review's --out overwrote a user's table
+            raise StudyMismatch(f"{self.folder} holds a results table but no study.json or "
+                                "parts/: not a study's folder")
         self.parts.mkdir(parents=True, exist_ok=True)
         self._lock()
         meta = self.folder / "study.json"

@@ -219,6 +219,15 @@ def test_results_table_made_elsewhere_loads_without_a_checksum(tmp_path: Path) -
                                     "start_y": 0, "success": True}]
 
 
+def test_a_folder_with_a_table_but_no_study_is_not_written_over(tmp_path: Path) -> None:
+    """A review: ``--out`` into a folder of the user's own replaced its results.parquet."""
+    (tmp_path / "results.parquet").write_bytes(b"mine")
+    with pytest.raises(StudyMismatch, match="holds a results table but no study.json"):
+        ResultStore(tmp_path).open({}, study="s1", code="c1")
+    assert (tmp_path / "results.parquet").read_bytes() == b"mine"
+    assert not (tmp_path / "parts").exists()
+
+
 def test_a_different_study_is_told_by_what_differs(tmp_path: Path) -> None:
     meta = {"mission": "m.yaml", "runs_per_start": 10, "root_seed": 1, "time_limit_s": 600.0,
             "starts": [[0, 0]], "sweeps": {}, "config_missions": ["a"]}
