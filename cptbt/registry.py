@@ -8,6 +8,7 @@ Built-in behaviours, and any third-party package's, are declared in the entry-po
 from __future__ import annotations
 
 import difflib
+import logging
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
@@ -16,6 +17,8 @@ import py_trees
 from pydantic import ValidationError
 
 from cptbt.node import BehaviourParams, Contract, PlanBehaviour
+
+log = logging.getLogger(__name__)
 
 ENTRY_POINT_GROUP = "cptbt.behaviours"
 
@@ -106,6 +109,7 @@ class Registry:
 
     def __init__(self) -> None:
         self._specs: dict[tuple[str, str], BehaviourSpec] = {}
+        self.broken: list[str] = []  # entry points that could not be loaded, and why
 
     def register(self, item: BehaviourSpec | type[PlanBehaviour]) -> BehaviourSpec:
         """Add one variant.
@@ -160,8 +164,10 @@ class Registry:
             UnknownBehaviourError: no such family or variant; the message lists close matches.
         """
         families = self.families()
+        broken = (f" (not loaded: {'; '.join(self.broken)})" if self.broken else "")
         if family not in families:
-            raise UnknownBehaviourError(f"unknown behaviour {family!r}{_close(family, families)}")
+            raise UnknownBehaviourError(f"unknown behaviour {family!r}{_close(family, families)}"
+                                        + broken)
         variants = self.variants(family)
         if variant is None:
             return variants[0]
@@ -183,6 +189,7 @@ class Registry:
                 + ("" if "did you mean" in close else
                    f" (a plug-in's? its package lists it in an entry point of the group "
                    f"{ENTRY_POINT_GROUP!r} and is installed here: pip install -e PACKAGE)")
+                + broken
             )
         return spec
 
@@ -254,10 +261,12 @@ def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
     for ep in sorted(entry_points(group=group), key=lambda e: e.name):
         try:
             items = ep.load()
-        except Exception as exc:  # a broken plug-in must say which one it is
-            raise RegistryError(
-                f"cannot load behaviours from entry point {ep.value}: {exc}"
-            ) from exc
+        except Exception as exc:  # a broken plug-in says which one it is, and blocks only its
+            # own variants (a review's broken package had stopped `validate` of every mission)
+            said = f"entry point {ep.value}: {type(exc).__name__}: {exc}"
+            registry.broken.append(said)
+            log.warning("cannot load behaviours from %s (its variants are not available)", said)
+            continue
         if isinstance(items, type) or not isinstance(items, Iterable):
             raise RegistryError(
                 f"entry point {ep.value}: expected a tuple or list of PlanBehaviour subclasses "

@@ -209,3 +209,21 @@ def test_a_plug_ins_variant_is_named_with_its_package(
     assert got == {"reacquire_plume.mine": plugin}  # not installed: its package's name
     builtin = registry_module.default_registry()
     assert plugin_provenance([("reacquire_plume", "cloverleaf")], builtin) == {}
+
+
+def test_a_broken_plug_in_blocks_only_its_own_variants(
+        plugin: str, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    """A review: a package whose entry point failed to import stopped `cptbt validate` of
+    every shipped mission. It is said, and its variants are the ones not available."""
+    from cptbt.registry import UnknownBehaviourError
+
+    _points(monkeypatch, ("broken", "not_a_module_xyz:BEHAVIOURS"),
+            ("mine", f"{plugin}:GOOD"))
+    with caplog.at_level("WARNING", logger="cptbt.registry"):
+        registry = load_entry_points()
+    assert "cannot load behaviours from entry point not_a_module_xyz:BEHAVIOURS" in caplog.text
+    assert registry.get("reacquire_plume", "mine").variant == "mine"  # the others load
+    with pytest.raises(UnknownBehaviourError,
+                       match=r"\(not loaded: entry point not_a_module_xyz:BEHAVIOURS: "
+                             r"ModuleNotFoundError"):
+        registry.get("reacquire_plume", "its_variant")
