@@ -367,8 +367,10 @@ def simulate(
                 guarded(int(i), partial(planners[i].add_sample, t, float(out.fluorometer[i])))
         if out.adcp_flow is not None:
             for i in active:
-                guarded(int(i), partial(planners[i].add_flow, t, float(out.adcp_flow[i, 0]),
-                                        float(out.adcp_flow[i, 1])))
+                if int(i) not in failed:  # a planner that raised is not called again
+                    guarded(int(i), partial(planners[i].add_flow, t,
+                                            float(out.adcp_flow[i, 0]),
+                                            float(out.adcp_flow[i, 1])))
         if failed:
             end_failed(t)
             if not len(active):

@@ -315,7 +315,7 @@ def error_rows(task: GroupTask, text: str) -> list[dict[str, Any]]:
     # every failure is (a review: counted as failures in the success rate, the errors had been
     # left out of the times, so a plug-in that raised looked faster)
     return [{"config": task.config, **task.coords, "replicate": task.replicate, "start": i,
-             "outcome": ERROR_OUTCOME, "success": False, "error": text,
+             "mission": name, "outcome": ERROR_OUTCOME, "success": False, "error": text,
              **_placement(task, k, name), "run_time_limit_s": limit}
             for k, i in enumerate(task.ids)]
 
