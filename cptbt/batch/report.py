@@ -19,6 +19,7 @@ from cptbt.batch.comparison import (
     excursion_table,
     fmt,
     paired_table,
+    search_time,
     study_header,
     study_json,
     time_to_source,
@@ -41,20 +42,6 @@ def _config_label(row: dict[str, Any]) -> str:
     """A row's configuration: its ``configuration`` column (written by every study)."""
     label = row.get("configuration")
     return str(label) if label else str(row.get("mission", "study"))
-
-
-def _search_time(row: dict[str, Any]) -> float:
-    """AB Fig. 6's measure: time to source, a failure counting as the run's time limit (a
-    review: a false declaration had counted at its run's end, after the trip home, so a setting
-    that never succeeded looked only a little slow on the map). Rows from before the limit was
-    recorded count a failure at its end."""
-    t = time_to_source(row)
-    if math.isfinite(t):
-        return t
-    limit = row.get("run_time_limit_s")
-    if limit is not None and math.isfinite(float(limit)):
-        return float(limit)
-    return float(row.get("sim_time_s") or math.nan)
 
 
 @dataclass(frozen=True)
@@ -420,7 +407,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
             f"| {false if declares else '—'} "
             f"| {fmt(float(ok.mean()) if ok.size else None)} "
             f"| {fmt(float(ok.std(ddof=1)) if ok.size > 1 else None)} "
-            f"| {fmt(_mean([_search_time(r) for r in rows]))} "
+            f"| {fmt(_mean([search_time(r) for r in rows]))} "
             f"| {fmt(_mean(err))} | {fmt(max(err) if err else None)} |")
     lines += excursion_table(groups)
     lines += command_fault_table(groups)

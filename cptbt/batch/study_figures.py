@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from cptbt.batch.comparison import search_time
 from cptbt.batch.compass import _north_arrow, _north_points, north_corner
 from cptbt.batch.figures import flow_arrow
 from cptbt.batch.report import (
@@ -22,7 +23,6 @@ from cptbt.batch.report import (
     StudyGeometry,
     _criterion,
     _mean,
-    _search_time,
     _sem,
     _several_sources,
     success_label,
@@ -89,7 +89,7 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry 
     # One colour scale for every panel (a review saw 0-950 s beside 0-1200 s), up to the
     # largest cell drawn: a review's start of one failure in two (1495 s) had been drawn in
     # the top colour of a bar ending at its configuration's mean, 1267 s.
-    cells = [_mean([_search_time(r) for r in runs]) for rows in groups.values()
+    cells = [_mean([search_time(r) for r in runs]) for rows in groups.values()
              for runs in _per_start(rows).values()]
     flown = max(float(r.get("sim_time_s") or 0) for rows in groups.values() for r in rows)
     top = max([c for c in cells if math.isfinite(c)] + [flown, 1.0])
@@ -102,7 +102,7 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry 
         grid = np.full((len(ys), len(xs)), np.nan)
         counts = np.zeros(grid.shape, dtype=int)
         for (x, y), runs in by.items():
-            grid[ys.index(y), xs.index(x)] = _mean([_search_time(r) for r in runs])
+            grid[ys.index(y), xs.index(x)] = _mean([search_time(r) for r in runs])
             counts[ys.index(y), xs.index(x)] = len(runs)
         if np.isnan(grid).any():  # scattered starts (--starts), not a grid: points, not cells
             pts = list(by)
@@ -184,7 +184,7 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry 
 
 def _any_time(groups: dict[str, Rows]) -> bool:
     """Whether any run has a search time to draw (a run stopped on an error has none)."""
-    return any(math.isfinite(_search_time(r)) for rows in groups.values() for r in rows)
+    return any(math.isfinite(search_time(r)) for rows in groups.values() for r in rows)
 
 
 def _line(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
@@ -204,7 +204,7 @@ def _line(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
     for label, rows in groups.items():
         by: dict[float, list[float]] = defaultdict(list)
         for r in rows:
-            by[float(r[f"start_{axis}"])].append(_search_time(r))
+            by[float(r[f"start_{axis}"])].append(search_time(r))
         pos = sorted(by)
         mean = np.array([_mean(by[p]) for p in pos])
         se = np.array([_sem(by[p]) for p in pos])

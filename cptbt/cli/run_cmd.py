@@ -10,11 +10,12 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cptbt.batch.engine import Partial, PlumeSnapshot, VehicleRun, partial_runs, simulate
+from cptbt.batch.engine import PlumeSnapshot, VehicleRun, simulate
 from cptbt.batch.errors import BatchError
 from cptbt.batch.figures import plume_grid, trajectory_figure
 from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.phased import phase_summary, simulate_phased
+from cptbt.batch.runs import Partial, partial_runs
 from cptbt.batch.scenario import (
     Environment,
     launch_pose,

@@ -571,12 +571,12 @@ def test_a_joint_sweep_that_changes_the_world_is_not_paired() -> None:
 def test_a_failure_counts_at_its_time_limit_in_the_search_time() -> None:
     """A review: a false declaration counted at its run's end, after the trip home, so a
     setting that never succeeded looked only a little slow on the map."""
-    from cptbt.batch.report import _search_time
+    from cptbt.batch.comparison import search_time
 
     false = {**BASE, "success": False, "t3": 176.0, "sim_time_s": 335.0}
-    assert _search_time({**false, "run_time_limit_s": 1800.0}) == 1800.0
-    assert _search_time(false) == 335.0  # rows from before the limit was recorded
-    assert _search_time({**BASE, "success": True, "t3": 225.0, "sim_time_s": 343.0,
+    assert search_time({**false, "run_time_limit_s": 1800.0}) == 1800.0
+    assert search_time(false) == 335.0  # rows from before the limit was recorded
+    assert search_time({**BASE, "success": True, "t3": 225.0, "sim_time_s": 343.0,
                          "run_time_limit_s": 1800.0}) == 225.0
 
 
