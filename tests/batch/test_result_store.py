@@ -222,7 +222,7 @@ def test_results_table_made_elsewhere_loads_without_a_checksum(tmp_path: Path) -
 def test_a_folder_with_a_table_but_no_study_is_not_written_over(tmp_path: Path) -> None:
     """A review: ``--out`` into a folder of the user's own replaced its results.parquet."""
     (tmp_path / "results.parquet").write_bytes(b"mine")
-    with pytest.raises(StudyMismatch, match="holds a results table but no study.json"):
+    with pytest.raises(StudyMismatch, match=r"holds a results table but no study\.json"):
         ResultStore(tmp_path).open({}, study="s1", code="c1")
     assert (tmp_path / "results.parquet").read_bytes() == b"mine"
     assert not (tmp_path / "parts").exists()
