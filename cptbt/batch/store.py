@@ -365,12 +365,13 @@ class ResultStore:
         return rows
 
     def _discard(self) -> None:
-        """Delete the finished groups, their journals and the consolidated table (nothing else
-        in the folder)."""
-        for path in self.parts.glob(f"*{JOURNAL_SUFFIX}"):
+        """Delete the finished groups, their journals and the consolidated table: files named
+        as a group's (``c000-r00001``), nothing else in the folder (a review's own
+        ``parts/my.csv`` had gone with a ``--restart``)."""
+        for path in self.parts.glob(f"c*-r*{JOURNAL_SUFFIX}"):
             path.unlink()
         for fmt in _FORMATS.values():
-            for path in self.parts.glob(f"*{fmt.suffix}"):
+            for path in self.parts.glob(f"c[0-9]*-r[0-9]*{fmt.suffix}"):
                 path.unlink()
                 _sidecar(path).unlink(missing_ok=True)
             (self.folder / f"results{fmt.suffix}").unlink(missing_ok=True)

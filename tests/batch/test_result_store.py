@@ -298,8 +298,10 @@ def test_open_refuses_other_code_and_other_studies(tmp_path: Path, fmt: str) -> 
     assert store.path(task.key).exists()
     again = opened(tmp_path, fmt)  # same study, same code: resume
     assert again.check([task]).done == {task.key}
+    (tmp_path / "parts" / f"my{store.format.suffix}").write_text("mine")  # not a group's
     renewed = opened(tmp_path, fmt, code="c2", restart=True)
     assert not store.path(task.key).exists()
+    assert (tmp_path / "parts" / f"my{store.format.suffix}").read_text() == "mine"
     assert json.loads((tmp_path / "study.json").read_text())["code"] == "c2"
     assert renewed.check([task]).done == set()
 
