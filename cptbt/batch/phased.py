@@ -175,17 +175,16 @@ def simulate_phased(
     try:
         run_loop(world, prepare, observe)
     except Exception as exc:  # cptbt run writes the trace up to the error, drawn as a run's
-        if amp_rows.count[0]:
-            run.start = (float(run.path_true[0, 0]), float(run.path_true[0, 1]))
         keep_partial(exc, [run], world, waypoints)
         raise
+    finally:  # where the AMP took over (an error's partial run too)
+        if amp_rows.count[0]:
+            run.start = (float(run.path_true[0, 0]), float(run.path_true[0, 1]))
     if run.outcome is None:
         amp_on = session.t_amp_start is not None
         run.outcome = Outcome.AMP_RUNNING if amp_on else Outcome.AMP_NOT_ENABLED
         run.t_end = session.t
         run.declared = planner.declared_source
-    if amp_rows.count[0]:
-        run.start = (float(run.path_true[0, 0]), float(run.path_true[0, 1]))
     collect_declarations(run, planner)
     run.nonfinite_commands = planner.nonfinite_commands()  # the AMP's, ticked only in override
     planner.close()

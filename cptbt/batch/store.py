@@ -383,8 +383,7 @@ def load_results(path: Path, notes: list[str] | None = None) -> Rows:
 
     A folder without a results table is read from its parts that are its study's (their
     checksums, fingerprints and groups checked: :func:`~cptbt.batch.study_parts.study_parts`);
-    ``notes`` gets a
-    sentence on each part left out, and on parts no ``study.json`` can vouch for.
+    ``notes`` gets a sentence on each part left out, and on parts no ``study.json`` vouches for.
 
     Raises:
         BatchError: nothing readable there, a checksum that does not match, or a table that is

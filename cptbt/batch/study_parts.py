@@ -3,12 +3,12 @@ those that are its study's."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
+from cptbt.batch.comparison import study_json
 from cptbt.batch.errors import BatchError
-from cptbt.batch.journal import study_tag, unsettled_rows
+from cptbt.batch.journal import unsettled_rows
 from cptbt.batch.store import PartError, Rows, _check_sum
 
 
@@ -18,21 +18,24 @@ def study_parts(folder: Path, fmt: Any, notes: list[str]) -> Rows:
     name, and no run twice; a part that fails is left out and said in ``notes`` (a review:
     ``cptbt plot`` of a stopped study tabled a part copied in from another study, 52 runs under
     a header of 48, where ``cptbt batch`` refused it; a damaged part stopped the whole plot)."""
-    tag = study_tag(folder)
-    count = _runs_per_start(folder)
+    meta = study_json(folder)  # empty when missing or unreadable
+    tag = meta.get("fingerprint") if isinstance(meta.get("fingerprint"), str) else None
+    count = meta.get("runs_per_start")
+    if meta.get("until_sem") is not None or not isinstance(count, int) or isinstance(count, bool):
+        count = None  # unknown, or adaptive: --until-sem adds replicates as it flies
     rows: Rows = []
     seen: set[tuple[Any, Any, Any]] = set()
     left: list[str] = []
     for path in sorted((folder / "parts").glob(f"*{fmt.suffix}")):
         try:
-            got, meta = fmt.read(path)
-            _check_sum(got, meta)
-            assert meta is not None
-            if tag is not None and meta.get("study") != tag:
+            got, part = fmt.read(path)
+            _check_sum(got, part)
+            assert part is not None
+            if tag is not None and part.get("study") != tag:
                 raise PartError("from another study or code version (its fingerprint is not "
                                 "study.json's)")
-            if meta.get("group") != path.stem:
-                raise PartError(f"holds group {meta.get('group')}")
+            if part.get("group") != path.stem:
+                raise PartError(f"holds group {part.get('group')}")
             keys = [(r.get("config"), r.get("replicate"), r.get("start")) for r in got]
             if seen.intersection(keys) or len(set(keys)) < len(keys):
                 raise PartError("holds runs another part holds")
@@ -54,15 +57,3 @@ def study_parts(folder: Path, fmt: Any, notes: list[str]) -> Rows:
                      "checked to be one study's (a part copied from another would be tabled)")
     return rows
 
-
-def _runs_per_start(folder: Path) -> int | None:
-    """The runs per start ``study.json`` records, unless its study is adaptive (``--until-sem``
-    adds replicates as it flies: its record says the count at the end); None if unknown."""
-    try:
-        meta = json.loads((folder / "study.json").read_text(encoding="utf-8"))
-        count = meta["runs_per_start"]
-        adaptive = meta.get("until_sem") is not None
-    except (OSError, ValueError, UnicodeDecodeError, TypeError, KeyError):
-        return None
-    return count if isinstance(count, int) and not isinstance(count, bool) and not adaptive \
-        else None
