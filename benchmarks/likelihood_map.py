@@ -59,8 +59,9 @@ import yaml
 from cptbt.batch.engine import simulate
 from cptbt.batch.report import td_share, wilson
 from cptbt.batch.scenario import Environment, launch_pose, to_sim_params
-from cptbt.batch.study import apply_setting, group_seeds
+from cptbt.batch.study import group_seeds
 from cptbt.batch.summary import summarise
+from cptbt.batch.sweeps import apply_setting
 from cptbt.loader import load_mission, loads_mission
 from cptbt.mission import MissionBase, mission_to_data
 from cptbt.registry import default_registry

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from cptbt.batch.outcome import ERROR_OUTCOME
-from cptbt.batch.study import changes_world
+from cptbt.batch.sweeps import changes_world, value_yaml
 from cptbt.policy import RELINQUISH_OUTSIDE_M
 
 Rows = list[dict[str, Any]]
@@ -180,7 +180,7 @@ def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
              f"{meta.get('root_seed')}; {flown}{count}; time limit "
              + (f"{limit:g} s." if isinstance(limit, (int, float)) else "the mission's.")]
     sweeps = meta.get("sweeps") or {}
-    lines.append("- Swept: " + "; ".join(f"`{k}` = {', '.join(map(str, v))}"
+    lines.append("- Swept: " + "; ".join(f"`{k}` = {', '.join(map(value_yaml, v))}"
                                          for k, v in sweeps.items()) + "."
                  if sweeps else "- One configuration: the mission as written.")
     world = [k for k in sweeps if any(changes_world(p) for p in k.split("+"))]

@@ -18,189 +18,17 @@ from dataclasses import dataclass, field
 from typing import Any, cast
 
 import numpy as np
-import yaml
 from pydantic import BaseModel
 
 from cptbt import study_spec
 from cptbt.batch.integrity import digest
+from cptbt.batch.sweeps import Sweep, apply_setting, setting_order, value_label
 from cptbt.loader import MissionError, dump_mission, located_errors, validate_data
 from cptbt.mission import Loc, MissionBase, dotted, mission_model, mission_to_data
-from cptbt.registry import RegistryError, default_registry
-from cptbt.yaml_dialect import OldNumberError, load_scalar
+from cptbt.registry import default_registry
 
 MAX_STARTS = study_spec.MAX_STARTS
 """Most starts a study may have: a bound on typos such as ``--starts-x 0:100:0.0001``."""
-
-
-@dataclass(frozen=True)
-class Sweep:
-    """One swept setting: mission paths (joined by '+' on the command line) and their values.
-
-    A path is a top-level mission field (``speed_mps``), a field of a section
-    (``perception.lambda_s``, ``environment.flow_speed_mps``, ``evaluation.success_radius_m``), or
-    ``<family>.<param>`` of a behaviour. Setting ``<family>.variant`` to another variant replaces
-    that behaviour's parameters with the new variant's defaults (``variant_sweep_notes`` says
-    which of the mission's settings that drops); the mission's own variant keeps its settings.
-    """
-
-    paths: tuple[str, ...]
-    values: tuple[Any, ...]
-
-    @classmethod
-    def parse(cls, text: str) -> Sweep:
-        """From ``path[+path...]=v1,v2,...`` (values read as YAML scalars, as a mission file's
-        are: ``1e-3`` is a number).
-
-        Raises:
-            ValueError: no ``=``, no values, or a value YAML cannot read.
-        """
-        if "=" not in text:
-            raise ValueError(f"{text!r}: expected PATH=V1,V2,...")
-        left, right = text.split("=", 1)
-        try:
-            values = tuple(load_scalar(v) for v in right.split(",") if v.strip())
-        except OldNumberError as exc:
-            raise ValueError(f"{text!r}: {exc}") from None
-        except yaml.YAMLError as exc:
-            raise ValueError(f"{text!r}: a value is not YAML: {' '.join(str(exc).split())}"
-                             ) from None
-        if not values:
-            raise ValueError(f"{text!r}: no values")
-        return cls(tuple(p.strip() for p in left.split("+")), values)
-
-    @property
-    def name(self) -> str:
-        """Column name of this sweep in the results."""
-        return "+".join(self.paths)
-
-
-NOT_SWEPT = {
-    "environment.seed": "a study draws replicate r's plume from its root seed (--seed) and r, "
-                        "so every value would fly the same plumes (a review's two 'worlds' "
-                        "came out identical, run for run); more plumes: --runs-per-start; "
-                        "another set of them: --seed",
-    "start": "every configuration flies the study's own starts (study.starts, --grid, "
-             "--starts...; else the mission's start), so every value would fly the same runs; "
-             "give the starts with --starts",
-}
-"""Mission keys a study sets itself: a sweep of one would change nothing, and is refused."""
-
-
-def apply_setting(data: dict[str, Any], path: str, value: Any) -> None:
-    """Set one path of mission data in place.
-
-    Raises:
-        ValueError: the path names nothing in the mission, or nothing a study flies.
-    """
-    if path in NOT_SWEPT:
-        raise ValueError(f"sweep path {path!r}: {NOT_SWEPT[path]}")
-    head, _, rest = path.partition(".")
-    if not rest:
-        if head not in data and head != "environment":
-            raise ValueError(f"sweep path {path!r}: no such mission field")
-        data[head] = value
-        return
-    if head in ("environment", "perception", "evaluation", "mission_a"):
-        section = data.setdefault(head, {}) or {}
-        data[head] = section
-        node = section
-        *parents, leaf = rest.split(".")
-        for p in parents:
-            node = node.setdefault(p, {})
-        node[leaf] = value
-        return
-    for entry in data["behaviours"]:
-        if head in entry:
-            body = entry[head]
-            if rest != "variant":
-                entry[head] = {**body, rest: value}
-            elif value != body.get("variant"):  # the mission's own variant keeps its settings
-                entry[head] = {"variant": value}
-            return
-    raise ValueError(f"sweep path {path!r}: the mission has no {head!r} behaviour")
-
-
-SAME_WORLD = ("environment.fluorometer.", "environment.adcp.", "environment.navigation.",
-              "environment.vehicle.", "environment.launch")
-"""Simulator settings of the vehicle and its sensors: the plume and flow are drawn alike
-whatever they are (the vehicle's noise has its own stream)."""
-
-
-def changes_world(path: str) -> bool:
-    """Whether a swept setting changes the simulated world (the flow and plume replicate r
-    flies): a simulator setting other than the vehicle's and its sensors', or the OpArea (the
-    flow field is laid over it). A review found an OpArea sweep paired as the same plume and
-    a sensor sweep refused as another world. A joint sweep's column (``a+b``) changes it if
-    any of its paths does (a review's ``speed_mps+environment.flow_speed_mps`` was paired run
-    by run "on the same plume", its paths tested as one name)."""
-    if "+" in path:
-        return any(changes_world(part) for part in path.split("+"))
-    return (path.startswith("environment.") and not path.startswith(SAME_WORLD)) or \
-        path.startswith("op_area.")
-
-
-def study_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
-    """What a reader of the study must know of its sweeps: the settings a swept variant drops
-    (:func:`variant_sweep_notes`), and that a setting of the simulated world changes it, so
-    its values do not fly the same plumes (a review swept three, told nothing)."""
-    notes = variant_sweep_notes(mission, sweeps)
-    world = [p for s in sweeps for p in s.paths if changes_world(p)]
-    if world:
-        notes.append(f"{', '.join(world)} {'is' if len(world) == 1 else 'are'} swept: "
-                     "a setting of the simulated world changes it, so replicate r is not "
-                     "the same plume at each value: compare those values over replicates, "
-                     "not pair by pair")
-    return notes
-
-
-def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
-    """What a ``<family>.variant`` sweep drops: the behaviour's settings in the mission that a
-    swept variant flies otherwise, one note per such variant.
-
-    Each swept variant flies with its own defaults (its parameters need not be the mission's
-    variant's), so the settings the mission gave that behaviour are not carried over: those the
-    variant also has fly at its default, and those it has no parameter for (a likelihood map's
-    ``max_sources`` swept against a one-source rule) do not apply at all. Said once per swept
-    variant, so it is never silent. Parameters another sweep sets are kept (variants are
-    applied first).
-    """
-    data = mission_to_data(mission)
-    registry = default_registry()
-    notes = []
-    for sweep in sweeps:
-        for path in sweep.paths:
-            family, _, rest = path.partition(".")
-            if rest != "variant":
-                continue
-            body = next((e[family] for e in data["behaviours"] if family in e), None) or {}
-            entry = next((e for e in mission.entries() if e.family == family), None)
-            also = {q.partition(".")[2] for other in sweeps for q in other.paths
-                    if q.startswith(family + ".")}
-            # the settings the mission made: its variant's own defaults are no choice of it
-            made = entry.params.model_fields_set if entry is not None else set()
-            given = {k: v for k, v in body.items()
-                     if k != "variant" and k not in also and k in made}
-            for value in dict.fromkeys(sweep.values):
-                if value == body.get("variant"):
-                    continue
-                try:
-                    defaults = registry.get(family, str(value)).params().model_dump(mode="json")
-                except RegistryError:  # an unknown variant fails in configurations()
-                    continue
-                # the value flown first, the mission's beside it (a review read "it flies
-                # step_m=8.0 (its default 10.0)": the mission's 8.0 as the one flown)
-                other = [f"{k}={defaults[k]} (the mission's {v})" for k, v in given.items()
-                         if k in defaults and defaults[k] != v]
-                absent = [f"{k}={v}" for k, v in given.items() if k not in defaults]
-                parts = ([f"flies {', '.join(other)}"] if other else []) + (
-                    [f"has no parameter for {', '.join(absent)}"] if absent else [])
-                hint = (f" (give a setting both have with another --sweep "
-                        f"{family}.<param>=...)") if other else ""
-                if parts:
-                    notes.append(
-                        f"sweep {path}: {value} flies with its own defaults, not the mission's "
-                        f"{family} settings: it {'; it '.join(parts)}{hint}")
-    return notes
 
 
 def config_label(coords: dict[str, Any], mission: str) -> str:
@@ -262,6 +90,11 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
     out: list[Config] = []
     bad: list[MissionError] = []  # the combinations that are no valid mission
     by_text: dict[str, Config] = {}  # a configuration by its mission text: twins are refused
+    paths = [p for s in sweeps for p in s.paths]
+    for path in paths:
+        if f"{path}.variant" in paths:
+            raise ValueError(f"sweeps of {path} and {path}.variant both set its variant: give "
+                             f"the variants in the sweep of {path}")
     combos = itertools.product(*(s.values for s in sweeps)) if sweeps else [()]
     base = mission_to_data(mission)
     # A configuration is one point of the study, not the study: without the study section
@@ -276,12 +109,10 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         coords = {}
         settings = [(path, value) for sweep, value in zip(sweeps, combo, strict=True)
                     for path in sweep.paths]
-        # Variants first: a variant starts its behaviour afresh, and must not drop a parameter
-        # another sweep sets for it, whatever order the sweeps were given in.
-        for path, value in sorted(settings, key=lambda pv: not pv[0].endswith(".variant")):
+        for path, value in sorted(settings, key=lambda pv: setting_order(pv[0])):
             apply_setting(data, path, value)
         for sweep, value in zip(sweeps, combo, strict=True):
-            coords[sweep.name] = value
+            coords[sweep.name] = value_label(value)
         swept = ", ".join(f"{k}={v}" for k, v in coords.items())
         try:  # the data as it is: what YAML text of it would parse back to
             validated = cast(MissionBase, validate_data(
@@ -335,7 +166,8 @@ def _swept_error(located: list[tuple[Loc, str]], source: str, lines: dict[Loc, i
             path = dotted(loc)
             where = next((lines[("study", "sweeps", s.name)] for s in sweeps
                           if ("study", "sweeps", s.name) in lines
-                          and any(path == p or path.endswith("." + p) for p in s.paths)),
+                          and any(path == p or path.endswith("." + p)
+                                  or ("." not in p and p in path.split(".")) for p in s.paths)),
                          lines.get(loc))
         out.append(f"{source}:{where}: {dotted(loc)}: {msg} (with sweep {swept})"
                    if where is not None else f"{source} [sweep {swept}]: {dotted(loc)}: {msg}")

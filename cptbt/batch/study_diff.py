@@ -8,6 +8,7 @@ from typing import Any
 
 import yaml
 
+from cptbt.batch.sweeps import value_yaml
 from cptbt.mission import Loc, dotted
 
 # the mission's path is not compared: the same mission from another path is the same study;
@@ -32,8 +33,7 @@ def differences(old: dict[str, Any], new: dict[str, Any]) -> str:
         elif key == "sweeps" and isinstance(a, dict) and isinstance(b, dict):
             # each swept path that differs, with its values (a review: the two JSON texts cut
             # at 40 characters hid exactly the value that differed)
-            said.extend(f"sweep {k} {_short(a.get(k, 'none'), 60)} there, "
-                        f"{_short(b.get(k, 'none'), 60)} here"
+            said.extend(_sweep_difference(k, a.get(k), b.get(k))
                         for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k))
         elif key == "starts":
             said.append(f"{name} differ")
@@ -84,6 +84,26 @@ def _setting(value: Any) -> str:
     if value is _ABSENT:
         return "not set"
     return _short(value) if value is not None else "null"
+
+
+def _sweep_difference(path: str, there: Any, here: Any) -> str:
+    """One swept path's values there and here: the values only one side has, where both are
+    lists (a whole behaviour's mappings cut at 60 characters had hidden the one that differed),
+    else both lists whole."""
+    if not (isinstance(there, list) and isinstance(here, list)):
+        return (f"sweep {path} {_short(there or 'none', 60)} there, "
+                f"{_short(here or 'none', 60)} here")
+    only_there = [v for v in there if v not in here]
+    only_here = [v for v in here if v not in there]
+    if not only_there and not only_here:  # the same values in another order
+        return f"sweep {path} {_values(there)} there, {_values(here)} here"
+    return (f"sweep {path} " + "; ".join(
+        [f"{_values(only_there)} there only"] * bool(only_there)
+        + [f"{_values(only_here)} here only"] * bool(only_here)))
+
+
+def _values(values: list[Any]) -> str:
+    return ", ".join(map(value_yaml, values))
 
 
 def _short(value: Any, limit: int = 40) -> str:

@@ -18,7 +18,8 @@ from cptbt.batch.integrity import code_identity, digest
 from cptbt.batch.report import StudyGeometry
 from cptbt.batch.scenario import environment_of, starts_at_a_source
 from cptbt.batch.store import ResultStore, StudyMismatch, load_results
-from cptbt.batch.study import GroupTask, Study, Sweep, log_sample, study_notes
+from cptbt.batch.study import GroupTask, Study, log_sample
+from cptbt.batch.sweeps import Sweep, study_notes
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import UsageError, sigterm_as_interrupt
 from cptbt.cli.batch_rounds import next_replicates, worst_rel_sem
@@ -79,7 +80,8 @@ def add_parsers(sub: Any) -> None:
                    "start (a study does not fly Mission A)")
     p.add_argument("--sweep", type=_sweep, action="append", default=[], metavar="PATH=V1,V2",
                    help="compare settings, e.g. maintain_plume.variant+reacquire_plume.variant="
-                   "strategy_1,strategy_3 (repeatable: the product is run)")
+                   "strategy_1,strategy_3, or a behaviour whole: 'declare_source=upflow_cluster,"
+                   "{variant: likelihood_map, radius_m: 8}' (repeatable: the product is run)")
     p.add_argument("--until-sem", type=_fraction, default=None, metavar="REL",
                    help="keep adding plume realisations (rounds of --runs-per-start, as many "
                    "as the SEM's 1/sqrt(n) fall says are needed) until the "

@@ -11,7 +11,8 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from cptbt.batch.study import Config, Sweep, configurations, study_notes
+from cptbt.batch.study import Config, configurations
+from cptbt.batch.sweeps import Sweep, study_notes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import mission_text, study_sweeps, warn_swept
 from cptbt.loader import parse_yaml
@@ -26,8 +27,8 @@ def study_configs(args: argparse.Namespace,
     for s in args.sweep:  # a path twice: the second had silently replaced the first (a review)
         for path in s.paths:
             if path in seen:
-                raise UsageError(f"batch: --sweep {path} is given twice ({_sweep_text(seen[path])}"
-                                 f" and {_sweep_text(s)}): give its values in one --sweep")
+                raise UsageError(f"batch: --sweep {path} is given twice ({seen[path].text}"
+                                 f" and {s.text}): give its values in one --sweep")
             seen[path] = s
     sweeps: list[Sweep] = args.sweep or own
     dropped = _not_flown(own, args.sweep, lambda p: _fallback_value(mission, p)[0]) \
@@ -39,7 +40,7 @@ def study_configs(args: argparse.Namespace,
                  if not any(p in g.paths for g in args.sweep)]
         falls = "".join(f"; {_fallback(mission, p)}" for p in dict.fromkeys(unset))
         print(f"cptbt: note: --sweep replaces the sweeps of {args.mission}'s study section; not "
-              f"flown: {'; '.join(_sweep_text(s) for s in dropped)} (give them as --sweep too "
+              f"flown: {'; '.join(s.text for s in dropped)} (give them as --sweep too "
               f"to keep them){falls}", file=sys.stderr)
     try:
         lines = parse_yaml(mission_text(args.mission), args.mission)[1] \
@@ -52,11 +53,6 @@ def study_configs(args: argparse.Namespace,
     if not args.quiet:
         warn_swept(mission, configs if sweeps else [], args.mission)
     return sweeps, configs
-
-
-def _sweep_text(sweep: Sweep) -> str:
-    """A sweep as ``--sweep`` spells it: ``PATH=V1,V2``."""
-    return f"{'+'.join(sweep.paths)}={','.join(str(v) for v in sweep.values)}"
 
 
 _UNKNOWN = object()  # a path whose fallback value is not known: no study value is taken for it

@@ -27,7 +27,8 @@ from cptbt.schema import mission_json_schema
 from cptbt.tree import render_ascii, render_dot
 
 if TYPE_CHECKING:
-    from cptbt.batch.study import Config, Sweep
+    from cptbt.batch.study import Config
+    from cptbt.batch.sweeps import Sweep
 
 
 def environment_model() -> type[BaseModel] | None:
@@ -97,7 +98,7 @@ def advisories_of(mission: MissionBase) -> list[tuple[Loc, str]]:
 
 def study_sweeps(mission: MissionBase) -> list[Sweep]:
     """The sweeps of the mission's own ``study:`` section."""
-    from cptbt.batch.study import Sweep
+    from cptbt.batch.sweeps import Sweep
 
     spec = mission.study
     return [Sweep(tuple(p.strip() for p in path.split("+")), tuple(values))
@@ -205,7 +206,8 @@ def _check_study_sweeps(mission: MissionBase, path: str) -> None:
     sweeps = study_sweeps(mission)
     if not sweeps or environment_model() is None:  # the core alone: no study is flown here
         return
-    from cptbt.batch.study import configurations, study_notes
+    from cptbt.batch.study import configurations
+    from cptbt.batch.sweeps import study_notes
 
     lines = parse_yaml(mission_text(path), path)[1]
     try:

@@ -546,7 +546,7 @@ def test_tables_say_what_was_flown(tmp_path: Path) -> None:
 def test_pairing_follows_what_changes_the_world() -> None:
     """A review: an OpArea sweep (the flow is laid over it) was paired as the same plume, and
     a sensor sweep (its noise has the vehicle's own stream) refused as another world."""
-    from cptbt.batch.study import changes_world
+    from cptbt.batch.sweeps import changes_world
 
     assert changes_world("environment.flow_speed_mps") and changes_world("op_area.corners")
     assert changes_world("environment.plume.release_rate_hz")

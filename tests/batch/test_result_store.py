@@ -247,8 +247,19 @@ def test_a_different_study_is_told_by_what_differs(tmp_path: Path) -> None:
         ResultStore(tmp_path / "sw").open(
             {**meta, "sweeps": {k: ["strategy_1", "strategy_2"] for k in swept}},
             study="s6", code="c1")
-    assert ('sweep maintain_plume.variant+reacquire_plume.variant ["strategy_1", "strategy_3"] '
-            'there, ["strategy_1", "strategy_2"] here') in str(caught.value)
+    assert ('sweep maintain_plume.variant+reacquire_plume.variant strategy_3 there only; '
+            'strategy_2 here only') in str(caught.value)
+    # a whole behaviour's mappings: the one that differs, not all of them cut short
+    whole = [{"variant": "likelihood_map", "radius_m": r, "upflow_check_m": 10} for r in (8, 12)]
+    ResultStore(tmp_path / "wh").open({**meta, "sweeps": {"declare_source": whole}},
+                                      study="s7", code="c1")
+    with pytest.raises(StudyMismatch) as caught:
+        ResultStore(tmp_path / "wh").open(
+            {**meta, "sweeps": {"declare_source": [whole[0], {**whole[1], "radius_m": 9}]}},
+            study="s8", code="c1")
+    assert ("sweep declare_source {variant: likelihood_map, radius_m: 12, upflow_check_m: 10} "
+            "there only; {variant: likelihood_map, radius_m: 9, upflow_check_m: 10} here only"
+            ) in str(caught.value)
     with pytest.raises(StudyMismatch, match=r"\(other missions or options\)$"):
         ResultStore(tmp_path).open(meta, study="s3", code="c1")  # nothing recorded differs
     # the mission's path is no difference (a copy elsewhere is the same study); an option
@@ -408,7 +419,8 @@ def test_a_sweep_between_a_plug_in_and_a_built_in_flies_every_group(
 
     import cptbt.registry as registry_module
     from cptbt.batch.scenario import Environment
-    from cptbt.batch.study import Study, Sweep, configurations
+    from cptbt.batch.study import Study, configurations
+    from cptbt.batch.sweeps import Sweep
     from cptbt.batch.worker import worker_code
     from cptbt.loader import load_mission
     from cptbt.registry import load_entry_points

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from cptbt.batch.study import Sweep, apply_setting
+from cptbt.batch.sweeps import Sweep, apply_setting
 
 
 def data() -> dict:  # type: ignore[type-arg]
@@ -76,6 +76,75 @@ def test_a_sweep_value_yaml_cannot_read_is_a_value_error() -> None:
         Sweep.parse("speed_mps=[")
 
 
+def test_a_whole_behaviour_sweep_sets_a_variant_then_its_settings() -> None:
+    """A ``<family>`` sweep: a name as ``<family>.variant`` sets it, a mapping its variant (the
+    mission's keeps its settings, another starts from its defaults) and then each setting."""
+    cases = [
+        ("track_in_out", {"variant": "track_in_out", "beta_deg": 10}),
+        ("counter_turn", {"variant": "counter_turn"}),
+        ({"beta_deg": 20}, {"variant": "track_in_out", "beta_deg": 20}),
+        ({"variant": "track_in_out", "speed_mps": 1}, {"variant": "track_in_out",
+                                                        "beta_deg": 10, "speed_mps": 1}),
+        ({"variant": "counter_turn", "speed_mps": 1}, {"variant": "counter_turn",
+                                                        "speed_mps": 1}),
+    ]
+    for value, flown in cases:
+        d = data()
+        apply_setting(d, "maintain_plume", value)
+        assert d["behaviours"][0] == {"maintain_plume": flown}, value
+    for junk in (3, [1, 2], {}, {1: 2}, None):
+        with pytest.raises(ValueError, match="neither a variant's name nor a mapping"):
+            apply_setting(data(), "maintain_plume", junk)
+
+
+def test_a_whole_behaviour_sweep_parses_mappings_with_commas() -> None:
+    s = Sweep.parse("declare_source=upflow_cluster,{variant: likelihood_map, radius_m: 8},"
+                    " {variant: likelihood_map, flyby: true}, 'a,b'")
+    assert s.values == ("upflow_cluster", {"variant": "likelihood_map", "radius_m": 8},
+                        {"variant": "likelihood_map", "flyby": True}, "a,b")
+    assert s.text == ("declare_source=upflow_cluster,{variant: likelihood_map, radius_m: 8},"
+                      "{variant: likelihood_map, flyby: true},a,b")
+
+
+def test_a_whole_behaviour_sweep_compares_a_variant_with_settings_of_another() -> None:
+    """One study: the mission's rule against two settings of the likelihood map, each labelled
+    by what it flies; the mission's own settings of a variant not swept in are said dropped."""
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.study import configurations
+    from cptbt.batch.sweeps import study_notes
+    from cptbt.loader import loads_mission
+    from cptbt.registry import default_registry
+
+    path = Path(__file__).resolve().parents[2] / "missions/tro2006_msn007.yaml"
+    mission = loads_mission(path.read_text(encoding="utf-8"), str(path), default_registry(),
+                            Environment)
+    sweep = Sweep.parse("declare_source=upflow_cluster,{variant: likelihood_map, radius_m: 8},"
+                        "{variant: likelihood_map, radius_m: 12, flyby: true}")
+    configs = configurations(mission, [sweep], str(path))
+    assert [c.coords for c in configs] == [
+        {"declare_source": "upflow_cluster"},
+        {"declare_source": "likelihood_map(radius_m=8)"},
+        {"declare_source": "likelihood_map(radius_m=12, flyby=true)"}]
+    flown = [next(e for e in c.mission.entries() if e.family == "declare_source")
+             for c in configs]
+    assert [e.variant for e in flown] == ["upflow_cluster", "likelihood_map", "likelihood_map"]
+    assert flown[0].params.epsilon_m == 4 and flown[0].params.recent_points == 6  # the mission's
+    assert (flown[1].params.radius_m, flown[1].params.flyby) == (8, False)
+    assert (flown[2].params.radius_m, flown[2].params.flyby) == (12, True)
+    (note,) = study_notes(mission, [sweep])
+    assert note.startswith("sweep declare_source: likelihood_map flies with its own defaults")
+    assert "no parameter for recent_points=6, epsilon_m=4.0" in note
+    # the variant swept twice over is refused, and a bad setting names its sweep
+    with pytest.raises(ValueError, match=r"declare_source and declare_source\.variant"):
+        configurations(mission, [sweep, Sweep.parse("declare_source.variant=recent_box")],
+                       str(path))
+    from cptbt.loader import MissionError
+
+    with pytest.raises(MissionError, match=r"sweep declare_source=likelihood_map\(radius_m=-1\)"):
+        configurations(mission, [Sweep.parse("declare_source={variant: likelihood_map, "
+                                             "radius_m: -1}")], str(path))
+
+
 
 AB1 = "missions/ab2001_strategy1.yaml"
 
@@ -91,7 +160,8 @@ def test_a_variant_sweep_says_which_mission_settings_it_drops() -> None:
     from pathlib import Path
 
     from cptbt.batch.scenario import Environment
-    from cptbt.batch.study import configurations, variant_sweep_notes
+    from cptbt.batch.study import configurations
+    from cptbt.batch.sweeps import variant_sweep_notes
     from cptbt.loader import loads_mission
     from cptbt.registry import default_registry
 
@@ -116,7 +186,7 @@ def test_a_variant_sweep_says_which_mission_settings_it_drops() -> None:
 
 def test_a_variant_sweep_names_the_settings_the_other_variant_has_no_parameter_for() -> None:
     from cptbt.batch.scenario import Environment
-    from cptbt.batch.study import variant_sweep_notes
+    from cptbt.batch.sweeps import variant_sweep_notes
     from cptbt.loader import loads_mission
     from cptbt.registry import default_registry
 

@@ -164,7 +164,8 @@ def test_a_batch_flies_a_null_parameter_as_null() -> None:
     from pathlib import Path
 
     from cptbt.batch.scenario import Environment
-    from cptbt.batch.study import Sweep, configurations
+    from cptbt.batch.study import configurations
+    from cptbt.batch.sweeps import Sweep
     from cptbt.registry import default_registry
 
     path = Path(__file__).resolve().parents[2] / "missions" / "two_sources.yaml"

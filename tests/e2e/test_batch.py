@@ -130,3 +130,26 @@ def test_sweep_of_variants_and_bad_sweep(tmp_path: Path) -> None:
     assert "unknown variant 'nope'" in bad.stderr
 
 
+
+
+def test_a_whole_behaviour_sweep_flies_labelled_rows_and_each_flies_again(tmp_path: Path) -> None:
+    """One study of the mission's rule against two settings of the likelihood map: a row per
+    setting, labelled by what it flies, and a row flown again alone is the same run."""
+    res = subprocess.run(
+        [str(SCRIPT), "batch", MISSION, "--amp-only", "--runs-per-start", "1",
+         "--sweep", "declare_source=upflow_cluster,{variant: likelihood_map, radius_m: 8},"
+         "{variant: likelihood_map, radius_m: 12}", "--out", str(tmp_path / "s"),
+         "--workers", "1", "--no-plots"],
+        capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert "likelihood_map flies with its own defaults" in res.stderr  # the cluster's settings
+    rows = sorted(load_results(tmp_path / "s"), key=lambda r: r["config"])
+    assert [r["declare_source"] for r in rows] == [
+        "upflow_cluster", "likelihood_map(radius_m=8)", "likelihood_map(radius_m=12)"]
+    assert "declare_source=likelihood_map(radius_m=12)" in rows[2]["configuration"]
+    again = subprocess.run([str(SCRIPT), "run", "--from", str(tmp_path / "s"), "--row", "1",
+                            "--out", str(tmp_path / "r"), "--no-figure"],
+                           capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr
+    assert "(declare_source=likelihood_map(radius_m=8)) flown again" in again.stdout
+    assert "bit for bit" in again.stdout

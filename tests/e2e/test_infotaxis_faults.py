@@ -13,7 +13,7 @@ import yaml
 from test_fault_injection import CASES, FALSE_DECLARATION_M, fly
 
 from cptbt.batch.scenario import to_sim_params
-from cptbt.batch.study import apply_setting
+from cptbt.batch.sweeps import apply_setting
 from cptbt.cli.inspect_cmds import load
 from cptbt.loader import loads_mission
 from cptbt.mission import MissionBase, mission_to_data

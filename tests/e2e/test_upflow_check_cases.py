@@ -49,7 +49,8 @@ import yaml
 
 from cptbt.batch.engine import simulate
 from cptbt.batch.scenario import Environment, launch_pose, to_sim_params
-from cptbt.batch.study import apply_setting, group_seeds
+from cptbt.batch.study import group_seeds
+from cptbt.batch.sweeps import apply_setting
 from cptbt.loader import load_mission, loads_mission
 from cptbt.mission import mission_to_data
 from cptbt.registry import default_registry
