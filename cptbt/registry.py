@@ -11,7 +11,7 @@ import difflib
 import logging
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from importlib.metadata import entry_points
+from importlib.metadata import EntryPoint, entry_points
 
 import py_trees
 from pydantic import ValidationError
@@ -255,49 +255,75 @@ _DEFAULT: Registry | None = None
 
 
 def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
-    """A new registry holding every variant declared in the entry-point group."""
+    """A new registry holding every variant declared in the entry-point group.
+
+    The built-in entry points are read first. A plug-in's entry point that cannot be loaded,
+    holds something that is not a behaviour, or takes a name already registered (a built-in's,
+    another plug-in's, or its own twice) is left out whole, warned of and kept in
+    :attr:`Registry.broken`: it blocks only its own variants (a review's plug-in reusing a
+    built-in's name had stopped every command, the shipped missions' too), and a mission that
+    names one of them is told why it is missing.
+
+    Raises:
+        RegistryError: a built-in entry point is at fault (an installation problem).
+    """
     registry = Registry()
     origin: dict[tuple[str, str], str] = {}
-    for ep in sorted(entry_points(group=group), key=lambda e: e.name):
+    # the built-in first: a plug-in can never take a built-in's name, whatever its entry
+    # point's name sorts as (a review's sorted before the built-in's)
+    for ep in sorted(entry_points(group=group), key=lambda e: (not _builtin(e.value), e.name)):
         try:
-            items = ep.load()
-        except Exception as exc:  # a broken plug-in says which one it is, and blocks only its
-            # own variants (a review's broken package had stopped `validate` of every mission)
-            said = f"entry point {ep.value}: {type(exc).__name__}: {exc}"
+            specs = _entry_point_specs(ep, registry, origin)
+        except Exception as exc:
+            if _builtin(ep.value):
+                raise
+            said = (str(exc) if isinstance(exc, RegistryError)
+                    else f"entry point {ep.value}: {type(exc).__name__}: {exc}")
             registry.broken.append(said)
             log.warning("cannot load behaviours from %s (its variants are not available)", said)
             continue
-        if isinstance(items, type) or not isinstance(items, Iterable):
-            raise RegistryError(
-                f"entry point {ep.value}: expected a tuple or list of PlanBehaviour subclasses "
-                f"or BehaviourSpecs, got {getattr(items, '__name__', type(items).__name__)!r}"
-                + (f" (write ({items.__name__},))" if isinstance(items, type) else ""))
-        try:  # a review's bad item and reused name read as an internal error, or no source
-            for item in items:
-                spec = registry.register(item)
-                origin[(spec.family, spec.variant)] = ep.value
-        except DuplicateBehaviourError as exc:
-            first = origin.get(_key_of(item))
-            if first is None:
-                raise RegistryError(f"entry point {ep.value}: {exc}") from exc
-            # the plug-in named, not the built-in (entry points are read in name order, so a
-            # review's plug-in came first and the built-in was told as the one at fault)
-            ours = [v for v in (first, ep.value) if _builtin(v)]
-            theirs = [v for v in (first, ep.value) if not _builtin(v)]
-            family, variant = _key_of(item)
-            if ours and theirs:
-                raise RegistryError(
-                    f"entry point {theirs[0]} registers {family}.{variant}, a built-in's "
-                    f"name (cptbt's {ours[0]}): give the plug-in's variant a name of its "
-                    "own") from exc
-            if first == ep.value:
-                raise RegistryError(f"entry point {first} registers {family}.{variant} twice"
-                                    ) from exc
-            raise RegistryError(f"behaviour {family}.{variant} is registered by both entry "
-                                f"point {first} and {ep.value}: rename one") from exc
-        except (RegistryError, TypeError) as exc:
-            raise RegistryError(f"entry point {ep.value}: {exc}") from exc
+        for spec in specs:
+            registry.register(spec)
+            origin[(spec.family, spec.variant)] = ep.value
     return registry
+
+
+def _entry_point_specs(ep: EntryPoint, registry: Registry,
+                       origin: dict[tuple[str, str], str]) -> list[BehaviourSpec]:
+    """The variants one entry point declares, checked as a whole against ``registry`` (which
+    ``origin`` says where each came from) before any is registered.
+
+    Raises:
+        RegistryError: an item is not a behaviour, or a name is taken (the message names the
+            entry points).
+        Exception: the entry point's object cannot be imported.
+    """
+    items = ep.load()
+    if isinstance(items, type) or not isinstance(items, Iterable):
+        raise RegistryError(
+            f"entry point {ep.value}: expected a tuple or list of PlanBehaviour subclasses "
+            f"or BehaviourSpecs, got {getattr(items, '__name__', type(items).__name__)!r}"
+            + (f" (write ({items.__name__},))" if isinstance(items, type) else ""))
+    staged = Registry()
+    try:  # a review's bad item and reused name read as an internal error, or no source
+        for item in items:
+            staged.register(item)
+    except DuplicateBehaviourError:
+        family, variant = _key_of(item)
+        raise RegistryError(f"entry point {ep.value} registers {family}.{variant} twice"
+                            ) from None
+    except (RegistryError, TypeError) as exc:
+        raise RegistryError(f"entry point {ep.value}: {exc}") from exc
+    for spec in staged.specs():
+        first = origin.get((spec.family, spec.variant))
+        if first is not None and _builtin(first) and not _builtin(ep.value):
+            raise RegistryError(
+                f"entry point {ep.value} registers {spec.key}, a built-in's name "
+                f"(cptbt's {first}): give the plug-in's variant a name of its own")
+        if first is not None:
+            raise RegistryError(f"behaviour {spec.key} is registered by both entry point "
+                                f"{first} and {ep.value}: rename one")
+    return staged.specs()
 
 
 def _check_params(spec: BehaviourSpec) -> None:

@@ -69,47 +69,62 @@ def _points(monkeypatch: pytest.MonkeyPatch, *points: tuple[str, str]) -> None:
     monkeypatch.setattr(registry_module, "entry_points", lambda group: eps)
 
 
+def _left_out(said: str) -> set[str]:
+    """Load the entry points: the one at fault is left out, named with ``said`` (a regex) in
+    ``broken``; the variants that did load are returned."""
+    import re
+
+    registry = load_entry_points()
+    assert len(registry.broken) == 1 and re.search(said, registry.broken[0]), registry.broken
+    return {s.key for s in registry.specs()}
+
+
 def test_an_item_that_is_no_behaviour_names_its_entry_point(
         plugin: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """A review's BEHAVIOURS holding a plain class ended every command in "internal error:
-    AttributeError ... has no attribute 'family'"."""
-    _points(monkeypatch, ("bad", f"{plugin}:BAD"))
-    with pytest.raises(RegistryError, match=rf"entry point {plugin}:BAD: .*NotABehaviour.* is "
-                                            "neither a PlanBehaviour subclass nor a "
-                                            "BehaviourSpec"):
-        load_entry_points()
+    AttributeError ... has no attribute 'family'"; now the plug-in alone is left out."""
+    _points(monkeypatch, ("bad", f"{plugin}:BAD"), ("good", f"{plugin}:GOOD"))
+    assert _left_out(rf"entry point {plugin}:BAD: .*NotABehaviour.* is neither a PlanBehaviour "
+                     "subclass nor a BehaviourSpec") == {"reacquire_plume.mine"}
 
 
-def test_a_name_taken_twice_names_both_entry_points(
-        plugin: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    """A review's plug-in reusing 'cloverleaf' was told only "registered twice"."""
-    # sorted by name: the built-in reacquire variants ("a") first, then the plug-in ("b")
-    _points(monkeypatch, ("a", "cptbt.behaviours.reacquire:BEHAVIOURS"),
-            ("b", f"{plugin}:CLASH"))
+def test_a_name_taken_twice_names_both_entry_points_and_blocks_only_the_second(
+        plugin: str, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    """A review's plug-in reusing 'cloverleaf' was told only "registered twice"; then it
+    stopped every command, the shipped missions' too: now it alone is left out, warned of."""
+    builtin = "cptbt.behaviours.reacquire:BEHAVIOURS"
     told = (f"entry point {plugin}:CLASH registers reacquire_plume.cloverleaf, a built-in's "
-            "name (cptbt's cptbt.behaviours.reacquire:BEHAVIOURS): give the plug-in's variant "
-            "a name of its own")
-    with pytest.raises(RegistryError) as exc:
-        load_entry_points()
-    assert str(exc.value) == told, str(exc.value)
-    # the plug-in read first (a review's entry point sorted before the built-in's): the
-    # plug-in is still the one named, not the built-in
-    _points(monkeypatch, ("a", f"{plugin}:CLASH"),
-            ("b", "cptbt.behaviours.reacquire:BEHAVIOURS"))
-    with pytest.raises(RegistryError) as exc:
-        load_entry_points()
-    assert str(exc.value) == told, str(exc.value)
-    # two plug-ins: both named
+            f"name (cptbt's {builtin}): give the plug-in's variant a name of its own")
+    # the plug-in's entry point sorted before the built-in's or after it: the built-in loads,
+    # and the plug-in is the one named
+    for points in ((("a", builtin), ("b", f"{plugin}:CLASH")),
+                   (("a", f"{plugin}:CLASH"), ("b", builtin))):
+        _points(monkeypatch, *points)
+        caplog.clear()
+        registry = load_entry_points()
+        assert registry.broken == [told]
+        assert registry.get("reacquire_plume", "cloverleaf").behaviour_classes[0].__module__ \
+            == "cptbt.behaviours.reacquire"
+        assert told in caplog.text
+    # two plug-ins: both named, the first kept
     _points(monkeypatch, ("a", f"{plugin}:GOOD"), ("b", f"{plugin}:ALSO"))
-    with pytest.raises(RegistryError, match=rf"reacquire_plume.mine is registered by both entry "
-                                            rf"point {plugin}:GOOD and {plugin}:ALSO: rename"):
-        load_entry_points()
+    assert _left_out(rf"reacquire_plume.mine is registered by both entry point {plugin}:GOOD "
+                     rf"and {plugin}:ALSO: rename") == {"reacquire_plume.mine"}
     _points(monkeypatch, ("a", f"{plugin}:TWICE"))  # one list naming it twice
-    with pytest.raises(RegistryError, match=rf"^entry point {plugin}:TWICE registers "
-                                            r"reacquire_plume.mine twice$"):
-        load_entry_points()
+    assert _left_out(rf"^entry point {plugin}:TWICE registers reacquire_plume.mine twice$") \
+        == set()
     _points(monkeypatch, ("a", f"{plugin}:GOOD"))
     assert {s.variant for s in load_entry_points().specs()} == {"mine"}
+
+
+def test_a_mission_naming_a_left_out_variant_is_told_why(
+        plugin: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    from cptbt.registry import UnknownBehaviourError
+
+    _points(monkeypatch, ("a", f"{plugin}:SINGLE"))
+    with pytest.raises(UnknownBehaviourError, match=r"not loaded: entry point .*:SINGLE: "
+                                                     r"expected a tuple"):
+        load_entry_points().get("reacquire_plume", "mine")
 
 
 @pytest.mark.parametrize(("name", "said"), [
@@ -127,8 +142,13 @@ def test_a_plug_in_authors_slips_are_named_at_registration(
     """A review: a nameless class was told as a 443-character repr, a plain pydantic Params
     registered and then blamed the mission's line 3, a default of -5 under gt=0 flew, and a
     class for a tuple read "'ABCMeta' object is not iterable"."""
-    _points(monkeypatch, ("a", f"{plugin}:{name}"))
-    with pytest.raises(RegistryError, match=rf"^entry point {plugin}:{name}: {said}"):
+    _points(monkeypatch, ("a", f"{plugin}:{name}"), ("b", "cptbt.behaviours.reacquire:BEHAVIOURS"))
+    assert "reacquire_plume.cloverleaf" in _left_out(rf"^entry point {plugin}:{name}: {said}")
+
+
+def test_a_fault_in_a_built_in_entry_point_is_raised(monkeypatch: pytest.MonkeyPatch) -> None:
+    _points(monkeypatch, ("a", "cptbt.behaviours.reacquire:NO_SUCH_NAME"))
+    with pytest.raises(AttributeError):
         load_entry_points()
 
 
