@@ -13,6 +13,8 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from cptbt.batch.sweeps import label_parts
+
 Rows = list[dict[str, Any]]
 
 
@@ -63,7 +65,7 @@ def maintain_table(groups: dict[str, Rows]) -> list[str]:
 def _coords(label: str) -> dict[str, str]:
     """``k=v, k=v`` (the configuration label of :func:`cptbt.batch.study.config_label`)."""
     out = {}
-    for part in label.split(", "):
+    for part in label_parts(label):
         key, sep, value = part.partition("=")
         if not sep:
             return {}

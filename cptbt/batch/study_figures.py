@@ -29,6 +29,7 @@ from cptbt.batch.report import (
     td_share,
     wilson,
 )
+from cptbt.batch.sweeps import label_parts
 from cptbt.frames import OpArea
 
 
@@ -233,7 +234,7 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
     width = 0.76 / len(bars)
     # One swept setting per line under each bar, and each bar as wide as its longest line
     # (two sweeps' "a=1, b=2" labels ran into each other); past 20 in the labels slant instead.
-    ticks = ["\n".join(lab.split(", ")) + f"\nn = {len(groups[lab])}" for lab in labels]
+    ticks = ["\n".join(label_parts(lab)) + f"\nn = {len(groups[lab])}" for lab in labels]
     longest = max(len(line) for t in ticks for line in t.splitlines())
     per_bar = max(1.4, 0.075 * longest)
     slant = per_bar * len(labels) + 2.5 > 20.0

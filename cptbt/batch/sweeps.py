@@ -88,6 +88,18 @@ def split_values(text: str) -> list[str]:
     return [*out, text[start:]]
 
 
+def label_parts(label: str) -> list[str]:
+    """A configuration label's settings, ``a=1, b=x(k=1, m=2)`` -> ``a=1``, ``b=x(k=1, m=2)``:
+    the ``, `` inside a whole behaviour's parentheses (:func:`value_label`) belongs to it."""
+    out, depth, start = [], 0, 0
+    for i, ch in enumerate(label):
+        depth += (ch in "([{") - (ch in ")]}")
+        if depth == 0 and label.startswith(", ", i):
+            out.append(label[start:i])
+            start = i + 2
+    return [*out, label[start:]]
+
+
 def value_yaml(value: Any) -> str:
     """A swept value as one would type it: ``8``, ``upflow_cluster``,
     ``{variant: likelihood_map, radius_m: 8}``."""

@@ -97,6 +97,14 @@ def test_a_whole_behaviour_sweep_sets_a_variant_then_its_settings() -> None:
             apply_setting(data(), "maintain_plume", junk)
 
 
+def test_a_label_splits_at_its_settings_not_inside_a_behaviours_mapping() -> None:
+    from cptbt.batch.sweeps import label_parts
+
+    whole = "declare_source=likelihood_map(radius_m=12, flyby=true)"
+    assert label_parts(f"speed_mps=1, {whole}") == ["speed_mps=1", whole]
+    assert label_parts("tro2006_msn007") == ["tro2006_msn007"]
+
+
 def test_a_whole_behaviour_sweep_parses_mappings_with_commas() -> None:
     s = Sweep.parse("declare_source=upflow_cluster,{variant: likelihood_map, radius_m: 8},"
                     " {variant: likelihood_map, flyby: true}, 'a,b'")

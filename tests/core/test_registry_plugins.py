@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import cptbt.registry as registry_module
-from cptbt.registry import RegistryError, load_entry_points
+from cptbt.registry import load_entry_points
 
 PLUGIN = '''
 from typing import ClassVar
