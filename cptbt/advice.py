@@ -105,6 +105,12 @@ def order_advice(mission: MissionBase) -> list[Problem]:
                     "the OpArea, so a behaviour heading out drives on until the give-back "
                     f"{RELINQUISH_OUTSIDE_M:g} m outside (SPEC §3 and TRO Fig. 2 put safety "
                     "first: - safety: {variant: oparea})"))
+    if families and "declare_source" not in families and \
+            mission.evaluation.criterion == "declaration":  # a review's: 0% and no word why
+        out.append((("behaviours",), "no declare_source behaviour, and runs are judged by "
+                    "their declaration (evaluation.criterion: declaration): unless a plug-in "
+                    "behaviour of another family declares, every run ends at the time limit "
+                    "without one and none can succeed"))
     if "safety" in families[1:]:  # a review's safety listed last validated silently
         k = families.index("safety")
         below = next((f"{f} (behaviours[{i}]), which has a command every cycle: it never "

@@ -49,9 +49,10 @@ def test_a_threshold_the_plume_never_reaches_is_warned_of() -> None:
         _mission("tro2006_msn007.yaml", "threshold: 0.20", "threshold: 20"))}
     assert "above the simulated plume's highest concentration" in said[("perception",
                                                                          "threshold")]
-    said = {loc: msg for loc, msg in advisories(
-        _mission("tro2006_msn007.yaml", "threshold: 0.20", "threshold: 7"))}
-    assert "only within 10 m of its source" in said[("perception", "threshold")]
+    for high in (5, 7):  # 5: a review's, 1.3 times the peak beyond 10 m, saw nothing
+        said = {loc: msg for loc, msg in advisories(
+            _mission("tro2006_msn007.yaml", "threshold: 0.20", f"threshold: {high}"))}
+        assert "only within 10 m of its source" in said[("perception", "threshold")]
 
 
 def test_a_lambda_as_long_as_the_time_limit_is_warned_of() -> None:

@@ -253,3 +253,11 @@ def test_a_mission_without_safety_is_told() -> None:
     ((loc, why),) = [(loc, why) for loc, why in none.advisories() if "no safety" in why]
     assert loc == ("behaviours",) and "give-back 30 m outside" in why, why
     assert not [w for _, w in load(GOOD).advisories() if "no safety" in w]
+
+
+def test_a_mission_judged_by_declaration_without_a_declaration_rule_is_told() -> None:
+    """A review deleted declare_source: validate said ok, and every run flew to the time limit."""
+    ((loc, why),) = [(loc, why) for loc, why in load(GOOD).advisories() if "declare_source" in why]
+    assert loc == ("behaviours",) and "none can succeed" in why, why
+    arrival = load(GOOD + "evaluation: {criterion: arrival}\n")
+    assert not [w for _, w in arrival.advisories() if "declare_source" in w]
