@@ -108,6 +108,38 @@ def _rectangle_problems(m: MissionBase, area: OpArea) -> list[Problem]:
              f"(tolerance {tol:.1f} m, 1% of the diagonal); sides at {sides}")]
 
 
+CORNER_NOTE_M = 0.5
+"""Corners this far or more off their rectangle are told of by ``cptbt validate`` (a note):
+within the tolerance the OpArea flown is the rectangle enclosing them, and a corner typed a
+few metres off moves a wall out (a review's, 8 m off in an 800-m box, was fitted silently)."""
+
+
+def corner_fit_note(m: MissionBase) -> str | None:
+    """Where the OpArea flown differs from the corners as written (within the rectangle
+    tolerance, else it is an error): how far off they lie and the corners flown, in the
+    mission's own frame; None when they fit a rectangle within :data:`CORNER_NOTE_M`."""
+    if m.frame == "planning":
+        return None
+    try:
+        area = m.op_area_geometry()
+    except ValueError:
+        return None
+    misfit = area.corner_misfit_m(m.corners_ne())
+    if misfit < CORNER_NOTE_M:
+        return None
+    ne = [area.frame.xy_to_ne(x, y) for x, y in ((area.xmax, area.ymin), (area.xmin, area.ymin),
+                                                 (area.xmin, area.ymax), (area.xmax, area.ymax))]
+    local = m.local_frame() if m.frame == "geodetic" else None
+    if local is not None:
+        flown = ", ".join(f"[{g.lat_deg:.6f}, {g.lon_deg:.6f}]"
+                          for g in (local.to_geodetic(n, e) for n, e in ne))
+    else:
+        flown = ", ".join(f"[{n:.1f}, {e:.1f}]" for n, e in ne)
+    return (f"the corners lie up to {misfit:.1f} m off a rectangle (within the tolerance, "
+            f"1% of the diagonal): the OpArea flown is the rectangle enclosing them, corners "
+            f"{flown}")
+
+
 MIN_SIDE_M = 1.0
 """An OpArea side shorter than this is refused: no vehicle turns in it."""
 

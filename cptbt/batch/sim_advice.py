@@ -93,7 +93,13 @@ def pace_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem
                     f"{', '.join(steer)} steer by a flow estimate that is then its meander "
                     "alone (TRO MSN007 at 0 m/s, seeds 1-5: 2 false declarations 30-54 m off "
                     "and 3 none; at 0.05 m/s all 5 within 15 m)"))
-    if params.vehicle.advected and current >= 0.5 * mission.speed_mps:
+    if params.vehicle.advected and current >= mission.speed_mps:  # a review read "half"
+        out.append((("environment", "flow_speed_mps"), f"the mean current ({plain(current)} "
+                    f"m/s) is as fast as the cruise speed ({plain(mission.speed_mps)} m/s) or "
+                    "faster: the vehicle cannot make way up-flow at all, so nothing up-flow of "
+                    "where it starts is reached, and it is carried down-flow whatever it "
+                    "commands"))
+    elif params.vehicle.advected and current >= 0.5 * mission.speed_mps:
         out.append((("environment", "flow_speed_mps"), f"the mean current ({plain(current)} "
                     f"m/s) is half the cruise speed ({plain(mission.speed_mps)} m/s) or more: "
                     "the behaviours steer through the water, not over ground, so legs across "
@@ -271,12 +277,19 @@ def turn_guard_advice(mission: MissionBase, params: EnvironmentParams) -> list[P
     it). Measured on the OMAE planner of ``missions/small_oparea.yaml`` scaled (8 seeds a
     size; the share of time safety drove, without / with a 7.5-m guard): 50 m 4.4% / 1.3%,
     60 m 3.6% / 1.0%, 70 m 2.7% / 0%, 80 m 0.5% / 0%, 100 m and 200 m 0% / 0%."""
-    if mission.turn_guard_radius_m is not None or params.vehicle.heading_mode != "turn_radius":
+    if params.vehicle.heading_mode != "turn_radius":
         return []
     area = mission.op_area_geometry()
     short = min(area.xmax - area.xmin, area.ymax - area.ymin)
     r = params.vehicle.turning_radius_m
-    if short >= TURN_GUARD_RADII * r:
+    if short <= 2.0 * r * (1 + 1e-9):  # no turn-around fits, whichever side it starts on (a review's 60 x
+        # 10 m corridor with the guard went 11.7 m outside, safety driving 16% of the time)
+        return [(("op_area", "corners"),
+                 f"the OpArea is {plain(round(short, 1))} m across, no more than the simulated "
+                 f"vehicle's turning circle ({plain(2 * r)} m, twice its {plain(r)}-m radius): "
+                 "every turn-around carries it outside, whatever turn_guard_radius_m, and "
+                 "safety takes over")]
+    if mission.turn_guard_radius_m is not None or short >= TURN_GUARD_RADII * r:
         return []
     return [(("op_area", "corners"),
              f"the OpArea is {plain(round(short, 1))} m across, under {TURN_GUARD_RADII:g} of "

@@ -176,6 +176,7 @@ def add_parsers(sub: Any) -> None:
 def cmd_validate(args: argparse.Namespace) -> int:
     """Validate mission files: every problem as FILE:LINE: path: message; exit 2 if any."""
     from cptbt.loader import dump_mission
+    from cptbt.mission_checks import corner_fit_note
 
     problems: list[str] = []
     for path in args.missions:
@@ -190,6 +191,10 @@ def cmd_validate(args: argparse.Namespace) -> int:
         else:
             names = ", ".join(f"{e.family}.{e.variant}" for e in mission.entries())
             print(f"{path}: ok ({mission.name}: {names})")
+        note = corner_fit_note(mission)
+        if note is not None:
+            line = parse_yaml(mission_text(path), path)[1].get(("op_area", "corners"), 1)
+            print(f"{path}:{line}: op_area.corners: note: {note}", file=sys.stderr)
     if problems:
         raise MissionError(problems)
     return 0

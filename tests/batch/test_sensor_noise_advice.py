@@ -173,6 +173,11 @@ def test_a_current_at_half_the_cruise_speed_is_warned_of() -> None:
     assert fast != text
     (why,) = _advice(fast, "flow_speed_mps")
     assert "half the cruise speed" in why, why
+    # as fast as the vehicle: no way up-flow at all, said so (a review read "half" at 2 m/s)
+    for speed in ("1.5", "2.0"):
+        (why,) = _advice(text.replace("flow_speed_mps: 0.1", f"flow_speed_mps: {speed}"),
+                         "flow_speed_mps")
+        assert "as fast as the cruise speed (1.5 m/s) or faster" in why, why
 
 
 @pytest.mark.parametrize(("speed", "warned"), [("0", True), ("0.01", True), ("0.02", False)])

@@ -177,3 +177,24 @@ def test_a_source_farther_outside_than_the_success_radius_is_told_no_run_can_suc
     (msg,) = told(20.0)
     assert msg.startswith("20.0 m outside the OpArea, farther than the success radius (15 m)")
     assert told(10.0) == []  # within the radius of the wall: a declaration there can succeed
+
+
+@pytest.mark.parametrize(("half_width", "warned"), [(7.5, True), (5, True), (10, False)])
+def test_a_box_no_wider_than_the_turning_circle_is_told_whatever_the_guard(
+        half_width: float, warned: bool) -> None:
+    """A review's 60 x 10 m corridor with ``turn_guard_radius_m`` validated without a word and
+    went 11.7 m outside (safety 16% of the time): the guard picks a turn's side, and no
+    turn-around fits in a box no wider than the turning circle."""
+    text = (ROOT / "missions/small_oparea.yaml").read_text(encoding="utf-8")
+    for a, b in (("[25, -25]", f"[25, -{half_width}]"), ("[25, 25]", f"[25, {half_width}]"),
+                 ("[-25, 25]", f"[-25, {half_width}]"), ("[-25, -25]", f"[-25, -{half_width}]")):
+        assert a in text
+        text = text.replace(a, b)
+    text = text.replace("start: [-15, -15]", "start: [-15, 0]").replace(
+        "source: [12, 10]", "source: [12, 0]")
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    assert mission.turn_guard_radius_m == 7.5
+    got = [msg for loc, msg in advisories(mission) if "turning circle" in msg]
+    assert bool(got) == warned, got
+    if warned:
+        assert got[0].startswith(f"the OpArea is {2 * half_width:g} m across, no more than"), got

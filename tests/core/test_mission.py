@@ -261,3 +261,20 @@ def test_a_mission_judged_by_declaration_without_a_declaration_rule_is_told() ->
     assert loc == ("behaviours",) and "none can succeed" in why, why
     arrival = load(GOOD + "evaluation: {criterion: arrival}\n")
     assert not [w for _, w in arrival.advisories() if "declare_source" in w]
+
+
+def test_corners_off_a_rectangle_within_the_tolerance_are_noted_with_the_corners_flown() -> None:
+    """A review's corner typed 8 m off in an 800 x 500 m box was fitted silently: the OpArea
+    flown reached 6 m beyond the east corners as written."""
+    from cptbt.mission_checks import corner_fit_note
+
+    box = GOOD.replace("frame: planning", "frame: ne").replace(
+        "[[0, -50], [100, -50], [100, 50], [0, 50]]",
+        "[[400, 250], [400, -250], [-400, -250], [-392, 256]]\n  x_axis_bearing_deg: 0"
+    ).replace("home: [5, 0]", "home: [0, 0]").replace("start: [50, 10]", "start: [10, 10]")
+    note = corner_fit_note(load(box))
+    assert note is not None and "up to 8.0 m off a rectangle" in note, note
+    assert "[400.0, 256.0]" in note and "[-400.0, -250.0]" in note
+    exact = box.replace("[-392, 256]", "[-400, 250]")
+    assert corner_fit_note(load(exact)) is None
+    assert corner_fit_note(load(GOOD)) is None  # the planning frame: an axis-aligned box
