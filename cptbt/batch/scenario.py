@@ -20,6 +20,7 @@ from cptbt.batch.sim_advice import (
     flow_direction_advice,
     launch_turn_advice,
     leaf_advice,
+    move_advice,
     noise_advice,
     pace_advice,
     plain,
@@ -244,7 +245,8 @@ def advisories(mission: MissionBase) -> list[Problem]:
         params = None
     if params is not None:
         out += [a for advice in (noise_advice, dropout_advice, adcp_advice, leaf_advice,
-                                 pace_advice, turn_guard_advice, flow_direction_advice,
+                                 move_advice, pace_advice, turn_guard_advice,
+                                 flow_direction_advice,
                                  threshold_advice, lambda_advice)
                 for a in advice(mission, params)]
         out += launch_turn_advice(mission, params, launch_pose(mission))

@@ -123,6 +123,29 @@ def leaf_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem
     return out
 
 
+def move_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """An information-seeking search whose candidate moves (``step_m``) are shorter than the
+    simulated vehicle's turning circle: it asks for headings the vehicle cannot reach before
+    it plans again (a review swapped in infotaxis and SAI at their defaults on MSN007: the
+    vehicle was over 45° off the command in 49-69% of cycles, and the two flew the same track
+    bit for bit, the vehicle turning at its limit whichever way was asked)."""
+    if params.vehicle.heading_mode != "turn_radius":
+        return []
+    circle = 2.0 * params.vehicle.turning_radius_m
+    out: list[Problem] = []
+    for i, e in enumerate(mission.entries()):
+        step = getattr(e.params, "step_m", None)
+        if step is None or getattr(e.params, "replan_s", None) is None or step >= circle:
+            continue
+        out.append((("behaviours", i, e.family, "step_m"),
+                    f"{plain(step)} m is shorter than the simulated vehicle's turning circle "
+                    f"({plain(circle)} m): {e.variant} asks for headings the vehicle cannot "
+                    "reach before it plans again, so the track is the turn's, not the "
+                    "policy's (missions/tro2006_msn007_infotaxis.yaml flies step_m: 15, "
+                    "replan_s: 6)"))
+    return out
+
+
 def dropout_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """A fluorometer that drops so many samples that half the planning cycles or more have no
     reading at all (a cycle reads the largest of its samples; one with none reads nothing,
@@ -282,8 +305,9 @@ def turn_guard_advice(mission: MissionBase, params: EnvironmentParams) -> list[P
     area = mission.op_area_geometry()
     short = min(area.xmax - area.xmin, area.ymax - area.ymin)
     r = params.vehicle.turning_radius_m
-    if short <= 2.0 * r * (1 + 1e-9):  # no turn-around fits, whichever side it starts on (a review's 60 x
-        # 10 m corridor with the guard went 11.7 m outside, safety driving 16% of the time)
+    # no turn-around fits, whichever side it starts on (a review's 60 x 10 m corridor with the
+    # guard went 11.7 m outside, safety driving 16% of the time)
+    if short <= 2.0 * r * (1 + 1e-9):
         return [(("op_area", "corners"),
                  f"the OpArea is {plain(round(short, 1))} m across, no more than the simulated "
                  f"vehicle's turning circle ({plain(2 * r)} m, twice its {plain(r)}-m radius): "
