@@ -106,12 +106,19 @@ def pyplot() -> Any:
     return plt
 
 
-def plume_grid(area: OpArea, margin_m: float = 10.0) -> tuple[np.ndarray, np.ndarray]:
-    """A grid over the OpArea (and a margin) for plume snapshots, about 1-2 m per cell."""
-    nx = int(min(400, max(80, (area.xmax - area.xmin + 2 * margin_m) / 1.0)))
-    ny = int(min(300, max(60, (area.ymax - area.ymin + 2 * margin_m) / 1.0)))
-    return (np.linspace(area.xmin - margin_m, area.xmax + margin_m, nx),
-            np.linspace(area.ymin - margin_m, area.ymax + margin_m, ny))
+def plume_grid(area: OpArea, margin_m: float = 10.0,
+               cover: Sequence[Point] = ()) -> tuple[np.ndarray, np.ndarray]:
+    """A grid over the OpArea and the points ``cover`` (the true sources), each with a margin,
+    for plume snapshots, about 1-2 m per cell (at most 400 x 300 cells): a source allowed
+    outside had its star drawn in blank water, its plume starting at the grid's edge (a
+    review)."""
+    xs = [area.xmin, area.xmax, *(p.x for p in cover)]
+    ys = [area.ymin, area.ymax, *(p.y for p in cover)]
+    x0, x1 = min(xs) - margin_m, max(xs) + margin_m
+    y0, y1 = min(ys) - margin_m, max(ys) + margin_m
+    nx = int(min(400, max(80, x1 - x0)))
+    ny = int(min(300, max(60, y1 - y0)))
+    return np.linspace(x0, x1, nx), np.linspace(y0, y1, ny)
 
 
 def trajectory_figure(
@@ -261,6 +268,8 @@ def trajectory_figure(
                     else "the OpArea's x axis")
             ax.set_xlabel(f"x (m): {side}, compass bearing {bearing:.1f}°")
         ax.set_ylabel("y (m), 90° clockwise from x")
+        if belief is not None:  # the map's panel says the same (it read "x (m)": a review)
+            ax_map.set_xlabel(ax.get_xlabel())
     # A study row's title names its sweep: wrapped to the panel (~13 characters an inch at
     # 10 pt; the legend takes ~3.5 in), it was cut off at the page's left edge.
     chars = max(40, int(13 * (width - 3.5)))

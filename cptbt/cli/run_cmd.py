@@ -203,7 +203,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         source = Point(*params.source_xy_m)
         sources = [source, *(Point(*xy) for xy in params.extra_sources_xy_m)]
         waypoints = None
-        grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
+        grid = plume_grid(mission.op_area_geometry(), cover=sources) \
+            if not args.no_figure else None
         if mission.mission_a is not None:  # the AMP as a guest inside the vehicle's Mission A
             try:
                 phased, world, wall = simulate_phased(
@@ -376,7 +377,8 @@ def refly(args: argparse.Namespace) -> int:
         raise BatchError(f"{folder}/study.json, configuration {task.config}: its mission no "
                          f"longer loads{plug}: {said}") from None
     north_up_note(args, mission)
-    grid = plume_grid(mission.op_area_geometry()) if not args.no_figure else None
+    grid = plume_grid(mission.op_area_geometry(), cover=true_sources(mission)) \
+        if not args.no_figure else None
     out = Path(args.out) if args.out else fresh_folder(
         Path("runs") / f"{mission.name}-row{args.row}-{task.key}")
     try:

@@ -401,3 +401,18 @@ def test_mission_a_before_and_after_the_amp_are_drawn_apart() -> None:
     assert before[2] == "Mission A (vehicle)" and after[2] == "Mission A resumed (vehicle)"
     assert _phase_style("post_mission") == after  # the vehicle's own mission, finished
     assert _phase_style("amp.override") is None   # the AMP's part: coloured by behaviour
+
+
+def test_the_plume_snapshot_covers_a_source_outside_the_oparea() -> None:
+    """A review's source 20 m beyond the up-flow wall (``allow_outside: [source]``) was drawn
+    in blank water, its plume starting at the grid's edge 10 m out."""
+    from cptbt.batch.figures import plume_grid
+    from cptbt.frames import OpArea
+    from cptbt.types import Point
+
+    area = OpArea(-120.0, 120.0, -50.0, 50.0)
+    xs, ys = plume_grid(area)
+    assert (xs[0], xs[-1], ys[0], ys[-1]) == (-130.0, 130.0, -60.0, 60.0)
+    xs, ys = plume_grid(area, cover=[Point(-140.0, 15.0), Point(0.0, 75.0)])
+    assert (xs[0], xs[-1], ys[0], ys[-1]) == (-150.0, 130.0, -60.0, 85.0)
+    assert len(xs) <= 400 and len(ys) <= 300
