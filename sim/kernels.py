@@ -20,6 +20,7 @@ time with :func:`use`.
 from __future__ import annotations
 
 import importlib.util
+import logging
 import math
 import os
 from typing import Any, Literal
@@ -72,8 +73,21 @@ def _compile() -> None:
         return
     import numba
 
+    cache = True
     for name in ("_bilinear", "_advance", "_compact", "_substep", "_concentration_direct"):
-        globals()[name] = numba.njit(cache=True, nogil=True)(globals()[name])
+        try:
+            globals()[name] = numba.njit(cache=cache, nogil=True)(globals()[name])
+        except RuntimeError as exc:  # no writable cache: the package folder and $HOME are
+            # read-only (a shared install, a service user, a vehicle's read-only root): every
+            # command had stopped on "internal error: cannot cache function" (a review)
+            if not cache or "cannot cache" not in str(exc):
+                raise
+            cache = False
+            logging.getLogger(__name__).warning(
+                "numba cannot write its kernel cache here (%s): the kernels are compiled "
+                "afresh in each process (set NUMBA_CACHE_DIR to a writable folder to keep "
+                "them)", " ".join(str(exc).split()))
+            globals()[name] = numba.njit(cache=False, nogil=True)(globals()[name])
     _COMPILED = True
 
 

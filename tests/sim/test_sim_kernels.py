@@ -3,6 +3,7 @@ rounding (fast tier)."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 
 import numpy as np
@@ -77,3 +78,31 @@ def test_fast_concentration_matches_numpy_to_rounding() -> None:
 def test_unknown_tier_is_refused() -> None:
     with pytest.raises(ValueError, match="unknown kernel tier"):
         kernels.use("gpu")  # type: ignore[arg-type]
+
+
+def test_an_unwritable_kernel_cache_compiles_afresh_with_a_warning() -> None:
+    """A review: with numba installed and neither the package folder nor $HOME writable (a
+    shared install, a service user, a vehicle's read-only root) every command stopped on
+    "internal error: cannot cache function '_bilinear'"."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("numba")
+    code = (
+        "import numba\n"
+        "njit = numba.njit\n"
+        "def refusing(*a, cache=False, **k):\n"
+        "    if cache:\n"
+        "        raise RuntimeError(\"cannot cache function '_bilinear': no locator available\")\n"
+        "    return njit(*a, cache=cache, **k)\n"
+        "numba.njit = refusing\n"
+        "import numpy as np\n"
+        "from cptbt.sim import kernels\n"
+        "kernels.use('exact')\n"
+        "print(kernels.concentration_direct(np.zeros((1, 2)), np.zeros(1), np.zeros(1),\n"
+        "      np.ones(1), 1.0, -50.0)[0] > 0)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, env={**os.environ, "CPTBT_KERNELS": "exact"})
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "True"
+    assert "numba cannot write its kernel cache here" in done.stderr, done.stderr
