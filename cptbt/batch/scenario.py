@@ -24,6 +24,7 @@ from cptbt.batch.sim_advice import (
     noise_advice,
     pace_advice,
     plain,
+    sensor_rate_advice,
     source_wall_advice,
     turn_guard_advice,
 )
@@ -246,7 +247,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
     if params is not None:
         out += [a for advice in (noise_advice, dropout_advice, adcp_advice, leaf_advice,
                                  move_advice, pace_advice, turn_guard_advice,
-                                 flow_direction_advice,
+                                 flow_direction_advice, sensor_rate_advice,
                                  threshold_advice, lambda_advice)
                 for a in advice(mission, params)]
         out += launch_turn_advice(mission, params, launch_pose(mission))

@@ -80,6 +80,11 @@ def threshold_advice(mission: MissionBase, params: EnvironmentParams) -> list[Pr
     threshold = mission.perception.threshold
     peak, far = plume_peaks(params)
     key = ("perception", "threshold")
+    if peak <= 0.0:  # an attacker's source 400 m outside read "about 0, at its source"
+        return [(key, f"{plain(threshold)}: the simulated plume holds no puff in its first "
+                      "minutes (a source beyond the simulated water, the OpArea and "
+                      f"{plain(params.flow.margin_m)} m about it, releases none that stay): no "
+                      "run can detect it but from sensor noise")]
     if threshold >= MARGIN * peak:
         return [(key, f"{plain(threshold)} is above the simulated plume's highest "
                       f"concentration (about {peak:.3g}, at its source): no run can detect it but "

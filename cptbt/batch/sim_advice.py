@@ -165,6 +165,45 @@ def dropout_advice(mission: MissionBase, params: EnvironmentParams) -> list[Prob
              f"{plain(sensor.dropout_prob)}: {what}")]
 
 
+def sensor_rate_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """Sensors whose settings leave the planner without what it reads (an attacker's review:
+    each validated silently and flew a degenerate run): a fluorometer sampling slower than
+    every other planning cycle (a cycle with no sample reads nothing); an ADCP giving fewer
+    than one sample in the flow window, or a mean current at or above
+    ``perception.max_flow_speed_mps`` (every sample dropped as faulty: no command 44% of the
+    time, 13.7 m outside); a navigation drift as large as the success radius."""
+    out: list[Problem] = []
+    per_cycle = params.fluorometer.rate_hz / mission.cycle_hz
+    if per_cycle < 0.5:
+        out.append((("environment", "fluorometer", "rate_hz"),
+                    f"{plain(params.fluorometer.rate_hz)} Hz: a sample every "
+                    f"{1.0 / params.fluorometer.rate_hz:.3g} s, so at most "
+                    f"{_two_figures(100 * per_cycle)}% of planning cycles have a reading (one "
+                    "without reads nothing, neither plume nor clean water)"))
+    steer = any(e.contract.needs_flow for e in mission.entries()) and \
+        mission.perception.flow_source != "none"
+    window, rate = mission.perception.flow_window_s, params.adcp.rate_hz
+    if steer and rate * window < 1.0:
+        out.append((("environment", "adcp", "rate_hz"),
+                    f"{plain(rate)} Hz: fewer than one flow sample in perception.flow_window_s "
+                    f"({plain(window)} s), so the flow estimate the behaviours steer by is "
+                    "missing or held most of the time"))
+    gate, current = mission.perception.max_flow_speed_mps, params.flow.mean_speed_mps
+    if steer and current >= gate:
+        out.append((("perception", "max_flow_speed_mps"),
+                    f"{plain(gate)} m/s is no faster than the simulated mean current "
+                    f"({plain(current)} m/s): flow samples are dropped as faulty, so the flow "
+                    "estimate the behaviours steer by is missing"))
+    drift, radius = params.navigation.drift_std_m, mission.evaluation.success_radius_m
+    if drift >= radius:
+        out.append((("environment", "navigation", "drift_std_m"),
+                    f"{plain(drift)} m: the position estimate drifts as far as the success "
+                    f"radius ({plain(radius)} m) between fixes, so declared points and the "
+                    f"OpArea's walls ({RELINQUISH_OUTSIDE_M:g} m outside gives control back, "
+                    "by the estimate) are that far off"))
+    return out
+
+
 ADCP_DIRECTION_ERROR_DEG = 20.0
 """An ADCP noisy enough that the windowed mean's direction errs by more than this is warned of."""
 

@@ -73,3 +73,14 @@ def test_a_slow_quiet_current_is_not_taken_for_a_plume_found_only_near_its_sourc
     assert to_sim_params(mission).flow.noise_std_mps == 0.0
     said = {loc: msg for loc, msg in advisories(mission)}
     assert ("perception", "threshold") not in said
+
+
+def test_a_source_beyond_the_simulated_water_is_said_to_release_nothing() -> None:
+    """An attacker's source 400 m outside (allowed) read "above the simulated plume's highest
+    concentration (about 0, at its source)": at its source the plume reads about 10."""
+    text = (ROOT / "missions" / "tro2006_msn007.yaml").read_text(encoding="utf-8")
+    text = text.replace("source: [43, -55]", "source: [400, -400]").replace(
+        "\nbehaviours:", "\nallow_outside: [source]\nbehaviours:")
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    said = {loc: msg for loc, msg in advisories(mission)}
+    assert "holds no puff in its first minutes" in said[("perception", "threshold")]

@@ -224,3 +224,37 @@ def test_an_adcp_too_noisy_for_the_flow_estimate_is_warned_of(noise: str,
     else:
         (one,) = why
         assert fragment in one, one
+
+
+@pytest.mark.parametrize(("old", "new", "key", "says"), [
+    ("flow_speed_mps: 0.1", "flow_speed_mps: 0.1\n  adcp: {rate_hz: 0.005}", "rate_hz",
+     "fewer than one flow sample"),
+    ("flow_speed_mps: 0.1", "flow_speed_mps: 0.1\n  fluorometer: {rate_hz: 0.3}", "rate_hz",
+     "at most 30% of planning cycles have a reading"),
+    ("flow_speed_mps: 0.1", "flow_speed_mps: 0.1\n  navigation: {drift_std_m: 20}",
+     "drift_std_m", "drifts as far as the success radius"),
+    ("flow_speed_mps: 0.1", "flow_speed_mps: 0.2", "flow_speed_mps", None),
+])
+def test_sensors_that_leave_the_planner_blind_are_told(old: str, new: str, key: str,
+                                                       says: str | None) -> None:
+    """An attacker's review: an ADCP at 1e-9 Hz, a fluorometer at 1e-9 Hz and a drift of
+    1e6 m each validated silently and flew a degenerate run."""
+    text = _mission(None)
+    assert old in text
+    got = [w for w in _advice(text.replace(old, new, 1), key)
+           if "sample" in w or "drifts" in w]
+    if says is None:
+        assert got == []
+    else:
+        assert len(got) == 1 and says in got[0], got
+
+
+def test_a_flow_gate_below_the_mean_current_is_told() -> None:
+    """An attacker's review: ``max_flow_speed_mps`` 0.05 in a 0.1 m/s current dropped every
+    flow sample (no command 44% of the time, 13.7 m outside), validated silently."""
+    text = _mission(None)
+    assert _advice(text, "max_flow_speed_mps") == []
+    gated = text.replace("flow_window_s:", "max_flow_speed_mps: 0.05\n  flow_window_s:", 1)
+    assert gated != text
+    (why,) = _advice(gated, "max_flow_speed_mps")
+    assert "no faster than the simulated mean current (0.1 m/s)" in why, why
