@@ -27,8 +27,31 @@ MAX_GROUPS = 1_000_000
 before the study flies (about 0.5 GB at this bound)."""
 
 
+MAX_CONFIGS = 10_000
+"""Most configurations (the product of the sweeps' values) a study may have: each is a mission
+made and validated before any run (about 5 ms and 0.2 MB each; an attacker's 90 000 kept
+``validate`` busy past two minutes at 800 MB, growing, silent)."""
+
+
+def configs_note(configs: int) -> str | None:
+    """What a reader waiting for many configurations to be checked is told (None: few)."""
+    if configs < 1_000:
+        return None
+    return f"checking {configs:,} configurations (about {configs * 5e-3:.0f} s)"
+
+
+def configs_problem(configs: int) -> str | None:
+    """Why a study with this many configurations is refused (None: it is not)."""
+    if configs > MAX_CONFIGS:
+        return (f"the sweeps make {configs:,} configurations (the product of their values), "
+                f"more than {MAX_CONFIGS:,}: split the study")
+    return None
+
+
 def study_size_problem(starts: int, runs_per_start: int, configs: int) -> str | None:
     """Why a study of this size is refused (None: it is not)."""
+    if configs_problem(configs):
+        return configs_problem(configs)
     runs, groups = starts * runs_per_start * configs, runs_per_start * configs
     if runs > MAX_RUNS:
         return (f"{starts} starts × {runs_per_start} replicates × {configs} configurations is "

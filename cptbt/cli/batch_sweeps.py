@@ -4,6 +4,7 @@ section or the command line's ``--sweep`` (which replaces the section's, said wh
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 from collections.abc import Callable
@@ -17,6 +18,7 @@ from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import mission_text, study_sweeps, warn_swept
 from cptbt.loader import parse_yaml
 from cptbt.mission import MissionBase
+from cptbt.study_spec import configs_note, configs_problem
 
 
 def study_configs(args: argparse.Namespace,
@@ -42,6 +44,12 @@ def study_configs(args: argparse.Namespace,
         print(f"cptbt: note: --sweep replaces the sweeps of {args.mission}'s study section; not "
               f"flown: {'; '.join(s.text for s in dropped)} (give them as --sweep too "
               f"to keep them){falls}", file=sys.stderr)
+    count = math.prod(len(s.values) for s in sweeps)
+    too_many = configs_problem(count)
+    if too_many:
+        raise UsageError(f"batch: {too_many}")
+    if configs_note(count) and not args.quiet:
+        print(f"cptbt: note: {configs_note(count)}", file=sys.stderr)
     try:
         lines = parse_yaml(mission_text(args.mission), args.mission)[1] \
             if sweeps else None

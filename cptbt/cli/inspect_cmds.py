@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import textwrap
 from pathlib import Path
@@ -213,8 +214,12 @@ def _check_study_sweeps(mission: MissionBase, path: str) -> None:
         return
     from cptbt.batch.study import configurations
     from cptbt.batch.sweeps import study_notes
+    from cptbt.study_spec import configs_note
 
     lines = parse_yaml(mission_text(path), path)[1]
+    note = configs_note(math.prod(len(s.values) for s in sweeps))
+    if note:
+        print(f"{path}: note: {note}", file=sys.stderr)
     try:
         configs = configurations(mission, sweeps, path, lines)
     except ValueError as exc:

@@ -468,3 +468,34 @@ def test_every_bad_swept_value_is_reported_not_the_first_alone(
     assert "(with sweep reacquire_plume.d_leaf_m=-1)" in err
     assert "(with sweep reacquire_plume.d_leaf_m=abc)" in err
     assert "d_leaf_m=5" not in err
+
+
+def test_a_study_of_more_configurations_than_can_be_checked_is_refused_at_once(
+        tmp_path: Path) -> None:
+    """An attacker's 90 000-configuration study kept validate busy past two minutes, silent,
+    at 800 MB and growing: the product of the sweeps' values is now bounded."""
+    import subprocess
+    import sys
+
+    from cptbt.study_spec import MAX_CONFIGS
+
+    root = Path(__file__).resolve().parents[2]
+    text = (root / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8")
+    head = text.split("\nstudy:")[0]
+    values = ", ".join(str(0.1 + i / 1000) for i in range(110))
+    (tmp_path / "m.yaml").write_text(
+        head + "\nstudy:\n  sweeps:\n"
+        f"    perception.threshold: [{values}]\n"
+        f"    perception.lambda_s: [{values.replace('0.1', '8.')}]\n", encoding="utf-8")
+    cli = [sys.executable, "-m", "cptbt"]
+    said = subprocess.run([*cli, "validate", str(tmp_path / "m.yaml")], capture_output=True,
+                          text=True, timeout=60)
+    assert said.returncode == 2 and f"more than {MAX_CONFIGS:,}" in said.stderr, said.stderr
+    assert "12,100 configurations" in said.stderr
+    flags = [f"--sweep=perception.threshold={values.replace(', ', ',')}",
+             f"--sweep=perception.lambda_s={values.replace('0.1', '8.').replace(', ', ',')}"]
+    said = subprocess.run([*cli, "batch", str(root / "missions/tro2006_msn007.yaml"),
+                           "--amp-only", *flags, "--out", str(tmp_path / "s")],
+                          capture_output=True, text=True, timeout=60)
+    assert said.returncode == 2 and "12,100 configurations" in said.stderr, said.stderr
+    assert not (tmp_path / "s").exists()
