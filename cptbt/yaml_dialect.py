@@ -51,11 +51,20 @@ class OldNumberError(yaml.YAMLError):
     """A plain scalar in one of :data:`_OLD_NUMBERS`' forms."""
 
 
+MAX_NUMBER_CHARS = 100
+"""A plain number longer than this is refused at its key (Python reads at most 4 300 digits of
+an integer, and says so in its own words)."""
+
+
 def old_number(node: yaml.Node) -> str | None:
     """Why a plain scalar that YAML 1.1 reads as a number is refused (None: it is not)."""
     if not isinstance(node, yaml.ScalarNode) or node.style or node.tag not in (_INT, _FLOAT):
         return None
     text = node.value
+    if len(text) > MAX_NUMBER_CHARS:  # an attacker's 5001 digits read "(yaml): ... use
+        # sys.set_int_max_str_digits()" at line 1, its key unnamed
+        return (f"a number {len(text)} characters long: no mission value needs more than "
+                f"{MAX_NUMBER_CHARS}")
     for pattern, kind in _OLD_NUMBERS:
         if pattern.search(text):
             fix = "write the number in plain decimal (or quote it, if it is text)"

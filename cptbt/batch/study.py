@@ -13,7 +13,8 @@ from __future__ import annotations
 import copy
 import dataclasses
 import itertools
-from collections.abc import Sequence
+import re
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -150,7 +151,29 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         by_text[text] = Config(i, coords, text, validated)
         out.append(by_text[text])
     if bad:
-        raise MissionError(list(dict.fromkeys(line for e in bad for line in e.problems)))
+        raise MissionError(_merged(line for e in bad for line in e.problems))
+    return out
+
+
+def _merged(lines: Iterable[str]) -> list[str]:
+    """The problems of the bad configurations, one line per problem: the same problem at the
+    same place under several sweep values names them together (an attacker's misspelt sweep
+    path was told once per value, 30 values 30 lines), the first three and how many more."""
+    said: dict[tuple[str, str], list[str]] = {}  # (before, after) the sweep -> its values
+    for line in lines:
+        head, sep, tail = line.rpartition(" (with sweep ")
+        if sep and tail.endswith(")"):  # FILE:LINE: path: message (with sweep X)
+            said.setdefault((head + " (with sweep ", ")"), []).append(tail[:-1])
+            continue
+        found = re.match(r"(.*? \[sweep )(.*?)(\]: .*)$", line)
+        if found:  # FILE [sweep X]: path: message (a key the file lacks)
+            said.setdefault((found[1], found[3]), []).append(found[2])
+        else:
+            said.setdefault((line, ""), [])
+    out = []
+    for (before, after), sweeps in said.items():
+        more = f" and {len(sweeps) - 3} more" if len(sweeps) > 3 else ""
+        out.append(f"{before}{'; '.join(sweeps[:3])}{more}{after}" if sweeps else before)
     return out
 
 

@@ -149,7 +149,7 @@ def apply_setting(data: dict[str, Any], path: str, value: Any) -> None:
             raise ValueError(f"sweep path {path!r}: no such mission field")
         data[head] = value
         return
-    if head in ("environment", "perception", "evaluation", "mission_a"):
+    if head in ("environment", "perception", "evaluation", "mission_a", "op_area"):
         section = data.setdefault(head, {}) or {}
         data[head] = section
         node = section

@@ -26,6 +26,8 @@ def data() -> dict:  # type: ignore[type-arg]
         ("evaluation.success_radius_m", 5.0, ("evaluation", "success_radius_m")),
         ("environment.flow.mean_speed_mps", 0.3, ("environment", "flow", "mean_speed_mps")),
         ("maintain_plume.beta_deg", 20, ("behaviours", 0, "maintain_plume", "beta_deg")),
+        # an attacker's op_area sweep read "the mission has no 'op_area' behaviour"
+        ("op_area.corners", [[0, 0], [1, 0], [1, 1], [0, 1]], ("op_area", "corners")),
     ],
 )
 def test_a_sweep_sets_its_path(path: str, value: object, where: tuple) -> None:  # type: ignore[type-arg]
@@ -63,6 +65,11 @@ def test_sweep_parses_joined_paths_and_yaml_values() -> None:
     assert s.paths == ("maintain_plume.variant", "reacquire_plume.variant")
     assert s.values == ("strategy_1", "strategy_2") and s.name.count("+") == 1
     assert Sweep.parse("perception.lambda_s=1,2.5").values == (1, 2.5)
+
+
+def test_sweep_values_may_be_points() -> None:
+    """An attacker's ``environment.source=[1,2]`` was split at its comma, a YAML parser dump."""
+    assert Sweep.parse("environment.source=[1, 2],[3,4]").values == ([1, 2], [3, 4])
 
 
 def test_sweep_values_read_exponent_floats_as_a_mission_file_does() -> None:
@@ -236,9 +243,9 @@ OBLIQUE = Path(__file__).resolve().parents[2] / "missions/oblique_flow.yaml"
      "be greater than or equal to 0.005, got 1e-07"),
     # a flow speed the mission's flow_speed_mps overrides: every configuration would fly the
     # same flow (the sweep compared nothing)
-    ("environment.flow.mean_speed_mps=0.1,0.2", " [sweep environment.flow.mean_speed_mps=0.1]: "
-     "environment.flow.mean_speed_mps: given with environment.flow_speed_mps, which sets it: "
-     "give one of them"),
+    ("environment.flow.mean_speed_mps=0.1,0.2", " [sweep environment.flow.mean_speed_mps=0.1; "
+     "environment.flow.mean_speed_mps=0.2]: environment.flow.mean_speed_mps: given with "
+     "environment.flow_speed_mps, which sets it: give one of them"),
 ])
 def test_a_bad_swept_value_is_reported_at_the_files_key_or_without_a_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], sweep: str, where: str
@@ -499,3 +506,22 @@ def test_a_study_of_more_configurations_than_can_be_checked_is_refused_at_once(
                           capture_output=True, text=True, timeout=60)
     assert said.returncode == 2 and "12,100 configurations" in said.stderr, said.stderr
     assert not (tmp_path / "s").exists()
+
+
+def test_one_problem_of_many_sweep_values_is_told_once() -> None:
+    """An attacker's misspelt sweep path was told once per value (30 values, 30 lines)."""
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.study import configurations
+    from cptbt.loader import MissionError, loads_mission
+    from cptbt.registry import default_registry
+
+    path = Path(__file__).resolve().parents[2] / "missions/tro2006_msn007.yaml"
+    mission = loads_mission(path.read_text(encoding="utf-8"), str(path), default_registry(),
+                            Environment)
+    with pytest.raises(MissionError) as caught:
+        configurations(mission, [Sweep.parse("perception.thresold=0.1,0.2,0.3,0.4,0.5")],
+                       str(path))
+    (line,) = caught.value.problems
+    assert line == (f"{path} [sweep perception.thresold=0.1; perception.thresold=0.2; "
+                    "perception.thresold=0.3 and 2 more]: perception.thresold: unknown key; "
+                    "did you mean 'threshold'?"), line
