@@ -172,7 +172,10 @@ class CloverleafReacquire(_WaypointTour):
     reached (module docstring), C does not: every leaf returns to the last detection itself,
     which is what puts the leaves across the plume where it was last seen (measured: letting C
     be passed too spread the lost-contact points enough that one MSN007 run in 30 never
-    declared).
+    declared). The cost of the same clustering: where tracking stalls at a plume edge just at
+    the threshold far down-flow, each return to C logs a lost contact about 0.5 m from the
+    last, and TRO's up-flow cluster rule declares there (116-131 m off in 2-3 MSN007 runs of
+    1000 on three of four seeds; a paper reviewer's replay of root seed 2024, replicate 92).
     """
 
     family: ClassVar[str] = "reacquire_plume"

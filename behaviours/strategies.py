@@ -95,7 +95,14 @@ class StrategyIMaintain(_StrategyMaintain):
     - ``lagging_heading``: ``cast_sign = sign(wrap(psi - psi_u))``, the reading of AB eqs. 7–8
       with ``psi_r`` taken as the heading's lag. AB flips the sign convention of ``psi_r``
       between §4.1 and §4.2, and this reading casts *with* the wind's change; measured, it casts
-      toward the plume in only 39 % of losses (SPEC §5c). Kept for comparison.
+      toward the plume in only 39 % of losses (SPEC §5c). Kept for comparison. It is also the
+      reading of AB's summary, Table 3 ("the sign of γ is defined based on the vehicle heading
+      and wind direction to cause the vehicle to reverse its crosswind direction (i.e.,
+      counterturn)"): the paper's §4.1 words and its Table 3 point opposite ways, and the
+      default follows §4.1, whose reasoning (the plume near the searcher was laid by the
+      older wind) the measurement bears out. No result here turns on it: Fig. 10's times
+      far from the source differ by -0.9 ± 5.4 s between the two (a paper reviewer's
+      finding that the default's departure from Table 3 was not said).
 
     ``sign(0) = +1`` in both. Reading chosen: T_Lost is the last cycle the perception counts as
     in the plume (the last tick of this half), so the values recorded on that tick are

@@ -25,6 +25,7 @@ from cptbt.batch.comparison import (
     time_to_source,
 )
 from cptbt.batch.figures import pyplot
+from cptbt.batch.intervals import mean_sem, plumes_note, rate_interval
 from cptbt.batch.maintain_report import (
     is_maintain_study,
     maintain_figure,
@@ -105,16 +106,6 @@ def config_geometries(study: dict[str, Any]) -> dict[int, StudyGeometry]:
     return out if len(out) == len(data) else {}
 
 
-def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """Wilson score interval of a proportion (95% by default); (nan, nan) for n = 0."""
-    if n == 0:
-        return math.nan, math.nan
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return max(0.0, centre - half), min(1.0, centre + half)
-
-
 @dataclass(frozen=True)
 class Protocol:
     """The field's evaluation protocol for one configuration (OTTO; Loisy & Eloy 2022).
@@ -150,9 +141,10 @@ def protocol(rows: Rows) -> Protocol:
     t = np.array([time_to_source(r) for r in rows], dtype=float)
     ok = t[np.isfinite(t)]
     fails = n - int(np.count_nonzero([bool(r.get("success")) for r in rows]))
-    lo, hi = wilson(fails, n)
+    lo, hi = rate_interval(rows, [not r.get("success") for r in rows])
     mean = float(ok.mean()) if ok.size else math.nan
-    sem = float(ok.std(ddof=1) / math.sqrt(ok.size)) if ok.size > 1 else math.nan
+    timed = [r for r, v in zip(rows, t, strict=True) if math.isfinite(v)]
+    sem = mean_sem(timed, ok.tolist())  # over plumes: the runs of a replicate share one
     q = np.percentile(ok, [50, 90, 99]) if ok.size else np.full(3, math.nan)
     # a percentile from fewer runs than it needs is the largest run (a review read a "99th
     # percentile" of 4 runs): given from 10 successes (90th) and 100 (99th)
@@ -398,7 +390,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
         ok = t[np.isfinite(t)]
         err = [r["error_m"] for r in rows if r.get("error_m") is not None]
         wins = sum(bool(r["success"]) for r in rows)
-        lo, hi = wilson(wins, len(rows))
+        lo, hi = rate_interval(rows, [bool(r["success"]) for r in rows])
         false = sum(bool(r.get("false_declaration")) for r in rows)
         found = (f"| {sum(int(r.get('sources_found') or 0) for r in rows)} / "
                  f"{sum(int(r.get('sources_true') or 1) for r in rows)} ") if multi else ""
@@ -409,6 +401,12 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
             f"| {fmt(float(ok.std(ddof=1)) if ok.size > 1 else None)} "
             f"| {fmt(_mean([search_time(r) for r in rows]))} "
             f"| {fmt(_mean(err))} | {fmt(max(err) if err else None)} |")
+    single = next((plumes_note(rows) for rows in groups.values() if plumes_note(rows)), None)
+    lines += ["", "The intervals count plume realisations, not only runs: every start of a "
+              "replicate flies one plume, so its runs are not independent (Wilson's interval "
+              "at the runs over the design effect the replicates' spread gives, with Student's "
+              "t on replicates − 1 degrees of freedom; the SEMs likewise)."
+              + (f" Note: {single}." if single else "")]
     lines += excursion_table(groups)
     lines += command_fault_table(groups)
     if is_maintain_study(every):  # nothing declared: TRO's tables say nothing

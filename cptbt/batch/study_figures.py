@@ -18,6 +18,7 @@ import numpy as np
 from cptbt.batch.comparison import search_time
 from cptbt.batch.compass import _north_arrow, _north_points, north_corner
 from cptbt.batch.figures import flow_arrow
+from cptbt.batch.intervals import rate_interval
 from cptbt.batch.report import (
     Rows,
     StudyGeometry,
@@ -27,7 +28,6 @@ from cptbt.batch.report import (
     _several_sources,
     success_label,
     td_share,
-    wilson,
 )
 from cptbt.batch.sweeps import label_parts
 from cptbt.frames import OpArea
@@ -155,7 +155,7 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry 
         runs_n = sorted(set(counts[counts > 0].ravel().tolist()))
         per_cell = f"n = {runs_n[0]}" if len(runs_n) == 1 else f"n = {runs_n[0]}–{runs_n[-1]}"
         ok = sum(bool(r["success"]) for r in rows)
-        lo, hi = wilson(ok, len(rows))
+        lo, hi = rate_interval(rows, [bool(r["success"]) for r in rows])
         # wrapped to the panel (~12 characters an inch at 9 pt): two sweeps' label ran into the
         # next panel's, mangling the value that told them apart (a review)
         ax.set_title(f"{textwrap.fill(label, 70, break_on_hyphens=False)}\nsuccess "
@@ -223,7 +223,8 @@ def _line(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
 
 
 def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
-    """Success and false-declaration rates per configuration, with 95% Wilson intervals."""
+    """Success and false-declaration rates per configuration, with 95% intervals over the
+    plumes (:mod:`cptbt.batch.intervals`)."""
     if len(groups) < 2:
         return None  # one bar says nothing the table does not
     labels = list(groups)
@@ -248,13 +249,13 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
             rows = groups[lab]
             hits = sum(bool(r.get(key)) for r in rows)
             counts.append(f"{hits}/{len(rows)}")
-            a, b = wilson(hits, len(rows))
+            a, b = rate_interval(rows, [bool(r.get(key)) for r in rows])
             rate.append(hits / len(rows))
             # Wilson's bounds can land a rounding error past the rate (0 of n, n of n).
             lo.append(max(0.0, hits / len(rows) - a))
             hi.append(max(0.0, b - hits / len(rows)))
         drawn = ax.bar(pos + (k - (len(bars) - 1) / 2) * width, rate, width, yerr=[lo, hi],
-                       capsize=3, color=colour, label=f"{name} (95% Wilson CI)")
+                       capsize=3, color=colour, label=f"{name} (95% CI over plumes)")
         # the count on each bar: a rate of 0 is no bar, only its interval (a review read it as
         # a floating error bar)
         ax.bar_label(drawn, counts, padding=2, fontsize=7, label_type="edge")
@@ -325,9 +326,12 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
         for handle, text in zip(*ax.get_legend_handles_labels(), strict=True):
             if text in judged:  # a configuration: with its counts in each panel
                 n_err, n_share = len(err[text]), len(share[text])
-                text += (f" (n = {n_err})" if n_err == n_share or not n_share
-                         else f" (n = {n_share})" if not n_err
-                         else f" (n = {n_err} errors, {n_share} T_D shares)")
+                runs = len(judged[text])  # the runs that declared nothing are said (a review
+                # read "n = 28" of a study of 30)
+                of = f" of {runs} runs" if max(n_err, n_share) < runs else ""
+                text += (f" (n = {n_err}{of})" if n_err == n_share or not n_share
+                         else f" (n = {n_share}{of})" if not n_err
+                         else f" (n = {n_err} errors, {n_share} T_D shares{of})")
             entries.setdefault(text, handle)
     if entries:  # under the panels, long labels wrapped (two sweeps' labels had run off the
         # page and over each other, a legend per panel: a review)

@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cptbt.batch.report import protocol, wilson, write_report
+from cptbt.batch.intervals import wilson
+from cptbt.batch.report import protocol, write_report
 from cptbt.batch.store import load_results
 from cptbt.cli import main
 from cptbt.cli.batch_rounds import next_replicates

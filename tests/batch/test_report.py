@@ -11,7 +11,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cptbt.batch.report import StudyGeometry, compared, td_share, wilson, write_report
+from cptbt.batch.intervals import wilson
+from cptbt.batch.report import StudyGeometry, compared, td_share, write_report
 from cptbt.batch.study import config_label
 
 BASE: dict[str, Any] = {
@@ -56,10 +57,11 @@ def test_starts_along_a_line_give_a_line_plot_and_no_map(tmp_path: Path) -> None
     names = {p.name for p in write_report(line_rows(), tmp_path)}
     assert {"tables.md", "time_vs_start.png", "error_and_td_share.png"} == names
     table = (tmp_path / "tables.md").read_text()
-    # 42 s and 40 s successes, one 300 s failure; 2 of 3 with its Wilson interval; no false;
-    # the sample standard deviation of 42 and 40 (√2, not the population's 1.0), as the
-    # standard error beside it in the protocol table uses.
-    assert "| m | 3 | 66.7% (20.8%–93.9%) | 0 | 41.0 | 1.4 | 127.3 |" in table
+    # 42 s and 40 s successes, one 300 s failure; 2 of 3 with its interval over two plumes
+    # (Student's t on 1 degree of freedom: all but the whole range); no false; the sample
+    # standard deviation of 42 and 40 (√2, not the population's 1.0), as the standard error
+    # beside it in the protocol table uses.
+    assert "| m | 3 | 66.7% (0.8%–99.8%) | 0 | 41.0 | 1.4 | 127.3 |" in table
 
 
 def test_a_grid_of_two_configs_gives_maps_rates_and_counts_false_declarations(
@@ -73,7 +75,8 @@ def test_a_grid_of_two_configs_gives_maps_rates_and_counts_false_declarations(
     for config in ("v0", "v1"):  # 8 of 12 succeed; one failure per config is a false one
         row = next(line for line in table.splitlines() if line.startswith(f"| variant={config} |"))
         cells = [c.strip() for c in row.strip("|").split("|")]
-        assert cells[1:4] == ["12", "66.7% (39.1%–86.2%)", "1"], cells
+        # over 3 plumes of 4 starts: wider than 12 independent runs' 39.1%–86.2%
+        assert cells[1:4] == ["12", "66.7% (18.5%–94.6%)", "1"], cells
 
 
 def test_the_study_map_draws_every_true_source_on_one_colour_scale(
@@ -179,7 +182,7 @@ def test_arrival_runs_get_no_error_histogram(tmp_path: Path) -> None:
     # Its columns say what its numbers are: no declarations to count, distances at the end.
     assert "success: reached the source (95% CI)" in table
     assert "| mean distance at the end (m) | max distance at the end (m) |" in table
-    assert "| m | 3 | 66.7% (20.8%–93.9%) | — |" in table
+    assert "| m | 3 | 66.7% (0.8%–99.8%) | — |" in table
 
 
 def test_geometry_round_trips_through_study_json_data() -> None:
@@ -461,6 +464,13 @@ def test_the_study_figures_say_what_each_panel_and_bar_is(tmp_path: Path,
     (legend,) = seen[-1].legends
     texts = [t.get_text().replace("\n", " ") for t in legend.get_texts()]
     assert texts[0] == "variant=v0 (n = 5 errors, 4 T_D shares)", texts
+    # a run that declared nothing is said (a paper reviewer read "n = 28" of 30 runs)
+    silent = {k: [*v, {**v[0], "t3": None, "error_m": None, "T_D": None}]
+              for k, v in with_radius.items()}
+    assert _distributions(silent, tmp_path / "d4.png", pyplot()) is not None
+    texts = [t.get_text().replace("\n", " ") for t in seen[-1].legends[0].get_texts()]
+    n = len(with_radius["variant=v0"])
+    assert texts[0].startswith(f"variant=v0 (n = {n}") and f"of {n + 1} runs)" in texts[0], texts
     groups: dict[str, list[dict[str, Any]]] = {}
     for r in maintain_rows():
         beta = r["configuration"].split("beta1_deg=")[1]

@@ -1,0 +1,124 @@
+"""Confidence intervals for a study's rates and mean times, counting plumes, not only runs.
+
+Every start of a replicate flies one plume realisation (AB's searchers shared one plume), so
+the runs of a replicate are not independent: a plume that is hard for one start is hard for its
+neighbours. A rate's interval computed as if every run were independent is then too narrow. A
+paper reviewer's AB Fig. 11 study of 300 runs (3 plumes of 100 starts) printed 96.3% (95% CI
+93.6-97.9%), an interval that excluded the project's own 10 000-run figure, 89.9% +- 0.7 (whose
+standard error, over its 100 plumes, is 2.3 times the independent-runs one).
+
+The intervals here are cluster-robust, the replicate being the cluster. For a mean ``m`` of
+values ``y`` over ``N`` runs in ``R`` replicates, the variance of ``m`` is estimated as
+``R / (R - 1) * sum_r (sum_{i in r} (y_i - m))^2 / N^2`` (the sandwich estimator), and the
+design effect is its ratio to the independent-runs variance, at least 1 (a few replicates can
+make it fall below by chance; the interval is never narrower than the runs alone make it).
+
+- A rate: Wilson's score interval at the effective number of runs ``N / design effect``, with
+  Student's t on ``R - 1`` degrees of freedom for the normal quantile (few plumes, wide
+  interval: the variance is estimated from the replicates; Korn & Graubard 1998's
+  degrees-of-freedom adjustment). One replicate: the plumes' spread cannot be estimated, and
+  the interval is the runs' alone, which :func:`plumes_note` says.
+- A mean time: its standard error is the larger of the cluster-robust and the independent one.
+
+Runs that fly one start per replicate (MSN007's studies) are clusters of one, independent: the
+interval is Wilson's, whose binomial variance is known, not estimated.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+from typing import Any
+
+Rows = Sequence[dict[str, Any]]
+
+_T975 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
+         2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064,
+         2.060, 2.056, 2.052, 2.048, 2.045, 2.042)
+"""Student's t, two-sided 95%, for 1-30 degrees of freedom."""
+
+
+def t975(df: int) -> float:
+    """Student's t quantile for a two-sided 95% interval (1.96 beyond 120 degrees of freedom;
+    between 30 and 120, a close approximation)."""
+    if df < 1:
+        return math.nan
+    if df <= len(_T975):
+        return _T975[df - 1]
+    return 1.96 + 2.4 / df if df <= 120 else 1.96
+
+
+def wilson(successes: float, n: float, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval of a proportion (95% by default); (nan, nan) for n = 0. ``n`` may
+    be an effective (fractional) number of runs, ``successes`` then scaled alike."""
+    if n <= 0:
+        return math.nan, math.nan
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(max(p * (1 - p), 0.0) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def _clusters(rows: Rows, values: Sequence[float]) -> list[list[float]]:
+    by: dict[Any, list[float]] = defaultdict(list)
+    for r, v in zip(rows, values, strict=True):
+        by[r.get("replicate", id(r))].append(v)
+    return list(by.values())
+
+
+def replicates(rows: Rows) -> int:
+    """How many plume realisations (replicates) the rows fly."""
+    return len({r.get("replicate", id(r)) for r in rows})
+
+
+def design_effect(rows: Rows, values: Sequence[float]) -> float:
+    """The cluster-robust variance of the values' mean over the independent-runs one, at least
+    1 (NaN with fewer than two replicates, or no spread to compare with)."""
+    groups = _clusters(rows, values)
+    n, k = len(values), len(groups)
+    if k < 2 or n < 2:
+        return math.nan
+    mean = sum(values) / n
+    iid = sum((v - mean) ** 2 for v in values) / (n - 1) / n
+    robust = k / (k - 1) * sum(sum(v - mean for v in g) ** 2 for g in groups) / (n * n)
+    if iid <= 0.0:
+        return 1.0 if robust <= 0.0 else math.inf
+    return max(1.0, robust / iid)
+
+
+def rate_interval(rows: Rows, hits: Sequence[bool]) -> tuple[float, float]:
+    """95% interval of a rate over the rows (see the module's docstring)."""
+    n = len(rows)
+    if n == 0:
+        return math.nan, math.nan
+    k = replicates(rows)
+    wins = float(sum(bool(h) for h in hits))
+    deff = design_effect(rows, [float(bool(h)) for h in hits])
+    if k < 2 or k == n or not math.isfinite(deff):  # one plume (or none to compare): the
+        # runs alone; one run a plume: independent runs, whose binomial variance is known
+        return wilson(wins, n)
+    if deff == math.inf:
+        return 0.0, 1.0
+    eff = n / deff
+    return wilson(wins * eff / n, eff, t975(k - 1))
+
+
+def mean_sem(rows: Rows, values: Sequence[float]) -> float:
+    """Standard error of the values' mean: the larger of the cluster-robust and the
+    independent-runs one (NaN for fewer than two values)."""
+    n = len(values)
+    if n < 2:
+        return math.nan
+    mean = sum(values) / n
+    iid = math.sqrt(sum((v - mean) ** 2 for v in values) / (n - 1) / n)
+    deff = design_effect(rows, values)
+    return iid * math.sqrt(deff) if math.isfinite(deff) else iid
+
+
+def plumes_note(rows: Rows) -> str | None:
+    """What a reader of an interval over these rows must know: one plume realisation only."""
+    if replicates(rows) < 2 and len(rows) > 1:
+        return ("one plume realisation: its interval covers the starts' spread only, not the "
+                "plumes' (fly more replicates: --runs-per-start)")
+    return None
