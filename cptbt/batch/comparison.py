@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from cptbt.batch.intervals import clustered_mcnemar, mean_sem
 from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.sweeps import changes_world, value_yaml
 from cptbt.policy import RELINQUISH_OUTSIDE_M
@@ -114,21 +115,26 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
              + (" of its world (the same swept settings of the simulated world)"
                 if worlds else "")
              + ", run by run on the same plume, start and vehicle noise: the runs only one "
-             "of the two succeeded in (exact McNemar p on those), and the mean time difference "
-             "over the runs both succeeded in (this minus the first, ± SE).", "",
+             "of the two succeeded in (exact McNemar p on those; where a plume holds several "
+             "starts, McNemar's test clustered by plume, Durkalski et al. 2003), and the mean "
+             "time difference over the runs both succeeded in (this minus the first, ± SE over "
+             "plumes).", "",
              "| configuration | against | pairs | succeeded only here / only there | McNemar p "
              "| time difference (s) | both succeeded |",
              "|---|---|---:|---:|---:|---:|---:|"]
     for label, base, pairs in paired:
         here_only = sum(bool(a.get("success")) and not b.get("success") for a, b in pairs)
         there_only = sum(bool(b.get("success")) and not a.get("success") for a, b in pairs)
-        d = np.array([time_to_source(a) - time_to_source(b) for a, b in pairs
-                      if a.get("success") and b.get("success")], dtype=float)
-        d = d[np.isfinite(d)]
-        se = float(d.std(ddof=1) / math.sqrt(d.size)) if d.size > 1 else math.nan
+        both = [(a, time_to_source(a) - time_to_source(b)) for a, b in pairs
+                if a.get("success") and b.get("success")]
+        both = [(a, v) for a, v in both if math.isfinite(v)]
+        d = np.array([v for _, v in both], dtype=float)
+        se = mean_sem([a for a, _ in both], d.tolist())  # over plumes, as the intervals
         diff = f"{fmt(float(d.mean()) if d.size else None)} ± {fmt(se)}"
+        p = clustered_mcnemar(pairs)
+        p = mcnemar(here_only, there_only) if p is None else p
         lines.append(f"| {label} | {base} | {len(pairs)} | {here_only} / {there_only} "
-                     f"| {mcnemar(here_only, there_only):.2g} | {diff} | {d.size} |")
+                     f"| {p:.2g} | {diff} | {d.size} |")
     return lines
 
 

@@ -122,3 +122,22 @@ def plumes_note(rows: Rows) -> str | None:
         return ("one plume realisation: its interval covers the starts' spread only, not the "
                 "plumes' (fly more replicates: --runs-per-start)")
     return None
+
+
+def clustered_mcnemar(pairs: Sequence[tuple[dict[str, Any], dict[str, Any]]]) -> float | None:
+    """Two-sided p of the paired success difference with the pairs clustered by replicate
+    (Durkalski et al. 2003's adjusted McNemar: ``(sum_k (b_k - c_k))^2 / sum_k (b_k - c_k)^2``
+    over the replicates ``k``, against chi-square with one degree of freedom), or None when
+    every replicate holds one pair (the exact McNemar then applies: the pairs are
+    independent). The pairs of a replicate share one plume: a plume that one configuration
+    fails and the other does not is one piece of evidence, not one per start."""
+    if len({a.get("replicate", id(a)) for a, _ in pairs}) == len(pairs):
+        return None
+    by: dict[Any, int] = defaultdict(int)
+    for a, b in pairs:
+        by[a.get("replicate", id(a))] += int(bool(a.get("success"))) - int(bool(b.get("success")))
+    spread = sum(v * v for v in by.values())
+    if spread == 0:
+        return 1.0
+    chi2 = sum(by.values()) ** 2 / spread
+    return math.erfc(math.sqrt(chi2 / 2.0))

@@ -72,3 +72,26 @@ def test_a_mean_times_error_counts_the_plumes_and_is_never_below_the_runs() -> N
 def test_student_t_falls_to_the_normal_quantile() -> None:
     assert t975(1) == pytest.approx(12.706) and t975(30) == pytest.approx(2.042)
     assert 1.96 < t975(60) < 2.01 and t975(500) == 1.96 and math.isnan(t975(0))
+
+
+def test_a_paired_difference_from_one_plume_is_one_piece_of_evidence() -> None:
+    """Ten starts of one plume that one configuration wins and the other loses: read as ten
+    independent pairs, the exact McNemar p is 0.002; clustered by plume (Durkalski et al.
+    2003) it is what one plume says, 0.32. One pair a plume: the exact test stands."""
+    from cptbt.batch.comparison import mcnemar
+    from cptbt.batch.intervals import clustered_mcnemar
+
+    pairs = []
+    for r in range(3):
+        for k in range(10):
+            won = r == 0
+            pairs.append(({"replicate": r, "start": k, "success": True},
+                          {"replicate": r, "start": k, "success": not won}))
+    assert mcnemar(10, 0) == pytest.approx(0.00195, abs=1e-5)
+    assert clustered_mcnemar(pairs) == pytest.approx(math.erfc(math.sqrt(0.5)))
+    spread = [({"replicate": r, "success": True}, {"replicate": r, "success": False})
+              for r in range(12) for _ in range(2)]  # every plume says the same
+    assert clustered_mcnemar(spread) == pytest.approx(math.erfc(math.sqrt(24 ** 2 / 48 / 2)))
+    single = [({"replicate": r, "success": True}, {"replicate": r, "success": r % 2 == 0})
+              for r in range(8)]
+    assert clustered_mcnemar(single) is None
