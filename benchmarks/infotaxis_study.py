@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from cptbt.batch.comparison import mcnemar
+from cptbt.batch.intervals import clustered_mcnemar
 from cptbt.batch.intervals import wilson
 from cptbt.batch.report import by_configuration, protocol
 from cptbt.batch.store import load_results
@@ -104,16 +105,19 @@ def protocol_rows(groups: dict[str, Rows]) -> list[str]:
 def paired(a: Rows, b: Rows, name_a: str, name_b: str) -> list[str]:
     """Paired outcomes of two searchers on the same (plume, start) pairs."""
     key = lambda r: (r["replicate"], r["start"])  # noqa: E731
-    ok_b = {key(r): bool(r["success"]) for r in b}
+    by_b = {key(r): r for r in b}
+    pairs = [(r, by_b[key(r)]) for r in a if key(r) in by_b]
     counts: dict[tuple[bool, bool], int] = defaultdict(int)
-    for r in a:
-        if key(r) in ok_b:
-            counts[(bool(r["success"]), ok_b[key(r)])] += 1
+    for ra, rb in pairs:
+        counts[(bool(ra["success"]), bool(rb["success"]))] += 1
     only_a, only_b = counts[(True, False)], counts[(False, True)]
+    p = clustered_mcnemar(pairs)  # the starts of a plume share it (a paper reviewer)
+    test = ("exact McNemar test on the discordant pairs" if p is None
+            else "McNemar's test clustered by plume, Durkalski et al. 2003")
+    p = mcnemar(only_a, only_b) if p is None else p
     return [f"Paired on the same plume and start ({sum(counts.values())} pairs): both found "
             f"the source in {counts[(True, True)]}, only {name_a} in {only_a}, only {name_b} "
-            f"in {only_b}, neither in {counts[(False, False)]} (exact McNemar test on the "
-            f"discordant pairs: p = {mcnemar(only_a, only_b):.2f})."]
+            f"in {only_b}, neither in {counts[(False, False)]} ({test}: p = {p:.2f})."]
 
 
 def failures(rows: Rows, name: str) -> list[str]:
