@@ -38,8 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from cptbt.batch.comparison import mcnemar
-from cptbt.batch.intervals import clustered_mcnemar
-from cptbt.batch.intervals import wilson
+from cptbt.batch.intervals import clustered_mcnemar, wilson
 from cptbt.batch.report import by_configuration, protocol
 from cptbt.batch.store import load_results
 from cptbt.cli import main as cptbt
