@@ -8,6 +8,7 @@ missions are :mod:`cptbt.advice`'s.
 from __future__ import annotations
 
 import logging
+import math
 
 from cptbt.frames import OpArea
 from cptbt.geodesy import PoleError
@@ -124,11 +125,17 @@ def corner_fit_note(m: MissionBase) -> str | None:
         area = m.op_area_geometry()
     except ValueError:
         return None
-    misfit = area.corner_misfit_m(m.corners_ne())
+    written = m.corners_ne()
+    misfit = area.corner_misfit_m(written)
     if misfit < CORNER_NOTE_M:
         return None
-    ne = [area.frame.xy_to_ne(x, y) for x, y in ((area.xmax, area.ymin), (area.xmin, area.ymin),
-                                                 (area.xmin, area.ymax), (area.xmax, area.ymax))]
+    fitted = [area.frame.xy_to_ne(x, y) for x, y in ((area.xmax, area.ymin),
+                                                     (area.xmin, area.ymin),
+                                                     (area.xmin, area.ymax),
+                                                     (area.xmax, area.ymax))]
+    # in the file's order, each beside the corner it replaces (a diff review could not match
+    # them one by one)
+    ne = [min(fitted, key=lambda f, c=c: math.hypot(f[0] - c[0], f[1] - c[1])) for c in written]
     local = m.local_frame() if m.frame == "geodetic" else None
     if local is not None:
         flown = ", ".join(f"[{g.lat_deg:.6f}, {g.lon_deg:.6f}]"
@@ -137,7 +144,7 @@ def corner_fit_note(m: MissionBase) -> str | None:
         flown = ", ".join(f"[{n:.1f}, {e:.1f}]" for n, e in ne)
     return (f"the corners lie up to {misfit:.1f} m off a rectangle (within the tolerance, "
             f"1% of the diagonal): the OpArea flown is the rectangle enclosing them, corners "
-            f"{flown}")
+            f"{flown} (in the file's order)")
 
 
 MIN_SIDE_M = 1.0

@@ -280,12 +280,28 @@ def load_entry_points(group: str = ENTRY_POINT_GROUP) -> Registry:
             said = (str(exc) if isinstance(exc, RegistryError)
                     else f"entry point {ep.value}: {type(exc).__name__}: {exc}")
             registry.broken.append(said)
-            log.warning("cannot load behaviours from %s (its variants are not available)", said)
+            if isinstance(exc, _Clash):  # two plug-ins: neither's is flown (a diff review's
+                # mission flew whichever entry point's name sorted first, validated "ok")
+                registry._specs.pop(exc.key, None)
+                log.warning("plug-in behaviour %s left out: %s (entry point %s is not loaded, "
+                            "and %s's %s is withdrawn)", ".".join(exc.key), said, ep.value,
+                            exc.first, ".".join(exc.key))
+            else:
+                log.warning("plug-in behaviours left out: %s (none of its variants is "
+                            "available)", said)
             continue
         for spec in specs:
             registry.register(spec)
             origin[(spec.family, spec.variant)] = ep.value
     return registry
+
+
+class _Clash(RegistryError):
+    """Two plug-ins' entry points register one (family, variant) (``first`` read first)."""
+
+    def __init__(self, message: str, key: tuple[str, str], first: str) -> None:
+        super().__init__(message)
+        self.key, self.first = key, first
 
 
 def _entry_point_specs(ep: EntryPoint, registry: Registry,
@@ -321,8 +337,8 @@ def _entry_point_specs(ep: EntryPoint, registry: Registry,
                 f"entry point {ep.value} registers {spec.key}, a built-in's name "
                 f"(cptbt's {first}): give the plug-in's variant a name of its own")
         if first is not None:
-            raise RegistryError(f"behaviour {spec.key} is registered by both entry point "
-                                f"{first} and {ep.value}: rename one")
+            raise _Clash(f"behaviour {spec.key} is registered by both entry point {first} "
+                         f"and {ep.value}: rename one", (spec.family, spec.variant), first)
     return staged.specs()
 
 

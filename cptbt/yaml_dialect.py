@@ -84,9 +84,22 @@ def load_scalar(text: str) -> Any:
     loader = MissionLoader(text)
     try:
         node = loader.get_single_node()
-        why = old_number(node) if node is not None else None
-        if why:
-            raise OldNumberError(why)
+        for scalar in _scalars(node):  # inside a mapping or a list too (a whole behaviour's
+            # radius_m: 010 flew 8, a point's [043, -55] the source 8 m off: a diff review)
+            why = old_number(scalar)
+            if why:
+                raise OldNumberError(why)
         return loader.construct_document(node) if node is not None else None
     finally:
         loader.dispose()
+
+
+def _scalars(node: yaml.Node | None) -> list[yaml.Node]:
+    """Every scalar node of a value (depth-first; a sweep value is small)."""
+    if node is None:
+        return []
+    if isinstance(node, yaml.MappingNode):
+        return [s for k, v in node.value for s in (*_scalars(k), *_scalars(v))]
+    if isinstance(node, yaml.SequenceNode):
+        return [s for item in node.value for s in _scalars(item)]
+    return [node]

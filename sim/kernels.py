@@ -66,6 +66,20 @@ def tier() -> Tier:
     return "fast" if FAST else "exact" if EXACT else "numpy"
 
 
+_CACHE_NOTE: str | None = None
+"""Said once, by :func:`say_cache_note`, when a world is made: the kernels are compiled at
+import, before a command has set its logging up (a diff review saw the note bare, and under
+``--quiet``)."""
+
+
+def say_cache_note() -> None:
+    """Log that the kernels have no on-disk cache here, once per process (if so)."""
+    global _CACHE_NOTE
+    if _CACHE_NOTE is not None:
+        logging.getLogger(__name__).warning("%s", _CACHE_NOTE)
+        _CACHE_NOTE = None
+
+
 def _compile() -> None:
     """Replace the plain-Python loops below by their numba-compiled versions (once)."""
     global _COMPILED
@@ -83,10 +97,10 @@ def _compile() -> None:
             if not cache or "cannot cache" not in str(exc):
                 raise
             cache = False
-            logging.getLogger(__name__).warning(
-                "numba cannot write its kernel cache here (%s): the kernels are compiled "
-                "afresh in each process (set NUMBA_CACHE_DIR to a writable folder to keep "
-                "them)", " ".join(str(exc).split()))
+            global _CACHE_NOTE
+            _CACHE_NOTE = (f"numba cannot write its kernel cache here ({' '.join(str(exc).split())}"
+                           "): the kernels are compiled afresh in each process (set "
+                           "NUMBA_CACHE_DIR to a writable folder to keep them)")
             globals()[name] = numba.njit(cache=False, nogil=True)(globals()[name])
     _COMPILED = True
 

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from . import kernels
 from .flow import MIN_SUBSTEP_S, Domain, FlowParams, flow_substep_s, make_flow
 from .plume import PlumeParams, PuffPlume
 from .sensors import (
@@ -258,6 +259,7 @@ class World:
         env_rng: np.random.Generator | None = None,
         vehicle_rngs: Sequence[np.random.Generator] | None = None,
     ) -> None:
+        kernels.say_cache_note()  # here, where a command's logging is set up
         self.params = params
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         n = len(xy)

@@ -40,13 +40,13 @@ _T975 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 
 
 
 def t975(df: int) -> float:
-    """Student's t quantile for a two-sided 95% interval (1.96 beyond 120 degrees of freedom;
-    between 30 and 120, a close approximation)."""
+    """Student's t quantile for a two-sided 95% interval (beyond 30 degrees of freedom, a
+    close approximation tending to 1.96)."""
     if df < 1:
         return math.nan
     if df <= len(_T975):
         return _T975[df - 1]
-    return 1.96 + 2.4 / df if df <= 120 else 1.96
+    return 1.96 + 2.4 / df  # within 0.003 of the quantile beyond 30, and no step
 
 
 def wilson(successes: float, n: float, z: float = 1.96) -> tuple[float, float]:
@@ -116,11 +116,24 @@ def mean_sem(rows: Rows, values: Sequence[float]) -> float:
     return iid * math.sqrt(deff) if math.isfinite(deff) else iid
 
 
+FEW_PLUMES = 10
+"""Fewer plume realisations than this, of several starts each, are said to widen an interval
+(Student's t on 1 degree of freedom is 12.7: two plumes' interval reads near 0-100%, which a
+diff review read as a bug)."""
+
+
 def plumes_note(rows: Rows) -> str | None:
-    """What a reader of an interval over these rows must know: one plume realisation only."""
-    if replicates(rows) < 2 and len(rows) > 1:
+    """What a reader of an interval over these rows must know: one plume realisation only, or
+    few of several starts each (the interval is then wide, and why)."""
+    k = replicates(rows)
+    if k < 2 and len(rows) > 1:
         return ("one plume realisation: its interval covers the starts' spread only, not the "
                 "plumes' (fly more replicates: --runs-per-start)")
+    if 2 <= k < FEW_PLUMES and len(rows) > k:
+        return (f"{k} plume realisations: how much plumes differ is estimated from {k} "
+                f"(Student's t on {k - 1} degree{'s' * (k > 2)} of freedom, "
+                f"{t975(k - 1):.3g} for 1.96), so the interval is wide; more replicates "
+                "(--runs-per-start) narrow it")
     return None
 
 

@@ -96,6 +96,13 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         if f"{path}.variant" in paths:
             raise ValueError(f"sweeps of {path} and {path}.variant both set its variant: give "
                              f"the variants in the sweep of {path}")
+        given = {k for s in sweeps if path in s.paths for v in s.values
+                 if isinstance(v, dict) for k in v}
+        both = sorted(k for k in given if f"{path}.{k}" in paths)
+        if both:  # the parameter's sweep, applied after, had silently replaced the mapping's
+            # value under a label that still showed it (a diff review)
+            raise ValueError(f"sweeps of {path} and {path}.{both[0]} both set {both[0]}: give "
+                             f"it in one of them")
     combos = itertools.product(*(s.values for s in sweeps)) if sweeps else [()]
     base = mission_to_data(mission)
     # A configuration is one point of the study, not the study: without the study section

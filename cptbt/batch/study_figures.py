@@ -18,7 +18,7 @@ import numpy as np
 from cptbt.batch.comparison import search_time
 from cptbt.batch.compass import _north_arrow, _north_points, north_corner
 from cptbt.batch.figures import flow_arrow
-from cptbt.batch.intervals import rate_interval
+from cptbt.batch.intervals import rate_interval, replicates
 from cptbt.batch.report import (
     Rows,
     StudyGeometry,
@@ -243,6 +243,9 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
     fig, ax = plt.subplots(figsize=(fig_w, 4.2 + (0.14 * longest if slant else 0.0)),
                            layout="constrained")
     pos = np.arange(len(labels))
+    # over the plumes where there are several; one plume's covers its starts only (a review)
+    over = (" over plumes" if all(replicates(groups[lab]) > 1 for lab in labels)
+            else ", one plume: its starts only")
     for k, (key, name, colour) in enumerate(bars):
         rate, lo, hi, counts = [], [], [], []
         for lab in labels:
@@ -255,7 +258,7 @@ def _rates(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None:
             lo.append(max(0.0, hits / len(rows) - a))
             hi.append(max(0.0, b - hits / len(rows)))
         drawn = ax.bar(pos + (k - (len(bars) - 1) / 2) * width, rate, width, yerr=[lo, hi],
-                       capsize=3, color=colour, label=f"{name} (95% CI over plumes)")
+                       capsize=3, color=colour, label=f"{name} (95% CI{over})")
         # the count on each bar: a rate of 0 is no bar, only its interval (a review read it as
         # a floating error bar)
         ax.bar_label(drawn, counts, padding=2, fontsize=7, label_type="edge")

@@ -47,12 +47,13 @@ class Sweep:
         if "=" not in text:
             raise ValueError(f"{text!r}: expected PATH=V1,V2,...")
         left, right = text.split("=", 1)
+        shown = text if len(text) <= 120 else text[:117] + "..."  # not 5 000 digits again
         try:
             values = tuple(load_scalar(v) for v in split_values(right) if v.strip())
         except OldNumberError as exc:
-            raise ValueError(f"{text!r}: {exc}") from None
+            raise ValueError(f"{shown!r}: {exc}") from None
         except yaml.YAMLError as exc:
-            raise ValueError(f"{text!r}: a value is not YAML: {' '.join(str(exc).split())}"
+            raise ValueError(f"{shown!r}: a value is not YAML: {' '.join(str(exc).split())}"
                              ) from None
         if not values:
             raise ValueError(f"{text!r}: no values")
@@ -103,8 +104,9 @@ def label_parts(label: str) -> list[str]:
 def value_yaml(value: Any) -> str:
     """A swept value as one would type it: ``8``, ``upflow_cluster``,
     ``{variant: likelihood_map, radius_m: 8}``."""
-    if isinstance(value, (dict, list)):
-        return yaml.safe_dump(value, default_flow_style=True, sort_keys=False, width=10**6).strip()
+    if isinstance(value, (dict, list)) or value is None or isinstance(value, bool):
+        text = yaml.safe_dump(value, default_flow_style=True, sort_keys=False, width=10**6)
+        return text.strip().removesuffix("...").strip()  # a bare scalar's document end
     return str(value)
 
 
@@ -114,8 +116,7 @@ def value_label(value: Any) -> str | Any:
     value as it is."""
     if not isinstance(value, dict):
         return value
-    rest = ", ".join(f"{k}={value_yaml(v) if not isinstance(v, bool) else str(v).lower()}"
-                     for k, v in value.items() if k != "variant")
+    rest = ", ".join(f"{k}={value_yaml(v)}" for k, v in value.items() if k != "variant")
     return f"{value.get('variant', '')}({rest})" if rest else str(value.get("variant", "()"))
 
 

@@ -71,7 +71,8 @@ def test_a_mean_times_error_counts_the_plumes_and_is_never_below_the_runs() -> N
 
 def test_student_t_falls_to_the_normal_quantile() -> None:
     assert t975(1) == pytest.approx(12.706) and t975(30) == pytest.approx(2.042)
-    assert 1.96 < t975(60) < 2.01 and t975(500) == 1.96 and math.isnan(t975(0))
+    assert 1.96 < t975(60) < 2.01 and 1.96 < t975(500) < 1.965 and math.isnan(t975(0))
+    assert t975(120) > t975(121) > t975(122)  # no step (a diff review saw one at 121)
 
 
 def test_a_paired_difference_from_one_plume_is_one_piece_of_evidence() -> None:
@@ -95,3 +96,14 @@ def test_a_paired_difference_from_one_plume_is_one_piece_of_evidence() -> None:
     single = [({"replicate": r, "success": True}, {"replicate": r, "success": r % 2 == 0})
               for r in range(8)]
     assert clustered_mcnemar(single) is None
+
+
+def test_few_plumes_of_several_starts_say_why_their_interval_is_wide() -> None:
+    """A diff review read two plumes' 5.7%-100% as a bug: the table now says why."""
+    rows, hits = _grid([23, 23], starts=25)
+    lo, hi = rate_interval(rows, hits)
+    assert hi - lo > 0.5
+    note = plumes_note(rows)
+    assert note is not None and note.startswith("2 plume realisations") and "12.7" in note
+    assert plumes_note(_grid([9] * 12, starts=10)[0]) is None
+    assert plumes_note([{"replicate": r} for r in range(3)]) is None  # one run a plume

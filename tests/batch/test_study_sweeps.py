@@ -153,6 +153,12 @@ def test_a_whole_behaviour_sweep_compares_a_variant_with_settings_of_another() -
     with pytest.raises(ValueError, match=r"declare_source and declare_source\.variant"):
         configurations(mission, [sweep, Sweep.parse("declare_source.variant=recent_box")],
                        str(path))
+    # a setting a mapping gives, swept too: one would silently replace the other (a diff
+    # review's labels showed confidence=0.95 where 0.8 and 0.9 flew)
+    with pytest.raises(ValueError, match=r"declare_source and declare_source\.radius_m both "
+                                         r"set radius_m"):
+        configurations(mission, [sweep, Sweep.parse("declare_source.radius_m=5,10")],
+                       str(path))
     from cptbt.loader import MissionError
 
     with pytest.raises(MissionError, match=r"sweep declare_source=likelihood_map\(radius_m=-1\)"):
@@ -525,3 +531,17 @@ def test_one_problem_of_many_sweep_values_is_told_once() -> None:
     assert line == (f"{path} [sweep perception.thresold=0.1; perception.thresold=0.2; "
                     "perception.thresold=0.3 and 2 more]: perception.thresold: unknown key; "
                     "did you mean 'threshold'?"), line
+
+
+@pytest.mark.parametrize(("text", "says"), [
+    ("declare_source={variant: likelihood_map, radius_m: 010}", "'010' is read by YAML 1.1 as 8"),
+    ("environment.source=[043, -55]", "'043' is read by YAML 1.1 as 35"),
+    ("environment.source=[1" + "0" * 5000 + ", 0]", "a number 5001 characters long"),
+])
+def test_old_numbers_inside_a_mapping_or_list_sweep_value_are_refused(text: str,
+                                                                      says: str) -> None:
+    """A diff review: a whole behaviour's ``radius_m: 010`` flew 8 and a point's
+    ``[043, -55]`` put the source 8 m off, where a plain value or a mission file refuses."""
+    with pytest.raises(ValueError, match=says) as caught:
+        Sweep.parse(text)
+    assert len(str(caught.value)) < 400

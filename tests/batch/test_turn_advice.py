@@ -203,8 +203,9 @@ def test_a_box_no_wider_than_the_turning_circle_is_told_whatever_the_guard(
 @pytest.mark.parametrize(("step", "warned"), [(None, True), (14, True), (15, False)])
 def test_infotaxis_moves_shorter_than_the_turning_circle_are_told(step: float | None,
                                                                  warned: bool) -> None:
-    """A review swapped infotaxis and SAI in at their defaults (6-m moves): the REMUS was over
-    45° off the command most cycles and both flew one track, bit for bit."""
+    """A new user swapped infotaxis and SAI in at their defaults (6-m moves) as the reacquire
+    behaviour of their own MSN007-like mission: the REMUS was over 45° off the command most
+    cycles, and the two flew one track, bit for bit (their seed; not every seed)."""
     text = (ROOT / "missions/tro2006_msn007_infotaxis.yaml").read_text(encoding="utf-8")
     given = "step_m: 15, replan_s: 6"
     assert given in text
@@ -213,4 +214,4 @@ def test_infotaxis_moves_shorter_than_the_turning_circle_are_told(step: float | 
     got = [(loc, msg) for loc, msg in advisories(mission) if "turning circle" in msg]
     assert bool(got) == warned, got
     if warned:
-        assert got[0][0][-1] == "step_m" and "cannot reach before it plans again" in got[0][1]
+        assert got[0][0][-1] == "step_m" and "cannot turn onto before it reaches them" in got[0][1]
