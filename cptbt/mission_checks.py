@@ -135,7 +135,11 @@ def corner_fit_note(m: MissionBase) -> str | None:
                                                      (area.xmax, area.ymax))]
     # in the file's order, each beside the corner it replaces (a diff review could not match
     # them one by one)
-    ne = [min(fitted, key=lambda f, c=c: math.hypot(f[0] - c[0], f[1] - c[1])) for c in written]
+
+    def nearest(c: tuple[float, float]) -> tuple[float, float]:
+        return min(fitted, key=lambda f: math.hypot(f[0] - c[0], f[1] - c[1]))
+
+    ne = [nearest(c) for c in written]
     local = m.local_frame() if m.frame == "geodetic" else None
     if local is not None:
         flown = ", ".join(f"[{g.lat_deg:.6f}, {g.lon_deg:.6f}]"

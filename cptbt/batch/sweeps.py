@@ -77,8 +77,8 @@ def split_values(text: str) -> list[str]:
     for i, ch in enumerate(text):
         if quote:
             quote = "" if ch == quote else quote
-        elif ch in "'\"":
-            quote = ch
+        elif ch in "'\"" and text[:i].rstrip()[-1:] in ("", ",", "[", "{", ":"):
+            quote = ch  # a quoted scalar's opening, not an apostrophe in a word (o'clock)
         elif ch in "[{":
             depth += 1
         elif ch in "]}":

@@ -112,6 +112,13 @@ def test_a_label_splits_at_its_settings_not_inside_a_behaviours_mapping() -> Non
     assert label_parts("tro2006_msn007") == ["tro2006_msn007"]
 
 
+def test_sweep_values_split_at_commas_outside_brackets_and_quotes() -> None:
+    from cptbt.batch.sweeps import split_values
+
+    assert split_values("a,'b,c',{k: 'x,y'},o'clock,d") == [
+        "a", "'b,c'", "{k: 'x,y'}", "o'clock", "d"]
+
+
 def test_a_whole_behaviour_sweep_parses_mappings_with_commas() -> None:
     s = Sweep.parse("declare_source=upflow_cluster,{variant: likelihood_map, radius_m: 8},"
                     " {variant: likelihood_map, flyby: true}, 'a,b'")
