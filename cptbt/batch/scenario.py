@@ -13,18 +13,21 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema
 
-from cptbt.batch.sensing_advice import lambda_advice, threshold_advice
-from cptbt.batch.sim_advice import (
+from cptbt.batch.sensing_advice import (
     adcp_advice,
     dropout_advice,
+    lambda_advice,
+    noise_advice,
+    sensor_rate_advice,
+    threshold_advice,
+)
+from cptbt.batch.sim_advice import (
     flow_direction_advice,
     launch_turn_advice,
     leaf_advice,
     move_advice,
-    noise_advice,
     pace_advice,
     plain,
-    sensor_rate_advice,
     source_wall_advice,
     turn_guard_advice,
 )

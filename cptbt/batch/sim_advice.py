@@ -1,8 +1,8 @@
 """Warnings only a simulated world shows: settings of the simulator (or the mission against
 it) that are valid but likely not what the author means, as (key path, message) for
-:func:`cptbt.batch.scenario.advisories`: a noisy or dropping fluorometer, a noisy ADCP, a
-cloverleaf no wider than the vehicle's turn, a cycle the simulator cannot keep, a current too
-strong or too weak."""
+:func:`cptbt.batch.scenario.advisories`: a cloverleaf no wider than the vehicle's turn, a
+cycle the simulator cannot keep, a current too strong or too weak, a box or a move the turn
+does not fit (the sensors' warnings: :mod:`cptbt.batch.sensing_advice`)."""
 
 from __future__ import annotations
 
@@ -14,34 +14,6 @@ from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.sim.world import EnvironmentParams
 from cptbt.types import Point
 
-NOISE_ALARMS_PER_S = 1e-3
-"""A simulated fluorometer whose noise alone would make more false detections than this in
-clean water (one every 1 000 s of mission) is warned of."""
-
-
-def clean_water_alarm(noise_std: float, threshold: float, samples: float) -> float:
-    """The chance that a planning cycle in clean water reads above ``threshold`` from the
-    fluorometer's Gaussian noise alone: the cycle's reading is the largest of its ``samples``
-    (the perception keeps the cycle's maximum; a mean count, when cycles get 4 or 5), so
-    ``1 - Φ(threshold / noise_std)^samples``."""
-    if noise_std <= 0.0:
-        return 0.0
-    below = 0.5 * (1.0 + math.erf(threshold / (noise_std * math.sqrt(2.0))))
-    return -math.expm1(max(samples, 1.0) * math.log(below)) if below > 0.0 else 1.0
-
-
-def quiet_threshold(noise_std: float, samples: float, cycle_hz: float) -> float:
-    """The lowest threshold at which that noise makes at most :data:`NOISE_ALARMS_PER_S`
-    false detections a second (bisection on :func:`clean_water_alarm`; inf if none does)."""
-    limit = NOISE_ALARMS_PER_S / cycle_hz
-    lo, hi = 0.0, 40.0 * noise_std
-    if not math.isfinite(hi) or clean_water_alarm(noise_std, hi, samples) > limit:
-        return math.inf
-    for _ in range(100):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if clean_water_alarm(noise_std, mid, samples) > limit else (lo, mid)
-    return hi
-
 
 def plain(v: float) -> str:
     """A number as a user writes it, without an exponent between 1e-6 and 1e15 (1000000,
@@ -52,18 +24,18 @@ def plain(v: float) -> str:
     return text.rstrip("0").rstrip(".") if "." in text else text
 
 
-def _two_figures(v: float) -> str:
+def two_figures(v: float) -> str:
     """Two significant figures, without an exponent (260, 0.39, 3.7, 1,200,000)."""
     r = float(f"{v:.2g}")
     return f"{r:,.0f}" if 100 <= r < 1e15 else plain(r)
 
 
-def _two_figures_up(v: float) -> str:
+def two_figures_up(v: float) -> str:
     """``v`` rounded *up* to two significant figures (a threshold to set must be enough)."""
     if v <= 0.0 or not math.isfinite(v):
         return plain(v)
     step = 10.0 ** (math.floor(math.log10(v)) - 1)
-    return _two_figures(math.ceil(v / step - 1e-9) * step)
+    return two_figures(math.ceil(v / step - 1e-9) * step)
 
 
 WEAK_CURRENT_MPS = 0.02
@@ -82,8 +54,8 @@ def pace_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem
     step_hz = 1.0 / params.dt_s
     if mission.cycle_hz > step_hz * (1 + 1e-9):
         out.append((("cycle_hz",), f"{plain(mission.cycle_hz)} Hz is faster than the "
-                    f"simulator's step ({_two_figures(params.dt_s)} s, the fluorometer's rate): "
-                    f"simulated, the planner ticks once a step, {_two_figures(step_hz)} Hz; "
+                    f"simulator's step ({two_figures(params.dt_s)} s, the fluorometer's rate): "
+                    f"simulated, the planner ticks once a step, {two_figures(step_hz)} Hz; "
                     "raise environment.fluorometer.rate_hz (or lower dt_s) to fly it"))
     current = params.flow.mean_speed_mps
     steer = [f"{e.family} {e.variant}" for e in mission.entries() if e.contract.needs_flow]
@@ -144,133 +116,6 @@ def move_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem
                     "than the policy's (missions/tro2006_msn007_infotaxis.yaml flies "
                     "step_m: 15, replan_s: 6)"))
     return out
-
-
-def dropout_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
-    """A fluorometer that drops so many samples that half the planning cycles or more have no
-    reading at all (a cycle reads the largest of its samples; one with none reads nothing,
-    neither plume nor clean water): at ``dropout_prob: 1`` a review's runs timed out as if
-    in clean water."""
-    sensor = params.fluorometer
-    samples = max(sensor.rate_hz / mission.cycle_hz, 1.0)
-    blind = sensor.dropout_prob ** samples
-    if blind < 0.5:
-        return []
-    what = ("every sample is dropped: the vehicle can never detect plume"
-            if sensor.dropout_prob >= 1.0 else
-            f"{_two_figures(100 * blind)}% of planning cycles would have no reading "
-            + (f"(every one of their {samples:.3g} samples dropped)" if samples > 1
-               else "(their one sample dropped)"))
-    return [(("environment", "fluorometer", "dropout_prob"),
-             f"{plain(sensor.dropout_prob)}: {what}")]
-
-
-def sensor_rate_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
-    """Sensors whose settings leave the planner without what it reads (an attacker's review:
-    each validated silently and flew a degenerate run): a fluorometer sampling slower than
-    every other planning cycle (a cycle with no sample reads nothing); an ADCP giving fewer
-    than one sample in the flow window, or a mean current at or above
-    ``perception.max_flow_speed_mps`` (every sample dropped as faulty: no command 44% of the
-    time, 13.7 m outside); a navigation drift as large as the success radius."""
-    out: list[Problem] = []
-    per_cycle = params.fluorometer.rate_hz / mission.cycle_hz
-    if per_cycle < 0.5:
-        out.append((("environment", "fluorometer", "rate_hz"),
-                    f"{plain(params.fluorometer.rate_hz)} Hz: a sample every "
-                    f"{1.0 / params.fluorometer.rate_hz:.3g} s, so at most "
-                    f"{_two_figures(100 * per_cycle)}% of planning cycles have a reading (one "
-                    "without reads nothing, neither plume nor clean water)"))
-    steer = any(e.contract.needs_flow for e in mission.entries()) and \
-        mission.perception.flow_source != "none"
-    window, rate = mission.perception.flow_window_s, params.adcp.rate_hz
-    if steer and rate * window < 1.0:
-        out.append((("environment", "adcp", "rate_hz"),
-                    f"{plain(rate)} Hz: fewer than one flow sample in perception.flow_window_s "
-                    f"({plain(window)} s), so the flow estimate the behaviours steer by is "
-                    "missing or held most of the time"))
-    gate, current = mission.perception.max_flow_speed_mps, params.flow.mean_speed_mps
-    if steer and current >= gate:
-        out.append((("perception", "max_flow_speed_mps"),
-                    f"{plain(gate)} m/s is no faster than the simulated mean current "
-                    f"({plain(current)} m/s): flow samples are dropped as faulty, so the flow "
-                    "estimate the behaviours steer by is missing"))
-    drift, radius = params.navigation.drift_std_m, mission.evaluation.success_radius_m
-    if drift >= radius and mission.evaluation.criterion == "declaration":  # arrival is judged
-        # on the true track (a diff review: AB missions were told of "declared points")
-        out.append((("environment", "navigation", "drift_std_m"),
-                    f"{plain(drift)} m: the position estimate drifts as far as the success "
-                    f"radius ({plain(radius)} m) between fixes, so declared points and the "
-                    f"OpArea's walls ({RELINQUISH_OUTSIDE_M:g} m outside gives control back, "
-                    "by the estimate) are that far off"))
-    return out
-
-
-ADCP_DIRECTION_ERROR_DEG = 20.0
-"""An ADCP noisy enough that the windowed mean's direction errs by more than this is warned of."""
-
-
-def adcp_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
-    """An ADCP too noisy for the flow estimate, when behaviours steer by it: most samples
-    beyond ``perception.max_flow_speed_mps`` (dropped: a review's 100 m/s noise left the
-    tree without a command 44% of the time and the watchdog ended the run), or the windowed
-    mean's direction off by more than :data:`ADCP_DIRECTION_ERROR_DEG` (the noise of a mean
-    of ``window · rate`` samples against the mean current)."""
-    sigma = params.adcp.noise_std_mps
-    steer = any(e.contract.needs_flow for e in mission.entries())
-    if sigma <= 0.0 or not steer or mission.perception.flow_source == "none":
-        return []
-    where = ("environment", "adcp", "noise_std_mps")
-    gate = mission.perception.max_flow_speed_mps
-    dropped = math.exp(-gate * gate / (2.0 * sigma * sigma))  # |noise| beyond the gate
-    if dropped >= 0.5:
-        return [(where, f"{plain(sigma)} m/s: {_two_figures(100 * dropped)}% of the flow "
-                 f"samples would be faster than perception.max_flow_speed_mps ({plain(gate)} "
-                 "m/s) and dropped, so the flow estimate the behaviours steer by is missing or "
-                 "rests on a few samples")]
-    current = params.flow.mean_speed_mps
-    if current < WEAK_CURRENT_MPS:  # no direction to miss: pace_advice warns of the current
-        return []
-    samples = max(mission.perception.flow_window_s * params.adcp.rate_hz, 1.0)
-    error = math.degrees(math.atan2(sigma / math.sqrt(samples), current))
-    if error > ADCP_DIRECTION_ERROR_DEG:
-        return [(where, f"{plain(sigma)} m/s: the flow estimate, a mean of about "
-                 f"{samples:.0f} samples, would still point about {error:.0f}° off the mean "
-                 f"current ({plain(params.flow.mean_speed_mps)} m/s); lengthen "
-                 "perception.flow_window_s or lower the noise")]
-    return []
-
-
-def noise_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
-    """A fluorometer noise that makes detections in clean water common (measured on MSN007,
-    20 runs each: noise 0.1 against TRO's threshold 0.2, ~19% of cycles, and the TRO rule
-    declared 17 times, 71 m off on average; 0.06, ~0.4%, and the likelihood map declared once
-    30 m off). The rate is per second of mission, so a faster planning cycle (fewer samples
-    a cycle, more cycles) is judged alike; a sensor's own output threshold ``tau`` above the
-    perception's is the one a reading must pass."""
-    sensor = params.fluorometer
-    threshold = mission.perception.threshold
-    samples = max(sensor.rate_hz / mission.cycle_hz, 1.0)
-    # a sensor slower than the cycle leaves cycles without a sample (no reading, no alarm)
-    cycles_hz = min(mission.cycle_hz, sensor.rate_hz)
-    bar = max(threshold, sensor.tau)
-    alarm = clean_water_alarm(sensor.noise_std, bar, samples)
-    per_s = alarm * cycles_hz
-    if per_s <= NOISE_ALARMS_PER_S:
-        return []
-    share = "nearly all" if alarm >= 0.995 else f"{_two_figures(100 * alarm)}% of"
-    every = ("nearly every cycle" if alarm >= 0.995
-             else f"about one false detection every {_two_figures(1.0 / per_s)} s")
-    each = f"the largest of {samples:.3g} samples each" if samples > 1 else "one sample each"
-    good = quiet_threshold(sensor.noise_std, samples, cycles_hz)
-    fix = (f"a threshold of {_two_figures_up(good)} or more keeps it under one every 1 000 s"
-           if math.isfinite(good) else "no threshold keeps it rare")
-    return [(("environment", "fluorometer", "noise_std"),
-             f"{plain(sensor.noise_std)} against perception.threshold {plain(threshold)}"
-             + (f" (the sensor's own tau {plain(sensor.tau)} above it)"
-                if sensor.tau > threshold
-                else "") + ": in clean water "
-             f"the noise alone reads above the threshold in {share} planning cycles ({each}), "
-             f"{every}; the tracker chases them and a declaration can land anywhere ({fix})")]
 
 
 def launch_turn_advice(mission: MissionBase, params: EnvironmentParams,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cptbt.batch.scenario import Environment, advisories
-from cptbt.batch.sim_advice import NOISE_ALARMS_PER_S, clean_water_alarm, quiet_threshold
+from cptbt.batch.sensing_advice import NOISE_ALARMS_PER_S, clean_water_alarm, quiet_threshold
 from cptbt.loader import loads_mission
 from cptbt.perception import Perception, PerceptionSettings
 from cptbt.registry import default_registry
