@@ -29,7 +29,10 @@ def differences(old: dict[str, Any], new: dict[str, Any]) -> str:
         if a == b:
             continue
         if key == "config_missions":
-            said.extend(_mission_differences(a, b))
+            same = (isinstance(a, list) and isinstance(b, list)
+                    and sorted(map(str, a)) == sorted(map(str, b)))
+            said.extend(["the same configurations in another order (the order of the sweep "
+                         "values numbers them)"] if same else _mission_differences(a, b))
         elif key == "sweeps" and isinstance(a, dict) and isinstance(b, dict):
             # each swept path that differs, with its values (a review: the two JSON texts cut
             # at 40 characters hid exactly the value that differed)

@@ -260,6 +260,13 @@ def test_a_different_study_is_told_by_what_differs(tmp_path: Path) -> None:
     assert ("sweep declare_source {variant: likelihood_map, radius_m: 12, upflow_check_m: 10} "
             "there only; {variant: likelihood_map, radius_m: 9, upflow_check_m: 10} here only"
             ) in str(caught.value)
+    # the same values in another order: said so, not every configuration's mission diff (a
+    # diff review read "... and 57 more")
+    ResultStore(tmp_path / "ord").open({**meta, "config_missions": ["a: 1", "a: 2"]},
+                                       study="s9", code="c1")
+    with pytest.raises(StudyMismatch, match=r"the same configurations in another order"):
+        ResultStore(tmp_path / "ord").open({**meta, "config_missions": ["a: 2", "a: 1"]},
+                                           study="s10", code="c1")
     with pytest.raises(StudyMismatch, match=r"\(other missions or options\)$"):
         ResultStore(tmp_path).open(meta, study="s3", code="c1")  # nothing recorded differs
     # the mission's path is no difference (a copy elsewhere is the same study); an option
