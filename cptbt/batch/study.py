@@ -130,7 +130,7 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
                 raise
             # every bad combination told, not the first alone (a review fixed and validated
             # again once per bad value)
-            bad.append(_swept_error(exc.located, source, lines, swept, sweeps))
+            bad.append(_swept_error(exc.located, source, lines, swept, sweeps, coords))
             continue
         if swept and validated.environment is not None:
             # The simulator's own limits (environment.dt_s, flow overrides...), as `load` checks
@@ -141,13 +141,13 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
 
             found = problems(validated, simulate=False)
             if found:
-                bad.append(_swept_error(found, source, lines, swept, sweeps))
+                bad.append(_swept_error(found, source, lines, swept, sweeps, coords))
                 continue
             error = check(validated)
             if error is not None:
                 located = located_errors(error, data.get("environment") or {}, ("environment",),
                                          EnvironmentParams)
-                bad.append(_swept_error(located, source, lines, swept, sweeps))
+                bad.append(_swept_error(located, source, lines, swept, sweeps, coords))
                 continue
         text = dump_mission(validated)
         twin = by_text.get(text)
@@ -160,6 +160,14 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
     if bad:
         raise MissionError(_merged(line for e in bad for line in e.problems))
     return out
+
+
+def _sets(sweep_path: str, path: str) -> bool:
+    """Whether a sweep of ``sweep_path`` sets the mission key ``path`` (a problem's dotted
+    location: ``behaviours[1].declare_source.radius_m`` is set by ``declare_source.radius_m``
+    and by ``declare_source`` whole)."""
+    return (path == sweep_path or path.endswith("." + sweep_path)
+            or ("." not in sweep_path and sweep_path in path.split(".")))
 
 
 def _merged(lines: Iterable[str]) -> list[str]:
@@ -179,28 +187,33 @@ def _merged(lines: Iterable[str]) -> list[str]:
             said.setdefault((line, ""), [])
     out = []
     for (before, after), sweeps in said.items():
+        sweeps = list(dict.fromkeys(sweeps))  # one value under many other sweeps' values
         more = f" and {len(sweeps) - 3} more" if len(sweeps) > 3 else ""
         out.append(f"{before}{'; '.join(sweeps[:3])}{more}{after}" if sweeps else before)
     return out
 
 
 def _swept_error(located: list[tuple[Loc, str]], source: str, lines: dict[Loc, int] | None,
-                 swept: str, sweeps: Sequence[Sweep] = ()) -> MissionError:
+                 swept: str, sweeps: Sequence[Sweep] = (),
+                 coords: dict[str, Any] | None = None) -> MissionError:
     """A swept mission's problems, the sweep named: at the line of the file's own
     ``study.sweeps`` entry that set the value, else at the key's line in the file, or without a
-    line (a key the file lacks, swept from the command line)."""
+    line (a key the file lacks, swept from the command line). A problem at a swept path names
+    that sweep's value alone (``coords``, the configuration's values; a diff review read a
+    lambda_s problem under every other sweep's values too)."""
     out = []
     for loc, msg in located:
+        path = dotted(loc)
+        mine = [s for s in sweeps if any(_sets(p, path) for p in s.paths)]
+        named = (", ".join(f"{s.name}={coords[s.name]}" for s in mine)
+                 if mine and coords is not None and all(s.name in coords for s in mine)
+                 else swept)
         where = None
         if lines is not None:  # the study entry that set the value, else the key's own line
-            path = dotted(loc)
-            where = next((lines[("study", "sweeps", s.name)] for s in sweeps
-                          if ("study", "sweeps", s.name) in lines
-                          and any(path == p or path.endswith("." + p)
-                                  or ("." not in p and p in path.split(".")) for p in s.paths)),
-                         lines.get(loc))
-        out.append(f"{source}:{where}: {dotted(loc)}: {msg} (with sweep {swept})"
-                   if where is not None else f"{source} [sweep {swept}]: {dotted(loc)}: {msg}")
+            where = next((lines[("study", "sweeps", s.name)] for s in mine
+                          if ("study", "sweeps", s.name) in lines), lines.get(loc))
+        out.append(f"{source}:{where}: {path}: {msg} (with sweep {named})"
+                   if where is not None else f"{source} [sweep {named}]: {path}: {msg}")
     return MissionError(out)
 
 

@@ -552,3 +552,23 @@ def test_old_numbers_inside_a_mapping_or_list_sweep_value_are_refused(text: str,
     with pytest.raises(ValueError, match=says) as caught:
         Sweep.parse(text)
     assert len(str(caught.value)) < 400
+
+
+def test_a_problem_names_the_sweep_that_set_its_key_alone() -> None:
+    """A diff review read a lambda_s problem "(with sweep perception.threshold=0.1,
+    perception.lambda_s=-1, ...; ... and 107 more)": the other sweeps had nothing to do with
+    it."""
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.study import configurations
+    from cptbt.loader import MissionError, loads_mission
+    from cptbt.registry import default_registry
+
+    path = Path(__file__).resolve().parents[2] / "missions/tro2006_msn007.yaml"
+    mission = loads_mission(path.read_text(encoding="utf-8"), str(path), default_registry(),
+                            Environment)
+    with pytest.raises(MissionError) as caught:
+        configurations(mission, [Sweep.parse("perception.threshold=0.1,0.2,0.3"),
+                                 Sweep.parse("perception.lambda_s=-1")], str(path))
+    (line,) = caught.value.problems
+    assert "[sweep perception.lambda_s=-1]: perception.lambda_s:" in line, line
+    assert "perception.threshold=" not in line, line
