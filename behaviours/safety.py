@@ -67,6 +67,12 @@ class OpAreaSafety(PlanBehaviour):
     family: ClassVar[str] = "safety"
     variant: ClassVar[str] = "oparea"
     contract: ClassVar[Contract] = Contract(needs_flow=False)
+    ends_move_to_field: ClassVar[bool] = False
+    """Reading chosen: bringing the vehicle in does not end move-to-field. TRO III blocks
+    move-to-field "once the vehicle activates any other behaviors", meaning the search's; a
+    study's vehicles launched from a dock outside the OpArea were brought in by safety and
+    never went to their starts (a review: 0 cycles of move-to-field in every run, each filed
+    under a start it never flew from)."""
     Params: ClassVar[type[BehaviourParams]] = OpAreaSafetyParams
     params: OpAreaSafetyParams
 
@@ -131,6 +137,7 @@ class OpAreaSafetyFleet(FleetRule):
 
     def prepare(self) -> None:
         """The excursion state per vehicle and the blackboard's ``oparea_exit`` arrays."""
+        self.ends_move_to_field = False  # as OpAreaSafety's
         n, a = self.n, self.context.op_area
         self.has_taken = np.zeros(n, dtype=bool)
         self.taken_x = np.full(n, np.nan)

@@ -116,7 +116,8 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
                 if worlds else "")
              + ", run by run on the same plume, start and vehicle noise: the runs only one "
              "of the two succeeded in (exact McNemar p on those; where a plume holds several "
-             "starts, McNemar's test clustered by plume, Durkalski et al. 2003), and the mean "
+             "starts, an exact sign-flip test over the plumes' differences, as McNemar's "
+             "clustered by plume), and the mean "
              "time difference over the runs both succeeded in (this minus the first, ± SE over "
              "plumes).", "",
              "| configuration | against | pairs | succeeded only here / only there | McNemar p "

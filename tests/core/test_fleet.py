@@ -206,8 +206,12 @@ def test_a_navigation_jump_across_the_oparea_during_safety_is_survived_alike(
                                                                       cmd.speed_mps)
             out.append((y, tree.active, cmd.heading_deg))
     y, active, heading = out[-1]  # back inside, find-plume: heading away from the north wall
-    assert active is not None and active.startswith("find_plume")
-    assert math.sin(math.radians(heading)) <= 0.0, out[-6:]
+    if any(e.family == "move_to_field" for e in mission.entries()):  # TRO's: bringing the
+        # vehicle in does not end move-to-field (session 27), which drives on to the start
+        assert active == "move_to_field.go_to", out[-6:]
+    else:
+        assert active is not None and active.startswith("find_plume")
+        assert math.sin(math.radians(heading)) <= 0.0, out[-6:]
     tree.close()
 
 
