@@ -37,7 +37,7 @@ from cptbt.perception import MAX_CLOCK_JUMP_S, MAX_FIX_OUTSIDE_M
 from cptbt.phases import MissionPhases
 from cptbt.planner import Planner
 from cptbt.policy import give_back_trigger
-from cptbt.types import Command
+from cptbt.types import Command, Point
 
 log = logging.getLogger(__name__)
 
@@ -344,7 +344,15 @@ class AmpSession:
         if ph.state == "amp.give_back" and s.mode in ("returning", "mission"):
             ph.fire("vehicle_returning", s.t_s)
         if ph.state == "return_to_break_off" and s.mode == "mission":
-            ph.fire("break_off_reached", s.t_s, f"at ({s.x_m:.1f}, {s.y_m:.1f})")
+            ph.fire("break_off_reached", s.t_s, self._where(s.x_m, s.y_m))
+
+    def _where(self, x: float, y: float) -> str:
+        """A planning point as the mission's frame names it (a review read an N-E mission's
+        break-off ``(-20.5, 10.0)`` as N, E: it was planning x, y)."""
+        if self.mission.frame == "planning":
+            return f"at x {x:.1f} m, y {y:.1f} m"
+        n, e = self.mission.to_ne(Point(x, y))
+        return f"at N {n:.1f} m, E {e:.1f} m"
 
     def _enable_due(self) -> bool:
         """Whether the take-over is due: ``amp_enable_s`` after the launch, timed from the

@@ -428,8 +428,13 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m), 90° clockwise from x")
-    ax.set_title("Where the source is likely: the source-likelihood map at the "
-                 + ("last declaration" if len(declared) > 1 else "declaration"), fontsize=10)
+    # the moment the map is drawn at, as its colour bar says (a review read "at the
+    # declaration" over a map drawn when the search gave up)
+    moment = ("when the search gave up" if report.get("search_given_up") else
+              "at the end of the run" if report.get("map_at") == "end" else
+              "at the last declaration" if len(declared) > 1 else "at the declaration")
+    ax.set_title(f"Where the source is likely: the source-likelihood map {moment}",
+                 fontsize=10)
 
 
 def _track(ax: Any, run: VehicleRun, waypoints: Sequence[Point] | None) -> None:

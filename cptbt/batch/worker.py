@@ -28,7 +28,7 @@ from cptbt.batch.scenario import (
     true_sources,
 )
 from cptbt.batch.study import GroupTask, config_label, group_seeds
-from cptbt.batch.summary import summarise
+from cptbt.batch.summary import place, summarise
 from cptbt.loader import loads_mission
 from cptbt.mission import MissionBase
 from cptbt.node import blame
@@ -337,6 +337,11 @@ def row_of(task: GroupTask, k: int, run: VehicleRun, mission: MissionBase, sourc
     row.update(flatten(summarise(run, mission, source, task.root_seed, wall_s,
                                  sources=true_sources(mission)).to_dict()))
     row.update(_placement(task, k, mission.name))
+    # the start's other axes are the study's start too, as start_x, start_y (in launch mode
+    # the run begins at the launch: a review read the launch in start_north/east, the grid
+    # start in start_x/y and tables.md)
+    row.update({f"start_{axis}": v
+                for axis, v in place(mission, Point(*task.starts[k])).items()})
     # the limit the run flew under (the study's, else its configuration's): a failure counts
     # as it in the mean search time and the maps
     row["run_time_limit_s"] = (task.time_limit_s if task.time_limit_s is not None

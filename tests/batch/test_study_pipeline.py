@@ -59,6 +59,14 @@ def test_launch_mode_drives_to_each_start(study: Path) -> None:
     rows = load_results(study)
     assert all((r.get("time_move_to_field_s") or 0) > 10 for r in rows), [
         r.get("time_move_to_field_s") for r in rows]
+    # every start column is the study's start, not the launch (a review read the launch in
+    # start_north/east, the grid start in start_x/y and tables.md)
+    meta = json.loads((study / "study.json").read_text())
+    for r in rows:
+        x, y = meta["starts"][r["start"]]
+        assert (r["start_x"], r["start_y"]) == pytest.approx((x, y))
+        assert (r["start_north"], r["start_east"]) == pytest.approx(
+            {0: (-55.5, 82.9), 1: (0.0, 60.0)}[r["start"]], abs=1e-6)
 
 
 def test_flags_override_the_study_section(tmp_path: Path) -> None:
