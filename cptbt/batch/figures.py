@@ -108,10 +108,9 @@ def pyplot() -> Any:
 
 def plume_grid(area: OpArea, margin_m: float = 10.0,
                cover: Sequence[Point] = ()) -> tuple[np.ndarray, np.ndarray]:
-    """A grid over the OpArea and the points ``cover`` (the true sources), each with a margin,
-    for plume snapshots, about 1-2 m per cell (at most 400 x 300 cells): a source allowed
-    outside had its star drawn in blank water, its plume starting at the grid's edge (a
-    review)."""
+    """A grid over the OpArea and the points ``cover`` (the true sources: one allowed outside
+    had its star in blank water, a review), with a margin, for plume snapshots, about 1-2 m
+    per cell (at most 400 x 300)."""
     xs = [area.xmin, area.xmax, *(p.x for p in cover)]
     ys = [area.ymin, area.ymax, *(p.y for p in cover)]
     x0, x1 = min(xs) - margin_m, max(xs) + margin_m
@@ -428,8 +427,7 @@ def _map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Poin
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m), 90° clockwise from x")
-    # the moment the map is drawn at, as its colour bar says (a review read "at the
-    # declaration" over a map drawn when the search gave up)
+    # when the map was drawn, as its colour bar says (a review read "at the declaration")
     moment = ("when the search gave up" if report.get("search_given_up") else
               "at the end of the run" if report.get("map_at") == "end" else
               "at the last declaration" if len(declared) > 1 else "at the declaration")
