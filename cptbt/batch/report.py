@@ -249,7 +249,7 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
         return []
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    from cptbt.batch.study_figures import _distributions, _line, _map, _rates
+    from cptbt.batch.study_figures import _distributions, _line, _map, _rates, drop_stale
 
     frame = geometry.ne_frame if geometry is not None else None
     grouped, notes = compared(rows, planned_runs)
@@ -258,7 +258,7 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
                                           study_header(study if study is not None
                                                        else study_json(out), len(groups)))]
     if not figures:
-        return [p for p in written if p is not None]
+        return drop_stale(out, [p for p in written if p is not None])
     plt = pyplot()
     per_config = config_geometries(study if study is not None else study_json(out))
     written.append(_map(groups, out / "time_to_source_map.png", plt, geometry, per_config))
@@ -268,7 +268,8 @@ def write_report(rows: Rows, out: Path, geometry: StudyGeometry | None = None,
     else:
         written.append(_rates(groups, out / "success_and_false_declarations.png", plt))
     written.append(_distributions(groups, out / "error_and_td_share.png", plt))
-    return [p for p in written if p is not None]
+    return drop_stale(out, [p for p in written if p is not None])
+
 
 
 def td_share(row: dict[str, Any]) -> float | None:

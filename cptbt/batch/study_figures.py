@@ -346,3 +346,18 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path
+
+
+STUDY_FIGURES = ("time_to_source_map.png", "time_vs_start.png", "maintain_time.png",
+                 "success_and_false_declarations.png", "error_and_td_share.png")
+"""The figures :func:`cptbt.batch.report.write_report` may draw."""
+
+
+def drop_stale(out: Path, written: list[Path]) -> list[Path]:
+    """Remove the study figures in ``out`` that this report did not draw: an earlier report's,
+    now stale (a review extended a study with ``--no-plots``: its old figures of 34 of 40 runs
+    stood beside tables of 48)."""
+    for name in STUDY_FIGURES:
+        if out / name not in written:
+            (out / name).unlink(missing_ok=True)
+    return written

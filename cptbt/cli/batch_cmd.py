@@ -402,8 +402,13 @@ WORKERS_PER_CPU = 4
 def _plots(results: Path, out: Path, quiet: bool, geometry: StudyGeometry | None,
            figures: bool = True) -> None:
     from cptbt.batch.report import write_report
+    from cptbt.batch.study_figures import STUDY_FIGURES
 
+    before = [out / name for name in STUDY_FIGURES if (out / name).exists()]
     written = write_report(load_results(results), out, geometry, figures)
     if not quiet:
         for path in written:
             print(f"  wrote {path}")
+        for path in before:
+            if not path.exists():
+                print(f"  removed {path}, an earlier report's (cptbt plot draws the figures)")

@@ -759,3 +759,20 @@ def test_a_swept_list_valued_world_setting_is_tabled(tmp_path: Path) -> None:
     names = {p.name for p in write_report(rows, tmp_path, figures=False)}
     assert names == {"tables.md"}
     assert "## Paired comparisons" not in (tmp_path / "tables.md").read_text()  # two worlds
+
+
+def test_a_report_without_figures_leaves_no_stale_ones(tmp_path: Path) -> None:
+    """A review extended a study with ``--no-plots``: the old figures (34 of 40 runs) stood
+    beside tables of 48, nothing said."""
+    geometry = StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0)
+    drawn = {p.name for p in write_report(grid_rows(), tmp_path, geometry)}
+    assert "success_and_false_declarations.png" in drawn
+    assert all((tmp_path / name).exists() for name in drawn)
+    assert {p.name for p in write_report(grid_rows(), tmp_path, geometry, figures=False)} == {
+        "tables.md"}
+    assert not list(tmp_path.glob("*.png"))
+    # one configuration now: its rates chart (two or more) is not drawn, and not left either
+    write_report(grid_rows(), tmp_path, geometry)
+    write_report(grid_rows(configs=1), tmp_path, geometry)
+    assert not (tmp_path / "success_and_false_declarations.png").exists()
+    assert (tmp_path / "time_to_source_map.png").exists()
