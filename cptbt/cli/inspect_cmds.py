@@ -209,6 +209,9 @@ def _check_study_sweeps(mission: MissionBase, path: str) -> None:
     Raises:
         MissionError: a configuration is no valid mission, or a sweep path names nothing.
     """
+    if mission.study is not None and mission.mission_a is not None and \
+            environment_model() is not None:
+        _check_amp_alone(mission, path)
     sweeps = study_sweeps(mission)
     if not sweeps or environment_model() is None:  # the core alone: no study is flown here
         return
@@ -228,6 +231,23 @@ def _check_study_sweeps(mission: MissionBase, path: str) -> None:
     for note in study_notes(mission, sweeps):
         print(f"{path}: note: {note}", file=sys.stderr)
     warn_swept(mission, configs, path, own=False)
+
+
+def _check_amp_alone(mission: MissionBase, path: str) -> None:
+    """The problems of a mission's ``study:`` section flown as ``cptbt batch`` flies it, the
+    AMP alone (``--amp-only``): a launch that the mission's Mission A brings in may be too far
+    out without it (a review: validate said ok, batch refused).
+
+    Raises:
+        MissionError: the mission without its Mission A has a problem.
+    """
+    from cptbt.batch.scenario import problems
+
+    found = problems(mission.model_copy(update={"mission_a": None}), simulate=False)
+    if found:
+        lines = parse_yaml(mission_text(path), path)[1]
+        raise MissionError([f"{line} (the study: section flies the AMP alone, as cptbt batch "
+                            "--amp-only)" for line in format_problems(found, lines, path)])
 
 
 TREE_KEY = (

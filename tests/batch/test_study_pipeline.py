@@ -249,3 +249,24 @@ def test_a_row_flown_again_has_its_verdict_in_the_figure_title(
     (title,) = titles
     s = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert title.endswith(f": {s['outcome']}, {run_cmd.short_verdict(s)}"), title
+
+
+def test_validate_checks_the_study_as_batch_flies_it_the_amp_alone(tmp_path: Path) -> None:
+    """A review: a launch 35 m outside, brought in by the mission's Mission A, validated "ok",
+    and `cptbt batch` of its own study section (always --amp-only) refused it."""
+    from cptbt.cli.inspect_cmds import load
+    from cptbt.types import Point
+
+    area = load(str(ROOT / "missions" / "tro2006_msn007.yaml")).op_area_geometry()
+    mission = load(str(ROOT / "missions" / "tro2006_msn007.yaml"))
+    n, e = mission.to_ne(Point(area.xmin - 40.0, area.centre.y))
+    text = MSN007.replace("  seed: 7", f"  seed: 7\n  launch: [{n:.1f}, {e:.1f}]")
+    text += "study:\n  grid: [2, 1]\n"
+    assert "\nmission_a:" in text
+    path = tmp_path / "far.yaml"
+    path.write_text(text, encoding="utf-8")
+    res = cptbt("validate", str(path))
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert "environment.launch: 40.0 m outside the OpArea" in res.stderr
+    assert "the study: section flies the AMP alone" in res.stderr
+    assert cptbt("validate", str(ROOT / "missions" / "tro2006_msn007.yaml")).returncode == 0
