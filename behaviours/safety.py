@@ -137,7 +137,6 @@ class OpAreaSafetyFleet(FleetRule):
 
     def prepare(self) -> None:
         """The excursion state per vehicle and the blackboard's ``oparea_exit`` arrays."""
-        self.ends_move_to_field = False  # as OpAreaSafety's
         n, a = self.n, self.context.op_area
         self.has_taken = np.zeros(n, dtype=bool)
         self.taken_x = np.full(n, np.nan)

@@ -156,7 +156,8 @@ class FleetRule:
         self.board = board
         self.n = board.n
         self.speed = params.speed_mps or context.speed_mps
-        self.ends_move_to_field = True
+        # the scalar form's, one source of truth (safety's is False: session 27)
+        self.ends_move_to_field = all(c.ends_move_to_field for c in self.covers)
         self.prepare()
 
     def prepare(self) -> None:

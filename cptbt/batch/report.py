@@ -402,7 +402,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
             f"| {fmt(float(ok.std(ddof=1)) if ok.size > 1 else None)} "
             f"| {fmt(_mean([search_time(r) for r in rows]))} "
             f"| {fmt(_mean(err))} | {fmt(max(err) if err else None)} |")
-    single = next((plumes_note(rows) for rows in groups.values() if plumes_note(rows)), None)
+    single = next(filter(None, map(plumes_note, groups.values())), None)
     lines += ["", "The intervals count plume realisations, not only runs: every start of a "
               "replicate flies one plume, so its runs are not independent (Wilson's interval "
               "at the runs over the design effect the replicates' spread gives, with Student's "

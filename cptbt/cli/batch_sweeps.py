@@ -48,8 +48,9 @@ def study_configs(args: argparse.Namespace,
     too_many = configs_problem(count)
     if too_many:
         raise UsageError(f"batch: {too_many}")
-    if configs_note(count) and not args.quiet:
-        print(f"cptbt: note: {configs_note(count)}", file=sys.stderr)
+    note = configs_note(count)
+    if note and not args.quiet:
+        print(f"cptbt: note: {note}", file=sys.stderr)
     try:
         lines = parse_yaml(mission_text(args.mission), args.mission)[1] \
             if sweeps else None
