@@ -223,7 +223,9 @@ def excursions(rows: Rows) -> tuple[int, int, float, float]:
     out = sum(left_oparea(f) for f in far)
     amp = sum(float(v or 0.0) for r in rows for k, v in r.items()
               if k.startswith("time_") and k.endswith("_s") and "." not in k)
-    safety = sum(float(r.get("time_safety_s") or 0.0) for r in rows)
+    # safety bringing the vehicle in from a launch or start outside is the mission's way in
+    safety = sum(float(r.get("time_safety_s") or 0.0) - float(r.get("safety_entering_s") or 0.0)
+                 for r in rows)
     return out, len(rows), max(far, default=0.0), safety / amp if amp > 0 else math.nan
 
 
@@ -238,7 +240,9 @@ def excursion_table(groups: dict[str, Rows]) -> list[str]:
              "Runs whose true track went outside the OpArea while the AMP drove "
              f"(`farthest_outside_m`; the AMP gives control back "
              f"{RELINQUISH_OUTSIDE_M:g} m out, TRO II), the "
-             "farthest, and the share of the AMP's time the safety behaviour drove.", "",
+             "farthest, and the share of the AMP's time the safety behaviour drove. The way in "
+             "from a launch or start outside the OpArea and the way to a home the mission puts "
+             "outside (`allow_outside`) are left out of both.", "",
              "| configuration | runs outside | farthest outside (m) | safety drove |",
              "|---|---:|---:|---:|"]
     for label, (n, flown, far, share) in counts.items():

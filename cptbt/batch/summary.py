@@ -115,6 +115,7 @@ class RunSummary:
     unchecked: int | None = None
     closest_approach_m: float | None = None
     farthest_outside_m: float = 0.0
+    safety_entering_s: float = 0.0
     T_M: float | None = None
     path_m: float | None = None
     start_to_source_m: float | None = None
@@ -267,6 +268,7 @@ def summarise(
     straight = (math.hypot(source.x - true[i0, 0], source.y - true[i0, 1])
                 if i0 < len(true) else None)
     time_in = run.time_in
+    active = run.recorder.active_names(run.index)
     total_time = sum(time_in.values()) or 1.0
     return RunSummary(
         mission=mission.name,
@@ -318,7 +320,9 @@ def summarise(
                         else None),
         unchecked=report.get("unchecked"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
-        farthest_outside_m=max(_farthest_outside(mission, true), run.outside_m),
+        farthest_outside_m=max(_farthest_outside(mission, true, home_legs(mission, active)),
+                               run.outside_m),
+        safety_entering_s=_safety_entering(mission, run, true),
         T_M=(_maintain_time(run, mission.perception.lambda_s, 1.0 / mission.cycle_hz)
              if mission.evaluation.criterion == "maintain" else None),
         path_m=path_m,
@@ -356,14 +360,47 @@ def _with_error(out: dict[str, float] | None, p: Point,
     return out | {"error_m": d[k], "nearest_source": k}
 
 
-def _farthest_outside(mission: MissionBase, true: NDArray[np.float64]) -> float:
+def is_home_leg(active: str | None) -> bool:
+    """Whether a behaviour (its recorded name) is driving home: ``return_home``, or a declaration
+    behaviour on its way home after declaring."""
+    return bool(active) and (active.startswith("return_home.") or active.endswith(" (home)"))
+
+
+def home_legs(mission: MissionBase, active: Sequence[str]) -> NDArray[np.bool_] | None:
+    """The rows driving to a home the mission puts outside the OpArea on purpose
+    (``allow_outside: [home]``); None when home is not allowed outside."""
+    if "home" not in mission.allow_outside:
+        return None
+    return np.array([is_home_leg(a) for a in active], dtype=bool)
+
+
+def _safety_entering(mission: MissionBase, run: VehicleRun, true: NDArray[np.float64]) -> float:
+    """Seconds the safety behaviour drove before the true track first got inside the OpArea:
+    bringing the vehicle in from a launch or start outside, the mission's way in rather than a
+    guard against an excursion (a review's dock 18 m out read "safety drove 5.1%")."""
+    if not len(true):
+        return 0.0
+    far = mission.op_area_geometry().distance_outside_array(true[:, 0], true[:, 1])
+    inside = np.flatnonzero(far == 0.0)
+    entry = int(inside[0]) if len(inside) else len(far)
+    if entry == 0:
+        return 0.0
+    before = np.arange(len(far)) < entry
+    return sum(s for name, s in run.recorder.time_in(run.index, before).items()
+               if name.split(".")[0] == "safety")
+
+
+def _farthest_outside(mission: MissionBase, true: NDArray[np.float64],
+                      skip: NDArray[np.bool_] | None = None) -> float:
     """How far outside the OpArea a true track went, m (0: it stayed inside), once it was in:
     the way in from a start placed outside (``allow_outside: [start]``) is the mission's, not
     an excursion (a review's start 20 m out read "left the OpArea: 19.8 m"). Going farther out
     than the start before getting in, or without ever getting in, is one (a detour), and
     counts as far out as the track went: a review's start 25 m out, turned away and given
     back 30 m out, had read "at most 4.5 m outside it" (the detour's depth beyond its start,
-    not a distance outside)."""
+    not a distance outside). Rows in ``skip`` (:func:`home_legs`: the way to a home the mission
+    puts outside) count as inside: a review's dock 18 m out read "left the OpArea: 10.9 m"
+    for the leg home after the declaration."""
     if not len(true):
         return 0.0
     far = mission.op_area_geometry().distance_outside_array(true[:, 0], true[:, 1])
@@ -372,6 +409,8 @@ def _farthest_outside(mission: MissionBase, true: NDArray[np.float64]) -> float:
         return 0.0
     inside = np.flatnonzero(far == 0.0)
     entry = int(inside[0]) if len(inside) else len(far)
+    if skip is not None and len(skip) == len(far):
+        far = np.where(skip, 0.0, far)
     before = float(np.nanmax(far[:entry], initial=0.0))
     # from the first known point (a diff review: a NaN first one made every detour 0)
     detour = before if before - far[known[0]] >= OUTSIDE_NOTED_M else 0.0

@@ -174,6 +174,38 @@ def test_the_summary_says_how_far_outside_the_oparea_the_vehicle_went() -> None:
     assert summarise(run, inside, Point(*params.source_xy_m), 7, wall).farthest_outside_m == 0.0
 
 
+def test_the_way_to_a_home_and_from_a_launch_outside_are_not_excursions(tmp_path: Path) -> None:
+    """A review's dock 18 m outside (``allow_outside: [home]``, the launch there too) read
+    "left the OpArea: 10.9 m" for the leg home after the declaration, and "safety drove 5.1%"
+    for safety bringing the vehicle in: both are the mission's own legs. The search's own
+    excursion still counts."""
+    from cptbt.batch.comparison import excursions
+
+    text = (ROOT / "missions/small_oparea.yaml").read_text()
+    text = text.replace("home: [-20, 0]", "home: [-40, 0]\nallow_outside: [home]")
+    text = text.replace("  seed: 7", "  seed: 7\n  launch: [-40, -10]")
+    text = text.replace("max_spread_m: 5}", "max_spread_m: 5, home_radius_m: 2}")
+    (tmp_path / "m.yaml").write_text(text)
+    mission = load_mission(tmp_path / "m.yaml", default_registry(), Environment)
+    params = to_sim_params(mission)
+    (run,), _, wall = simulate(mission, params, [launch_pose(mission)], trace=True)
+    s = summarise(run, mission, Point(*params.source_xy_m), 7, wall).to_dict()
+    trace = run.trace
+    assert trace is not None and s["outcome"] == "declared"
+    area = mission.op_area_geometry()
+    far = area.distance_outside_array(np.asarray(trace["x"]), np.asarray(trace["y"]))
+    home = np.array([a.endswith(" (home)") for a in trace["active"]])
+    assert far[home].max() > 10.0  # the leg home went out toward the dock, 15 m out
+    assert s["farthest_outside_m"] == pytest.approx(float(far[~home][10:].max()), abs=0.5)
+    assert s["farthest_outside_m"] < 9.0  # the search's own excursion, 7.2 m
+    # safety brought the vehicle in from the launch, and kept it in after
+    entering, safety = s["safety_entering_s"], s["time_in_behaviour_s"]["safety.oparea"]
+    assert 10.0 < entering < safety
+    row = {"time_safety_s": safety, "time_other_s": 100.0, "safety_entering_s": entering}
+    share = excursions([row])[3]
+    assert share == pytest.approx((safety - entering) / (safety + 100.0))
+
+
 def test_the_way_in_from_a_start_placed_outside_is_not_an_excursion() -> None:
     """A review's start 20 m outside the box (``allow_outside: [start]``) printed "left the
     OpArea: at most 19.8 m": the way in is the mission's. Once in, leaving counts again."""
