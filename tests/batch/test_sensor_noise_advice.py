@@ -149,6 +149,19 @@ def test_a_cloverleaf_tighter_than_the_vehicle_turns_is_warned_of(leaf: float,
         assert "turning radius (7.5 m, environment.vehicle.turning_radius_m)" in got[0]
 
 
+@pytest.mark.parametrize(("leaf", "warned"), [(90.0, False), (200.0, True)])
+def test_a_cloverleaf_larger_than_the_oparea_is_warned_of(leaf: float, warned: bool) -> None:
+    """A review's d_leaf_m: 400 in a 100-m-wide box validated silently: every leaf across the
+    box is moved inside the walls, so the pattern flown is not a cloverleaf. The two-source
+    box is 112 m across."""
+    text = _mission(None).replace("d_leaf_m: 15,", f"d_leaf_m: {leaf},")
+    got = _advice(text, "d_leaf_m")
+    assert bool(got) == warned, got
+    if warned:
+        assert got[0].startswith(f"{leaf:g} m is longer than the OpArea's shorter side allows "
+                                 "(112 m, less wall_inset_m each side:"), got[0]
+
+
 def _advice(text: str, key: str) -> list[str]:
     mission = loads_mission(text, "m.yaml", default_registry(), Environment)
     return [msg for loc, msg in advisories(mission) if loc[-1] == key]
