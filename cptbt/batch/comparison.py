@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from cptbt.batch.intervals import clustered_mcnemar, mean_sem
+from cptbt.batch.intervals import clustered_mcnemar, mean_df, mean_interval, mean_sem
 from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.sweeps import changes_world, value_yaml
 from cptbt.policy import RELINQUISH_OUTSIDE_M
@@ -119,7 +119,8 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
              "starts, an exact sign-flip test over the plumes' differences, as McNemar's "
              "clustered by plume), and the mean "
              "time difference over the runs both succeeded in (this minus the first, ± SE over "
-             "plumes).", "",
+             "plumes, then its 95% interval: Student's t on the plumes less one, or the runs "
+             "less one where each plume holds one).", "",
              "| configuration | against | pairs | succeeded only here / only there | McNemar p "
              "| time difference (s) | both succeeded |",
              "|---|---|---:|---:|---:|---:|---:|"]
@@ -130,8 +131,12 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
                 if a.get("success") and b.get("success")]
         both = [(a, v) for a, v in both if math.isfinite(v)]
         d = np.array([v for _, v in both], dtype=float)
-        se = mean_sem([a for a, _ in both], d.tolist())  # over plumes, as the intervals
+        runs = [a for a, _ in both]
+        se = mean_sem(runs, d.tolist())  # over plumes, as the intervals
         diff = f"{fmt(float(d.mean()) if d.size else None)} ± {fmt(se)}"
+        if d.size >= 2 and math.isfinite(se):  # a review: ± SE over 4 plumes read as ± 2 SE
+            lo, hi = mean_interval(runs, d.tolist())
+            diff += f" ({fmt(lo)} to {fmt(hi)}, {mean_df(runs)} df)"
         p = clustered_mcnemar(pairs)
         p = mcnemar(here_only, there_only) if p is None else p
         lines.append(f"| {label} | {base} | {len(pairs)} | {here_only} / {there_only} "

@@ -118,6 +118,21 @@ def mean_sem(rows: Rows, values: Sequence[float]) -> float:
     return iid * math.sqrt(deff) if math.isfinite(deff) else iid
 
 
+def mean_df(rows: Rows) -> int:
+    """Degrees of freedom of :func:`mean_sem`: plumes less one where a plume holds several of
+    the values (Korn & Graubard, as :func:`rate_interval`), else the values less one."""
+    n, k = len(rows), replicates(rows)
+    return k - 1 if 2 <= k < n else n - 1
+
+
+def mean_interval(rows: Rows, values: Sequence[float]) -> tuple[float, float]:
+    """95% interval of the values' mean: ± :func:`mean_sem` times Student's t on
+    :func:`mean_df` degrees of freedom (NaN for fewer than two values)."""
+    half = mean_sem(rows, values) * t975(mean_df(rows))
+    mean = sum(values) / len(values) if values else math.nan
+    return mean - half, mean + half
+
+
 FEW_PLUMES = 10
 """Fewer plume realisations than this, of several starts each, are said to widen an interval
 (Student's t on 1 degree of freedom is 12.7: two plumes' interval reads near 0-100%, which a

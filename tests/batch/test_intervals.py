@@ -112,3 +112,20 @@ def test_few_plumes_of_several_starts_say_why_their_interval_is_wide() -> None:
     assert note is not None and note.startswith("2 plume realisations") and "12.7" in note
     assert plumes_note(_grid([9] * 12, starts=10)[0]) is None
     assert plumes_note([{"replicate": r} for r in range(3)]) is None  # one run a plume
+
+
+def test_a_mean_difference_over_few_plumes_has_students_t_on_the_plumes_less_one() -> None:
+    """A review: a paired time difference over 4 plumes printed ± SE alone, which a reader
+    doubles; with 4 plumes the 95% half-width is 3.18 SE (3 degrees of freedom)."""
+    from cptbt.batch.intervals import mean_df, mean_interval, mean_sem
+
+    rows = [{"replicate": r} for r in range(4) for _ in range(2)]
+    values = [-300.0, -290.0, -250.0, -260.0, -310.0, -300.0, -240.0, -250.0]
+    assert mean_df(rows) == 3
+    lo, hi = mean_interval(rows, values)
+    half = 3.182 * mean_sem(rows, values)
+    mean = sum(values) / len(values)
+    assert (lo, hi) == pytest.approx((mean - half, mean + half))
+    one_each = [{"replicate": r} for r in range(8)]
+    assert mean_df(one_each) == 7  # independent runs: the runs less one
+    assert mean_df([{"replicate": 0}] * 8) == 7  # one plume: the runs (and a note says so)

@@ -527,9 +527,11 @@ def test_paired_comparisons_count_discordant_runs_within_a_world() -> None:
     rows = [line for line in lines if line.startswith("| b ")]
     assert len(rows) == 1 and not [line for line in lines if line.startswith("| c ")]
     # b succeeded alone in run 3, a alone in 0 and 1; both in 2, 4, 5: b - a = -8, -6, -5
+    d = [-8.0, -6.0, -5.0]
+    se = np.std(d, ddof=1) / np.sqrt(3)
+    lo, hi = np.mean(d) - 4.303 * se, np.mean(d) + 4.303 * se  # Student's t, 2 df
     assert rows[0] == (f"| b | a | 6 | 1 / 2 | {mcnemar(1, 2):.2g} | "
-                       f"{np.mean([-8.0, -6.0, -5.0]):.1f} ± "
-                       f"{np.std([-8.0, -6.0, -5.0], ddof=1) / np.sqrt(3):.1f} | 3 |")
+                       f"{np.mean(d):.1f} ± {se:.1f} ({lo:.1f} to {hi:.1f}, 2 df) | 3 |")
     assert mcnemar(0, 0) == 1.0 and mcnemar(0, 6) == pytest.approx(2 / 64)
     assert paired_table({"a": groups["a"]}) == []
 
