@@ -41,7 +41,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -66,6 +66,7 @@ from cptbt.node import (
     planner_keys,
 )
 from cptbt.perception import PerceptionSettings
+from cptbt.planner import field_reached_at_start, mission_context
 from cptbt.registry import Registry, default_registry
 from cptbt.tree import build_tree, plan_leaves
 
@@ -279,12 +280,9 @@ class FleetPlanner:
         support = fleet_support(mission, registry)
         if not support.ok:
             raise ValueError(f"the fleet planner cannot run {mission.name}: {support.reason}")
-        context = MissionContext(op_area=mission.op_area_geometry(),
-                                 home=mission.to_xy(mission.home), start=None,
-                                 speed_mps=mission.speed_mps,
-                                 threshold=mission.perception.threshold)
-        has_field = any(e.family == "move_to_field" for e in mission.entries())
-        field = planner_keys(field_reached=not has_field)["field_reached"]
+        # each vehicle's move-to-field goal is its own (the fleet rule's), not the mission's
+        context = replace(mission_context(mission), start=None)
+        field = planner_keys(field_reached=field_reached_at_start(mission))["field_reached"]
         return cls(support.leaves, context, mission.perception, n, field_reached=field)
 
     def add_samples(self, ids: Index, concentration: FloatArray, t: float = math.nan) -> None:

@@ -24,6 +24,25 @@ from cptbt.types import Command, Percept, Point, Pose
 
 _ids = itertools.count()
 
+def mission_context(mission: MissionBase, start: Point | None = None) -> MissionContext:
+    """The context a mission's behaviours fly with: its OpArea, home, start (``start``, or the
+    mission's), cruise speed and detection threshold, in the planning frame."""
+    return MissionContext(
+        op_area=mission.op_area_geometry(),
+        home=mission.to_xy(mission.home),
+        start=start if start is not None else (
+            mission.to_xy(mission.start) if mission.start is not None else None),
+        speed_mps=mission.speed_mps,
+        threshold=mission.perception.threshold,
+    )
+
+
+def field_reached_at_start(mission: MissionBase) -> bool:
+    """Whether the field counts as reached before the first cycle: only without a
+    move-to-field behaviour (with one, find-plume waits for it: TRO III)."""
+    return not any(e.family == "move_to_field" for e in mission.entries())
+
+
 class Planner:
     """The Adaptive Mission Planner for one vehicle.
 
@@ -49,20 +68,12 @@ class Planner:
         self.op_area = mission.op_area_geometry()
         self.perception = Perception(self.op_area, mission.perception,
                                      nominal_period_s=1.0 / mission.cycle_hz)
-        self.context = MissionContext(
-            op_area=self.op_area,
-            home=mission.to_xy(mission.home),
-            start=start if start is not None else (
-                mission.to_xy(mission.start) if mission.start is not None else None),
-            speed_mps=mission.speed_mps,
-            threshold=mission.perception.threshold,
-        )
+        self.context = mission_context(mission, start)
         self.namespace = namespace or f"/cptbt/p{next(_ids)}"
         self.root = build_tree(entries, self.registry, self.namespace)
         self.leaves = plan_leaves(self.root)
         self.bb = py_trees.blackboard.Client(name="planner", namespace=self.namespace)
-        has_field = any(e.family == "move_to_field" for e in entries)
-        for key, value in planner_keys(field_reached=not has_field).items():
+        for key, value in planner_keys(field_reached=field_reached_at_start(mission)).items():
             self.bb.register_key(key, access=Access.WRITE)
             self.bb.set(key, value)
         for node in self.root.iterate():

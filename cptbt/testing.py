@@ -35,9 +35,11 @@ from cptbt.node import (
     overrides_watch,
     planner_keys,
 )
+from cptbt.mission import MissionBase
 from cptbt.perception import Perception, PerceptionSettings
-from cptbt.registry import BehaviourSpec
-from cptbt.tree import plan_leaves
+from cptbt.planner import field_reached_at_start, mission_context
+from cptbt.registry import BehaviourSpec, Registry, default_registry
+from cptbt.tree import build_tree, plan_leaves
 from cptbt.types import Command, Percept, Point, Pose
 
 _namespaces = iter(range(10**12))
@@ -59,7 +61,8 @@ def make_context(
     speed_mps: float = 1.0,
     threshold: float | None = None,
 ) -> MissionContext:
-    """A mission context for tests."""
+    """A mission context for a behaviour tested alone, with these settings (a whole mission's
+    own context: :meth:`TreeHarness.from_mission`, or :func:`cptbt.planner.mission_context`)."""
     return MissionContext(
         op_area=op_area or square_area(),
         home=Point(*home),
@@ -164,6 +167,19 @@ class TreeHarness:
             self.set(key, value)
         for node in root.iterate():
             node.setup(context=self.context)
+
+    @classmethod
+    def from_mission(cls, mission: MissionBase, registry: Registry | None = None, *,
+                     start: Point | None = None) -> TreeHarness:
+        """The mission's whole tree, in a fresh blackboard namespace, with the context and
+        starting keys the planner gives it (:func:`~cptbt.planner.mission_context`: the
+        mission's home, start, cruise speed and threshold; ``field_reached`` false when there
+        is a move-to-field): what ``cptbt run`` flies. A review's harness built with
+        :func:`make_context` flew find-plume at 1 m/s toward (0, 0) where the planner flew
+        move-to-field at the mission's 1.5 m/s."""
+        root = build_tree(mission.entries(), registry or default_registry(), fresh_namespace())
+        return cls(root, mission_context(mission, start),
+                   field_reached=field_reached_at_start(mission))
 
     def set(self, key: str, value: object) -> None:
         """Write a planner-owned blackboard key (``field_reached``, ``go_home``, ...)."""

@@ -79,3 +79,26 @@ def test_no_output_anywhere_fails_the_tree() -> None:
     h = harness({})
     tick = h.tick(ScriptedPerception().step(0.0, 50.0, 0.0))
     assert tick.status == Status.FAILURE and tick.command is None
+
+
+def test_a_mission_harness_flies_what_the_planner_flies() -> None:
+    """A review's whole-tree test, built with ``make_context``, flew find-plume at 1 m/s toward
+    (0, 0) where the planner flew move-to-field at the mission's 1.5 m/s toward its start: the
+    harness made from the mission gives the same commands, cycle by cycle, as the planner."""
+    from pathlib import Path
+
+    from cptbt.loader import load_mission
+    from cptbt.planner import Planner
+
+    mission = load_mission(Path(__file__).resolve().parents[2] / "missions/tro2006_msn007.yaml")
+    harness = TreeHarness.from_mission(mission)
+    planner = Planner(mission)
+    area = mission.op_area_geometry()
+    script = ScriptedPerception(area, flow=(0.1, 0.0), lambda_s=mission.perception.lambda_s)
+    steps = [script.step(0, 60, -10), script.step(1, 0, 0, conc=1.0), script.step(2, -2, 1),
+             script.step(14, -5, 3), script.step(15, -6, 4)]
+    got = [harness.tick(p) for p in steps]
+    want = [(planner.step(p), planner.active) for p in steps]
+    assert [(t.command, t.active) for t in got] == want
+    assert got[0].active == "move_to_field.go_to" and got[0].command.speed_mps == 1.5
+    assert got[-1].active == "reacquire_plume.cloverleaf"
