@@ -16,7 +16,7 @@ from py_trees.common import Access
 from pydantic import Field, model_validator
 
 from cptbt.angles import unit
-from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.node import BehaviourParams, PlanBehaviour, blamed
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, Percept, Point
 
@@ -88,6 +88,10 @@ class SourceDeclaration(PlanBehaviour):
         if self.declared is not None:
             return
         source = self.estimate(p)
+        if source is not None and not isinstance(source, Point):  # a review's (x, y) tuple
+            raise blamed(TypeError(f"estimate() returned {type(source).__name__} "
+                                   f"{source!r:.60}: return a cptbt.types.Point or None"),
+                         self, p.t, where=False)
         if source is not None and math.isfinite(source.x) and math.isfinite(source.y):
             self.declared = source
             self.bb.declared_source = source

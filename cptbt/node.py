@@ -234,25 +234,39 @@ def blamed(exc: Exception, behaviour: PlanBehaviour, t: float, where: bool = Tru
         exc.cptbt_where = where  # type: ignore[attr-defined]
         exc.cptbt_behaviour = behaviour.name  # type: ignore[attr-defined]
         exc.cptbt_t = t  # type: ignore[attr-defined]
-        try:
-            exc.cptbt_file = inspect.getsourcefile(type(behaviour))  # type: ignore[attr-defined]
-        except TypeError:  # a class with no source file (built at run time)
-            exc.cptbt_file = None  # type: ignore[attr-defined]
+        exc.cptbt_files = _source_files(type(behaviour))  # type: ignore[attr-defined]
         exc.add_note(f"raised in behaviour {behaviour.name} at t = {t:g} s")
     return exc
 
 
+def _source_files(cls: type) -> frozenset[str]:
+    """The files of a behaviour class and of the behaviour classes it derives from (not this
+    module's): where a line of its code can be."""
+    files = set()
+    for c in cls.__mro__:
+        if isinstance(c, type) and issubclass(c, PlanBehaviour) and c is not PlanBehaviour:
+            try:
+                f = inspect.getsourcefile(c)
+            except TypeError:  # a class with no source file (built at run time)
+                continue
+            if f is not None and f != __file__:
+                files.add(f)
+    return frozenset(files)
+
+
 def blame(exc: BaseException) -> str | None:
     """One line naming the behaviour that raised ``exc`` (:func:`blamed`), the mission time and
-    the line of code: the innermost in the behaviour's own file (where its code called what
-    raised), else the innermost of all; None for an error no behaviour raised."""
+    the line of code: the innermost in the files of the behaviour's class and its bases (where
+    its code called what raised), else the innermost of all; None for an error no behaviour
+    raised. A plug-in's declaration rule, failing in its base class's ``decide`` on a missing
+    setting, had been placed "at main.py:1110", inside pydantic (a review)."""
     name = getattr(exc, "cptbt_behaviour", None)
     if name is None:
         return None
     frames = traceback.extract_tb(exc.__traceback__) if exc.__traceback__ else []
     frames = [f for f in frames if f.filename != __file__]  # update() itself says nothing
-    own = getattr(exc, "cptbt_file", None)
-    mine = [f for f in frames if own is not None and f.filename == own]
+    own = getattr(exc, "cptbt_files", ())
+    mine = [f for f in frames if f.filename in own]
     chosen = (mine or frames) if getattr(exc, "cptbt_where", True) else []
     at = f" (at {Path(chosen[-1].filename).name}:{chosen[-1].lineno})" if chosen else ""
     text = " ".join(f"{type(exc).__name__}: {exc}".split())[:300]

@@ -351,6 +351,8 @@ def _check_params(spec: BehaviourSpec) -> None:
     if not (isinstance(params, type) and issubclass(params, BehaviourParams)):
         raise RegistryError(f"{where}: its Params ({getattr(params, '__name__', params)!r}) is "
                             "not a cptbt.node.BehaviourParams subclass: derive it from one")
+    for cls in spec.behaviour_classes:
+        _check_inherited_params(where, cls, params if cls.Params is params else cls.Params)
     # by the key the model reads (an alias: validated by name, a plug-in's aliased field had
     # been refused as an extra key, a diff review)
     given = {(f.validation_alias if isinstance(f.validation_alias, str) else f.alias or name):
@@ -368,6 +370,24 @@ def _check_params(spec: BehaviourSpec) -> None:
                             f"own rule: {err['msg']}") from None
     except Exception:  # a model validator that needs the required fields: judged when given
         pass
+
+
+def _check_inherited_params(where: str, cls: type[PlanBehaviour], params: type) -> None:
+    """A behaviour's ``Params`` must keep the settings of the base it subclasses: the base's own
+    code reads them (a plug-in author's declaration rule derived its Params from
+    ``BehaviourParams``, validated, and failed at its declaration for want of
+    ``source_radius_m``, which ``SourceDeclaration.decide`` reads)."""
+    for base in cls.__mro__[1:]:
+        wanted = base.__dict__.get("Params")
+        if wanted is None or not (isinstance(base, type) and issubclass(base, PlanBehaviour)):
+            continue
+        if isinstance(params, type) and not issubclass(params, wanted):
+            raise RegistryError(
+                f"{where}: its Params ({getattr(params, '__name__', params)!r}) does not derive "
+                f"from {wanted.__module__}.{wanted.__qualname__}, the Params of "
+                f"{base.__module__}.{base.__qualname__} it subclasses (whose code reads its "
+                "settings): derive it from that")
+        return  # the nearest base that names Params decides
 
 
 def _builtin(entry_point_value: str) -> bool:

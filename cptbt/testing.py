@@ -26,6 +26,7 @@ from py_trees.common import Access, Status
 
 from cptbt.angles import unit
 from cptbt.frames import OpArea
+from cptbt.mission import MissionBase
 from cptbt.node import (
     BehaviourParams,
     MissionContext,
@@ -35,7 +36,6 @@ from cptbt.node import (
     overrides_watch,
     planner_keys,
 )
-from cptbt.mission import MissionBase
 from cptbt.perception import Perception, PerceptionSettings
 from cptbt.planner import field_reached_at_start, mission_context
 from cptbt.registry import BehaviourSpec, Registry, default_registry
@@ -126,6 +126,20 @@ class ScriptedPerception:
         self.perception.add_sample(t, conc)
         self.perception.set_pose(Pose(x, y, heading_deg))
         return self.perception.cycle(t)
+
+    def lost_contacts(self, points: Iterable[tuple[float, float]], at: tuple[float, float],
+                      t0: float = 0.0) -> list[Percept]:
+        """Contacts made and lost, for a declaration rule: per point, a cycle detecting plume
+        at it, then one at ``at`` in clean water ``lambda_s`` plus a second later (the contact
+        lost there, the point added to ``p.lost_contacts``); the next point a second after."""
+        lam = self.perception.settings.lambda_s
+        percepts: list[Percept] = []
+        t = t0
+        for x, y in points:
+            percepts.append(self.step(t, x, y, conc=1.0))
+            percepts.append(self.step(t + lam + 1.0, *at))
+            t += lam + 2.0
+        return percepts
 
 
 @dataclass(frozen=True)

@@ -104,7 +104,8 @@ def leaf_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem
         elif leaf > room:
             out.append((("behaviours", i, e.family, key),
                         f"{plain(leaf)} m is longer than the OpArea's shorter side allows "
-                        f"({plain(round(short, 1))} m, less wall_inset_m each side: {plain(round(room, 1))} m): "
+                        f"({plain(round(short, 1))} m, less wall_inset_m each side: "
+                        f"{plain(round(room, 1))} m): "
                         f"wherever {e.variant} is centred, its points across that side lie "
                         "beyond the walls and are moved inside, so the pattern flown is not "
                         "the one drawn"))

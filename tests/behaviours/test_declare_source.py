@@ -29,23 +29,10 @@ from cptbt.testing import (
     make_context,
 )
 from cptbt.tree import build_tree
-from cptbt.types import Percept, Point
+from cptbt.types import Point
 
 FLOW_PLUS_X = (1.0, 0.0)  # flow toward +x: upflow 180°, most up-flow = smallest x
 FLOW_MINUS_Y = (0.0, -1.0)  # flow toward -y: upflow +90°, most up-flow = largest y
-
-
-def lost_contact_cycles(
-    script: ScriptedPerception, points: list[tuple[float, float]], at: tuple[float, float]
-) -> list[Percept]:
-    """Two cycles per point: detect at it, then lose contact while at ``at``."""
-    percepts: list[Percept] = []
-    t = 0.0
-    for x, y in points:
-        percepts.append(script.step(t, x, y, conc=1.0))
-        percepts.append(script.step(t + 2.0, *at, conc=0.0))
-        t += 3.0
-    return percepts
 
 
 def harness(node: object, **context: object) -> TreeHarness:
@@ -57,7 +44,7 @@ def declare(cls: type, points: list[tuple[float, float]], flow=FLOW_PLUS_X, **pa
     script = ScriptedPerception(flow=flow, lambda_s=1.0)
     node = cls(cls.Params(**params), namespace=fresh_namespace())
     h = harness(node)
-    ticks = h.run(lost_contact_cycles(script, points, at=(50.0, 0.0)))
+    ticks = h.run(script.lost_contacts(points, at=(50.0, 0.0)))
     return h, ticks
 
 
@@ -100,7 +87,7 @@ def test_upflow_cluster_uses_only_the_m_most_recent_points() -> None:
     script = ScriptedPerception(flow=FLOW_PLUS_X, lambda_s=1.0)
     old = [(20.0, 0.0), (20.5, 0.5), (21.0, 0.0)]
     new = [(30.0, 0.0), (40.0, 0.0), (50.0, 0.0), (60.0, 0.0), (70.0, 0.0), (80.0, 0.0)]
-    percepts = lost_contact_cycles(script, old + new, at=(90.0, 0.0))
+    percepts = script.lost_contacts(old + new, at=(90.0, 0.0))
     assert len(percepts[-1].lost_contacts) == 9 and len(percepts[11].lost_contacts) == 6
     late = harness(UpflowClusterDeclare(namespace=fresh_namespace()))
     assert late.tick(percepts[-1]).status == Status.FAILURE
@@ -134,7 +121,7 @@ def test_go_to_source_then_home_then_mission_done() -> None:
     #   (70, 31): 9 m from home <= 10 → mission_done, still heading home, 90°
     script = ScriptedPerception(flow=FLOW_PLUS_X, lambda_s=1.0)
     pts = [(40.0, 5.0), (20.0, 0.0), (45.0, -5.0), (21.0, 1.0), (50.0, 0.0), (22.0, -1.0)]
-    percepts = lost_contact_cycles(script, pts, at=(50.0, 0.0))
+    percepts = script.lost_contacts(pts, at=(50.0, 0.0))
     h = harness(UpflowClusterDeclare(namespace=fresh_namespace()), home=(70.0, 40.0))
     h.run(percepts)
     expected = [((35.0, 0.0), 180.0, False), ((30.0, 0.0), 45.0, False)]
@@ -164,7 +151,7 @@ def test_declaration_made_while_safety_drives_in_a_real_tree() -> None:
     h = TreeHarness(root, make_context())
     script = ScriptedPerception(flow=FLOW_PLUS_X, lambda_s=1.0)
     pts = [(40.0, 5.0), (20.0, 0.0), (45.0, -5.0), (21.0, 1.0), (50.0, 0.0), (22.0, -1.0)]
-    ticks = h.run(lost_contact_cycles(script, pts, at=(110.0, 0.0)))
+    ticks = h.run(script.lost_contacts(pts, at=(110.0, 0.0)))
     assert [tk.status for tk in ticks] == [Status.FAILURE, Status.RUNNING] * 6
     driven = [(tk.active, tk.command.heading_deg if tk.command else None) for tk in ticks[1::2]]
     assert driven == [("safety.oparea", 180.0)] * 6

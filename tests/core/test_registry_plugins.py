@@ -13,6 +13,7 @@ from cptbt.registry import load_entry_points
 PLUGIN = '''
 from typing import ClassVar
 from pydantic import BaseModel, Field
+from cptbt.behaviours.declare_source import SourceDeclaration
 from cptbt.node import BehaviourParams, PlanBehaviour
 
 class NotABehaviour:
@@ -45,7 +46,15 @@ class BadDefault(PlanBehaviour):
     variant: ClassVar[str] = "bad_default"
     Params = BadDefaultParams
 
+class OwnParams(BehaviourParams):
+    k: int = 3
+
+class FirstLost(SourceDeclaration):
+    variant: ClassVar[str] = "first_lost"
+    Params = OwnParams
+
 BAD = (NotABehaviour,)
+OWNPARAMS = (FirstLost,)
 NAMELESS = (Nameless,)
 PLAIN = (Plain,)
 BADDEFAULT = (BadDefault,)
@@ -140,6 +149,10 @@ def test_a_mission_naming_a_left_out_variant_is_told_why(
               r"cptbt.node.BehaviourParams subclass"),
     ("BADDEFAULT", r"reacquire_plume.bad_default: the default of step_m \(-5.0\) breaks its own "
                    r"rule: Input should be greater than 0$"),
+    # a review: validated, flew 468 s, then "no attribute 'source_radius_m'" at its declaration
+    ("OWNPARAMS", r"declare_source.first_lost: its Params \('OwnParams'\) does not derive from "
+                  r"cptbt.behaviours.declare_source.DeclareParams, the Params of "
+                  r"cptbt.behaviours.declare_source.SourceDeclaration it subclasses"),
     ("SINGLE", r"expected a tuple or list of PlanBehaviour subclasses or BehaviourSpecs, got "
                r"'Mine' \(write \(Mine,\)\)$"),
 ])

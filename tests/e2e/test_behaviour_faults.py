@@ -253,3 +253,50 @@ def test_a_study_names_the_plug_in_that_flew_its_variant(
     assert cli.main(["run", "--from", str(out / "results.parquet"), "--row", "0",
                      "--no-figure", "--out", str(tmp_path / "again")]) != 0
     assert f"install the plug-in it came from, {package})" in capsys.readouterr().err
+
+
+def test_an_error_in_the_base_class_code_is_placed_there_not_in_a_library() -> None:
+    """A review's declaration rule (its Params not a DeclareParams, refused at registration
+    since) failed in ``SourceDeclaration.decide`` on a missing setting, and the line named was
+    pydantic's own ``main.py:1110``: the line is now the innermost in the behaviour's class or
+    its bases."""
+    from cptbt.behaviours.declare_source import SourceDeclaration
+    from cptbt.node import BehaviourParams
+    from cptbt.types import Point
+
+    class OwnParams(BehaviourParams):
+        k: int = 3
+
+    class FirstLost(SourceDeclaration):
+        variant: ClassVar[str] = "test_first_lost"
+        Params = OwnParams
+
+        def estimate(self, p: Percept) -> Point | None:
+            return p.pose.point
+
+    with pytest.raises(AssertionError) as info:
+        check_behaviour(FirstLost)
+    said = blame(info.value.__cause__)  # type: ignore[arg-type]
+    assert said is not None and "no attribute 'source_radius_m'" in said, said
+    assert " (at declare_source.py:" in said, said
+
+
+def test_an_estimate_that_is_no_point_is_named() -> None:
+    """A review's rule returned ``(x, y)``: a raw "'tuple' object has no attribute 'x'", where a
+    ``decide()`` returning a tuple is told what to return."""
+    from cptbt.behaviours.declare_source import SourceDeclaration
+    from cptbt.types import Point
+
+    class TupleRule(SourceDeclaration):
+        variant: ClassVar[str] = "test_tuple_rule"
+
+        def estimate(self, p: Percept) -> Point | None:
+            return (p.pose.x, p.pose.y)  # type: ignore[return-value]
+
+    with pytest.raises(AssertionError) as info:
+        check_behaviour(TupleRule)
+    said = blame(info.value.__cause__)  # type: ignore[arg-type]
+    assert said is not None and said.startswith(
+        "behaviour declare_source.test_tuple_rule raised TypeError: estimate() returned "
+        "tuple "), said
+    assert "return a cptbt.types.Point or None" in said
