@@ -15,7 +15,8 @@ Usage::
 
     python benchmarks/infotaxis_cost.py [--cycles 2000] [--candidates 8]
 
-Writes ``benchmarks/results/infotaxis_cost.md`` (the machine and its load included).
+Writes ``--out`` (default ``runs/infotaxis_cost.md``; the committed table is
+``benchmarks/results/infotaxis_cost.md``), the machine and its load included.
 """
 
 from __future__ import annotations
@@ -73,7 +74,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cycles", type=int, default=2000)
     ap.add_argument("--candidates", type=int, default=8)
-    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/infotaxis_cost.md")
+    ap.add_argument("--out", type=Path, default=ROOT / "runs/infotaxis_cost.md",
+                    help="default: under runs/ (benchmarks/results/infotaxis_cost.md is the "
+                    "committed one: name it to replace it)")
     args = ap.parse_args()
     load = os.getloadavg()
     res: dict[str, np.ndarray] = {}

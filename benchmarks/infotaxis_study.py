@@ -23,7 +23,8 @@ Usage::
     python benchmarks/infotaxis_study.py                     # ~10 min on 2 cores
     python benchmarks/infotaxis_study.py --ab-runs 100 --tro-runs 100   # AB Fig. 11's size
 
-Writes ``benchmarks/results/infotaxis_study.md``; the studies go to ``--work``.
+Writes ``--out`` (default ``runs/infotaxis_study.md``; the committed table is
+``benchmarks/results/infotaxis_study.md``); the studies go to ``--work``.
 """
 
 from __future__ import annotations
@@ -151,7 +152,9 @@ def main() -> None:
     ap.add_argument("--tro-runs", type=int, default=8, help="realisations per TRO start")
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--work", type=Path, default=ROOT / "runs/infotaxis_study")
-    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/infotaxis_study.md")
+    ap.add_argument("--out", type=Path, default=ROOT / "runs/infotaxis_study.md",
+                    help="default: under runs/ (benchmarks/results/infotaxis_study.md is the "
+                    "committed one: name it to replace it)")
     args = ap.parse_args()
     t0 = time.perf_counter()
     load0 = os.getloadavg()[0]

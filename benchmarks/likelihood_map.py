@@ -35,7 +35,10 @@ Usage::
         --out benchmarks/results/likelihood_map_wide.md                 # a wide OpArea
 
 The table is printed and written as Markdown to ``--out`` (default
-``benchmarks/results/likelihood_map.md``); per-run rows go next to it as JSON lines.
+``runs/likelihood_map/likelihood_map.md``, a scratch folder); per-run rows go next to it as
+JSON lines. The committed tables are under ``benchmarks/results/``: ``--out
+benchmarks/results/likelihood_map.md`` flies the reported table again and replaces it, and
+``--from-rows --out benchmarks/results/likelihood_map.md`` tabulates its committed rows.
 """
 
 from __future__ import annotations
@@ -273,7 +276,10 @@ def main() -> int:
                     help=f"root seed (default {SEED}, the reported table's; tune on another)")
     ap.add_argument("--cost-seeds", type=int, default=2,
                     help="seeds for the per-cycle cost table (0: skip it)")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks/results/likelihood_map.md"))
+    ap.add_argument("--out", default=str(ROOT / "runs/likelihood_map/likelihood_map.md"),
+                    help="the table; its rows go next to it (.jsonl). Default: runs/likelihood_"
+                    "map/, a scratch folder (a review: the default had been the committed "
+                    "evidence, which a quick run replaced)")
     ap.add_argument("--from-rows", action="store_true",
                     help="only tabulate the rows already in the .jsonl next to --out (a study "
                     "stopped early, or several studies' rows put together; each rule's N is its "
@@ -345,7 +351,7 @@ def main() -> int:
     lines = [
         "# Likelihood-map declaration study (issue 13)",
         "",
-        ("Tabulated by `python benchmarks/likelihood_map.py --from-rows` from the rows in "
+        (f"Tabulated by `{command}` from the rows in "
          f"`{rows_path.name}` ({args.runs} MSN007 replicates at most per rule, {args.two_runs} "
          f"two-source runs; how they were flown: the notes) on {machine}" if args.from_rows else
          f"Produced by `{command}` on {machine}")

@@ -83,7 +83,9 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clock-scale", type=float, default=50.0)
     ap.add_argument("--protocol", choices=("backseat", "mavlink", "both"), default="both")
-    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "wire_msn007.json"))
+    ap.add_argument("--out", default=str(ROOT / "runs" / "wire_msn007.json"),
+                    help="default: under runs/ (benchmarks/results/wire_msn007.json is the "
+                    "committed one: name it to replace it)")
     args = ap.parse_args()
     protocols = ("backseat", "mavlink") if args.protocol == "both" else (args.protocol,)
     load0 = os.getloadavg()

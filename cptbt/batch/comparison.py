@@ -118,9 +118,11 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
              "of the two succeeded in (exact McNemar p on those; where a plume holds several "
              "starts, an exact sign-flip test over the plumes' differences, as McNemar's "
              "clustered by plume), and the mean "
-             "time difference over the runs both succeeded in (this minus the first, ± SE over "
-             "plumes, then its 95% interval: Student's t on the plumes less one, or the runs "
-             "less one where each plume holds one).", "",
+             "time difference over the runs both succeeded in (this minus the first, ± its SE: "
+             "over plumes, or over runs where that is larger; then its 95% interval, Student's "
+             "t on the plumes less one, or the runs less one where each plume holds one). A "
+             "difference over the runs both succeeded in leaves out the runs only one did: read "
+             "it with the counts beside it.", "",
              "| configuration | against | pairs | succeeded only here / only there | McNemar p "
              "| time difference (s) | both succeeded |",
              "|---|---|---:|---:|---:|---:|---:|"]

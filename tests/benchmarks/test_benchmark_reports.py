@@ -80,3 +80,15 @@ def test_likelihood_map_header_records_the_whole_command(tmp_path: Path) -> None
     header = out.read_text(encoding="utf-8").splitlines()[2]
     assert ("`python benchmarks/likelihood_map.py --runs 1 --two-runs 0 --configs "
             "upflow_cluster --cost-seeds 0 --workers 1 --out ") in header
+
+
+def test_no_benchmark_replaces_the_committed_evidence_by_default() -> None:
+    """A reproducibility review: ``likelihood_map.py --runs 40`` (its docstring's first line)
+    wrote over the committed 200-run table and rows the README cites. A benchmark's default
+    output is a scratch folder; the committed file is replaced only when named."""
+    import re
+
+    for path in sorted((ROOT / "benchmarks").glob("*.py")):
+        source = path.read_text(encoding="utf-8")
+        for default in re.findall(r'add_argument\(\s*"--out"[^)]*?default=([^\n]*)', source):
+            assert "results" not in default, f"{path.name}: --out default {default}"
