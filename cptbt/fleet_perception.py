@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cptbt.perception import STUCK_FLOOR, TIME_EPS_S, PerceptionSettings
+from cptbt.perception import SILENT_SENSOR_S, STUCK_FLOOR, TIME_EPS_S, PerceptionSettings
 from cptbt.types import Point
 
 FloatArray = NDArray[np.float64]
@@ -101,6 +101,10 @@ class FleetPerception:
         self.flow_held_cycles = np.zeros(n, dtype=np.int64)  # planned on a held estimate
         self.stuck_samples = np.zeros(n, dtype=np.int64)
         self.missing_samples = np.zeros(n, dtype=np.int64)
+        self.blind_cycles = np.zeros(n, dtype=np.int64)  # cycles with no reading (Perception's)
+        self._read = np.zeros(n, dtype=bool)  # has had a reading
+        self._start_t = np.full(n, np.nan)  # first cycle without one, before any reading
+        self._early = np.zeros(n, dtype=np.int64)  # such cycles not yet counted
         self._run_value = np.full(n, np.nan)  # each vehicle's latest sample, since when
         self._run_t = np.full(n, np.nan)
 
@@ -182,6 +186,20 @@ class FleetPerception:
         self._flow_vy[k] = sy[some] / n
         self._has_flow[k] = True
 
+    def _note_readings(self, t: float, ids: Index, reading: BoolArray) -> None:
+        """:meth:`Perception._note_reading`'s count for the vehicles ``ids`` (the fleet's runs
+        are simulated, and say nothing in the log)."""
+        read = self._read[ids]
+        self.blind_cycles[ids] += ~reading & read
+        k = ids[~reading & ~read]  # none yet: counted once the sensor is late
+        if k.size:
+            self._start_t[k] = np.where(np.isnan(self._start_t[k]), t, self._start_t[k])
+            self._early[k] += 1
+            late = k[t - self._start_t[k] >= SILENT_SENSOR_S]
+            self.blind_cycles[late] += self._early[late]
+            self._early[late] = 0
+        self._read[ids] = read | reading
+
     def cycle(self, t: float, ids: Index) -> FleetPercept:
         """Close the current cycle at time ``t`` for the vehicles ``ids``; their percepts.
 
@@ -195,6 +213,7 @@ class FleetPerception:
         cm = self._cycle_max[ids]
         conc = np.where(cm > -np.inf, cm, np.nan)
         self._cycle_max[ids] = -np.inf
+        self._note_readings(t, ids, cm > -np.inf)
         xmin, xmax, ymin, ymax = self._box
         in_area = (xmin <= x) & (x <= xmax) & (ymin <= y) & (y <= ymax)  # NaN: False
         detected = in_area & (conc > self.settings.threshold)
@@ -236,7 +255,8 @@ class FleetPerception:
                 "stuck_samples": int(self.stuck_samples[i]), "late_samples": 0,
                 "rejected_fixes": 0,
                 "rejected_flow_samples": int(self.rejected_flow_samples[i]),
-                "clock_corrections": 0, "flow_held_cycles": int(self.flow_held_cycles[i])}
+                "clock_corrections": 0, "flow_held_cycles": int(self.flow_held_cycles[i]),
+                "blind_cycles": int(self.blind_cycles[i])}
 
     def lost_contacts(self, i: int) -> tuple[Point, ...]:
         """Vehicle ``i``'s lost-contact points, oldest first."""

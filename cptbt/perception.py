@@ -44,6 +44,11 @@ float spacing is coarse enough to break the planner's timers (a review: a *first
 froze the clock, 1e20 + 1 == 1e20, and one of 1e17 ran it 16 times fast, since the leap check
 needs an earlier cycle). Epoch seconds (1.7e9) keep sub-microsecond spacing."""
 
+SILENT_SENSOR_S = 10.0
+"""A fluorometer with no reading this long (since its last one) is warned of once an outage:
+the planner then sees no plume, and clean water cannot be told from a dead sensor (a field
+review: samples cut at t = 200 s, 780 cycles later the run timed out and nothing said so)."""
+
 
 def usable_stamp(t: float) -> bool:
     """Whether a time stamp can be elapsed time: finite and within :data:`MAX_STAMP_S`."""
@@ -104,7 +109,9 @@ class Perception:
       and so are the samples of a reading stuck away from zero (``stuck_after_s``: the same
       value that long, to the last bit, more than :data:`STUCK_FLOOR` from zero) until it
       changes; a cycle with no sample left has a NaN
-      concentration, which no behaviour takes for plume or for clean water; a sample stamped
+      concentration, which no behaviour takes for plume or for clean water (such cycles are
+      counted, ``blind_cycles``, and an outage of :data:`SILENT_SENSOR_S` is warned of); a
+      sample stamped
       more than :data:`LATE_SAMPLE_S` (or the nominal period, if longer) before the previous
       cycle (a late delivery: its plume was where the vehicle no longer is) is dropped and
       counted (``late_samples``), unless that cycle finds the clock stepped back;
@@ -167,18 +174,24 @@ class Perception:
         self._run_t = math.nan
         self._flow_held = False  # the flow estimate is held for want of samples (said once)
         self.flow_held_cycles = 0  # cycles planned on a held flow estimate
+        self.blind_cycles = 0  # cycles with no fluorometer reading (_note_reading)
+        self._read_t = math.nan  # the latest cycle with a reading (NaN: none yet)
+        self._start_t = math.nan  # the first cycle without one, before any reading
+        self._early = 0  # cycles without a reading before the first, not yet counted
+        self._silent = False  # the outage under way has been warned of
         self.latest: Percept | None = None
 
     def faults(self) -> dict[str, int]:
         """What the perception has dropped or corrected so far (the run summary's sensor
         faults): fluorometer samples missing (not finite) or dropped as stuck or late, flow
-        samples and navigation fixes rejected, clock steps back corrected, and the cycles planned
-        on a held flow estimate (no usable flow sample in the window)."""
+        samples and navigation fixes rejected, clock steps back corrected, the cycles planned
+        on a held flow estimate (no usable flow sample in the window), and the cycles with no
+        fluorometer reading (a dropout, or a silent sensor; :meth:`_note_reading`)."""
         return {"missing_samples": self.missing_samples, "stuck_samples": self.stuck_samples,
                 "late_samples": self.late_samples, "rejected_fixes": self.rejected_fixes,
                 "rejected_flow_samples": self.rejected_flow_samples,
                 "clock_corrections": self.clock_corrections,
-                "flow_held_cycles": self.flow_held_cycles}
+                "flow_held_cycles": self.flow_held_cycles, "blind_cycles": self.blind_cycles}
 
     def on_clock(self, t: float) -> float:
         """A vehicle time stamp on the planner's clock (shifted by the steps back so far): the
@@ -317,6 +330,33 @@ class Perception:
         self._t_prev = now
         return now
 
+    def _note_reading(self, t: float, conc: float) -> None:
+        """Count a cycle with no reading, and warn once an outage of :data:`SILENT_SENSOR_S`;
+        say when readings come back. Before the first reading, cycles count only once the
+        sensor is that late (a first cycle before the first sample is no fault)."""
+        if math.isfinite(conc):
+            if self._silent:
+                log.warning("fluorometer readings back at t = %g s, after %g s without one",
+                            t, t - self._read_t)
+            self._read_t, self._silent = t, False
+            return
+        if math.isnan(self._read_t):  # none yet: a sensor starting counts once it is late
+            self._start_t = t if math.isnan(self._start_t) else self._start_t
+            self._early += 1
+            since = self._start_t
+            if t - since < SILENT_SENSOR_S:
+                return
+            self.blind_cycles += self._early
+            self._early = 0
+        else:
+            self.blind_cycles += 1
+            since = self._read_t
+        if not self._silent and t - since >= SILENT_SENSOR_S:
+            self._silent = True
+            log.warning("no fluorometer reading for %g s (t = %g s on the planner clock): the "
+                        "planner sees no plume, and cannot tell clean water from a silent "
+                        "sensor", t - since, t)
+
     def cycle(self, t: float) -> Percept:
         """Close the current cycle at vehicle time ``t`` and return its percept.
 
@@ -343,6 +383,7 @@ class Perception:
         pose = self._pose
         conc = self._cycle_max if self._cycle_max > -math.inf else math.nan
         self._cycle_max = -math.inf
+        self._note_reading(t, conc)
         located = math.isfinite(pose.x)
         in_area = located and self.op_area.contains(pose.x, pose.y)
         detected = in_area and conc > self.threshold

@@ -127,6 +127,7 @@ class RunSummary:
     rejected_flow_samples: int = 0
     clock_corrections: int = 0
     flow_held_cycles: int = 0
+    blind_cycles: int = 0
     nonfinite_commands: int = 0
     unflyable_commands: int = 0
     command_faults: str | None = None
@@ -182,7 +183,10 @@ def summarise(
     fixes more than 1000 km outside the OpArea; impossible
     flow samples, cycle times not after the previous one) up to the end of the AMP's part;
     ``flow_held_cycles`` the cycles planned on a held flow estimate (no usable flow sample in
-    ``perception.flow_window_s``: the last estimate stands in for the current).
+    ``perception.flow_window_s``: the last estimate stands in for the current);
+    ``blind_cycles`` the cycles with no fluorometer reading after the first (a dropout, stuck
+    samples dropped, or a sensor that stopped sending: a field review's dead fluorometer had
+    read as a plume not found).
     ``nonfinite_commands`` counts the cycles a behaviour asked ``command()`` for a non-finite
     heading or speed (none was sent: the behaviour below drove), ``unflyable_commands`` those
     whose speed the simulated vehicle cannot fly (it flew the nearest it can), and

@@ -11,8 +11,8 @@ type           direction   fields
 =============  ==========  ===================================================================
 ``nav``        vehicle →   ``t_s x_m y_m heading_deg speed_mps`` [``depth_m``] ``mode``
                            ``waypoints_reached``
-``sample``     vehicle →   ``t_s value`` (one fluorometer sample)
-``flow``       vehicle →   ``t_s vx_mps vy_mps`` (flow over ground)
+``sample``     vehicle →   ``t_s value`` (one fluorometer sample; a null value: none, a dropout)
+``flow``       vehicle →   ``t_s vx_mps vy_mps`` (flow over ground; null: none)
 ``refused``    vehicle →   ``t_s heading_deg speed_mps`` [``depth_m``] ``reason``
 ``ended``      vehicle →   ``t_s reason`` (released/watchdog/mission_end) ``break_off_m``
 ``take``       → vehicle   (the AMP asks for the override)
@@ -116,10 +116,11 @@ def to_data(msg: InMessage | OutMessage | Heartbeat) -> dict[str, Any]:
                 "heading_deg": msg.heading_deg, "speed_mps": msg.speed_mps,
                 "depth_m": _finite(msg.depth_m), "mode": msg.mode,
                 "waypoints_reached": msg.waypoints_reached}
-    if isinstance(msg, ConcentrationSample):
-        return {"type": "sample", "t_s": msg.t_s, "value": msg.value}
+    if isinstance(msg, ConcentrationSample):  # no reading (NaN): null, a dropout
+        return {"type": "sample", "t_s": msg.t_s, "value": _finite(msg.value)}
     if isinstance(msg, FlowSample):
-        return {"type": "flow", "t_s": msg.t_s, "vx_mps": msg.vx_mps, "vy_mps": msg.vy_mps}
+        return {"type": "flow", "t_s": msg.t_s, "vx_mps": _finite(msg.vx_mps),
+                "vy_mps": _finite(msg.vy_mps)}
     if isinstance(msg, CommandRefused):
         c = msg.command
         return {"type": "refused", "t_s": msg.t_s, "heading_deg": c.heading_deg,
@@ -176,6 +177,17 @@ def _num(d: dict[str, Any], key: str, optional: bool = False) -> Any:
     return f
 
 
+def _reading(d: dict[str, Any], key: str) -> float:
+    """A sensor reading: a number, or null for none (a dropout: NaN, which the planner drops
+    and counts, ``missing_samples`` or ``rejected_flow_samples``; a field review's NaN values
+    had been ignored as malformed lines, and counted nowhere the summary shows). The key must
+    be there."""
+    if key not in d:
+        raise ProtocolError("invalid", f"{d.get('type')}: {key} must be a number or null")
+    v = _num(d, key, optional=True)
+    return math.nan if v is None else float(v)
+
+
 def _int(d: dict[str, Any], key: str) -> int:
     v = d.get(key)
     if isinstance(v, bool) or not isinstance(v, int) or v < 0:
@@ -218,10 +230,10 @@ def parse_line(line: bytes | str) -> tuple[int, InMessage | OutMessage | Heartbe
             mode=_choice(d, "mode", MODES),  # type: ignore[arg-type]
             waypoints_reached=_int(d, "waypoints_reached"),
         )
-    elif kind == "sample":
-        msg = ConcentrationSample(_num(d, "t_s"), _num(d, "value"))
+    elif kind == "sample":  # a null value is the sensor's dropout, counted by the planner
+        msg = ConcentrationSample(_num(d, "t_s"), _reading(d, "value"))
     elif kind == "flow":
-        msg = FlowSample(_num(d, "t_s"), _num(d, "vx_mps"), _num(d, "vy_mps"))
+        msg = FlowSample(_num(d, "t_s"), _reading(d, "vx_mps"), _reading(d, "vy_mps"))
     elif kind == "refused":
         cmd = HeadingSpeedCommand(_num(d, "heading_deg"), _num(d, "speed_mps"),
                                   _num(d, "depth_m", optional=True))

@@ -90,7 +90,9 @@ def sensor_faults_line(s: dict[str, Any]) -> str | None:
                       ("clock_corrections", "cycle time{} not after the previous one, or "
                        "leaping more than an hour past it, taken as one period later"),
                       ("flow_held_cycles", "cycle{} planned on the last flow estimate, held (no "
-                       "usable flow sample for perception.flow_window_s)")):
+                       "usable flow sample for perception.flow_window_s)"),
+                      ("blind_cycles", "cycle{} planned with no fluorometer reading (samples "
+                       "missing, dropped, or not sent: blind to the plume)")):
         n = s.get(key) or 0
         if n:
             parts.append(f"{n} " + what.format("s" * (n != 1)))

@@ -4,6 +4,7 @@ arrives from the wire can raise."""
 from __future__ import annotations
 
 import json
+import math
 from importlib import resources
 
 import jsonschema
@@ -55,7 +56,33 @@ def test_every_message_round_trips_and_matches_the_schema(msg: object, validator
     assert seq == 7 and back == msg
 
 
+def test_a_sensor_dropout_is_a_null_reading_not_a_malformed_line(validator) -> None:
+    """A field review: a NaN fluorometer value over the link was ignored as a malformed line
+    and counted nowhere the summary shows. A dropout is a null reading, decoded as NaN, which
+    the planner drops and counts (missing_samples, rejected_flow_samples)."""
+    from cptbt.perception import Perception, PerceptionSettings
+    from cptbt.testing import square_area
+
+    for msg in (ConcentrationSample(3.0, math.nan), FlowSample(3.0, math.nan, math.nan)):
+        line = encode(msg, 4)
+        validator.validate(json.loads(line))
+        _, back = parse_line(line)
+        assert type(back) is type(msg) and back.t_s == 3.0
+    assert b'"value":null' in encode(ConcentrationSample(3.0, math.nan), 4)
+    decoder = Decoder()
+    (sample,) = decoder.feed(b'{"v":1,"seq":1,"type":"sample","t_s":1,"value":null}\n')
+    (flow,) = decoder.feed(b'{"v":1,"seq":2,"type":"flow","t_s":1,"vx_mps":null,"vy_mps":0}\n')
+    assert decoder.ignored == 0
+    p = Perception(square_area(), PerceptionSettings(threshold=0.2))
+    p.add_sample(sample.t_s, sample.value)
+    p.add_flow(flow.t_s, flow.vx_mps, flow.vy_mps)
+    assert p.faults()["missing_samples"] == 1
+    p.cycle(1.5)
+    assert p.faults()["rejected_flow_samples"] == 1
+
+
 @pytest.mark.parametrize("line", [
+    b'{"v":1,"seq":1,"type":"sample","t_s":1}',                   # no value at all, not null
     b'{"v":1,"seq":1,"type":"nav","t_s":1}',                      # fields missing
     b'{"v":1,"seq":1,"type":"command","heading_deg":"north","speed_mps":1}',
     b'{"v":1,"seq":-1,"type":"take"}',

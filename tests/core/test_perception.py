@@ -437,3 +437,59 @@ def test_the_fleet_counts_held_flow_cycles_as_the_scalar_perception_does() -> No
     held = [p.faults()["flow_held_cycles"] for p in scalars]
     assert held == [400 - 119, 400 - 129, 0, 0]
     assert [fleet.faults(i)["flow_held_cycles"] for i in ids] == held
+
+
+def test_a_fluorometer_gone_silent_is_said_and_counted(caplog: pytest.LogCaptureFixture) -> None:
+    """A field review: the fluorometer's samples cut at t = 200 s, the planner blind for 780
+    cycles, and the run timed out with nothing said and every fault count at 0. The cycles with
+    no reading are counted (``blind_cycles``), the outage said once when it reaches
+    SILENT_SENSOR_S, and the readings coming back said too."""
+    from cptbt.perception import SILENT_SENSOR_S
+
+    p = make()
+    p.set_pose(Pose(50, 0))
+    assert math.isnan(p.cycle(0.0).concentration)  # a first cycle before the first sample
+    with caplog.at_level("WARNING", logger="cptbt.perception"):
+        for k in range(1, 200):
+            p.add_sample(k - 0.5, 0.0)
+            p.cycle(float(k))
+        assert p.faults()["blind_cycles"] == 0  # not a fault: the sensor had not started
+        for k in range(200, 230):  # silent from t = 200
+            p.cycle(float(k))
+        said = [r.getMessage() for r in caplog.records]
+        assert len(said) == 1 and said[0].startswith(
+            f"no fluorometer reading for {SILENT_SENSOR_S:g} s (t = 209 s"), said
+        p.add_sample(229.5, 0.0)
+        p.cycle(230.0)
+        assert caplog.records[-1].getMessage().startswith(
+            "fluorometer readings back at t = 230 s, after 31 s")
+    assert p.faults()["blind_cycles"] == 30
+
+
+def test_a_fluorometer_that_never_starts_counts_once_it_is_late() -> None:
+    """No reading at all: the cycles count once the sensor is SILENT_SENSOR_S late, from the
+    first; the fleet's perception counts as the scalar one does (a sensor that stops, one
+    that never starts, one late by less, one that keeps reporting)."""
+    import numpy as np
+
+    from cptbt.fleet import FleetPerception
+
+    scalars = [make() for _ in range(4)]
+    fleet = FleetPerception(4, AREA, scalars[0].settings)
+    ids = np.arange(4)
+    fleet.set_poses(ids, np.full(4, 50.0), np.zeros(4), np.zeros(4))
+    for p in scalars:
+        p.set_pose(Pose(50, 0))
+    for k in range(60):
+        t = float(k)
+        c = np.array([0.0 if k < 20 else math.nan, math.nan, 0.0 if k >= 5 else math.nan,
+                      0.1 + 1e-3 * k])  # the last changing: not a stuck reading
+        for p, v in zip(scalars, c, strict=True):
+            p.add_sample(t, float(v))
+        fleet.add_samples(ids, c, t)
+        fleet.cycle(t + 0.5, ids)
+        for p in scalars:
+            p.cycle(t + 0.5)
+    blind = [p.faults()["blind_cycles"] for p in scalars]
+    assert blind == [40, 60, 0, 0]
+    assert [fleet.faults(i)["blind_cycles"] for i in ids] == blind
