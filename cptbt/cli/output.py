@@ -60,12 +60,13 @@ def place(d: dict[str, float]) -> str:
     return text
 
 
-def outside_line(s: dict[str, Any]) -> str | None:
-    """How far outside the OpArea the vehicle went, when it left it (None: it did not)."""
+def outside_line(s: dict[str, Any], track: str = "true track") -> str | None:
+    """How far outside the OpArea the vehicle went, when it left it (None: it did not), on
+    ``track`` (a served run knows only the navigation track)."""
     far = s.get("farthest_outside_m") or 0.0
     if not left_oparea(far):
         return None
-    return f"  left the OpArea: at most {far:.1f} m outside it (true track)"
+    return f"  left the OpArea: at most {far:.1f} m outside it ({track})"
 
 
 def command_faults_line(s: dict[str, Any]) -> str | None:

@@ -22,6 +22,7 @@ from cptbt.cli.output import (
     fmt,
     frame_line,
     fresh_folder,
+    outside_line,
     place,
     sensor_faults_line,
     time_share,
@@ -165,7 +166,9 @@ def print_summary(s: dict[str, Any], session: AmpSession) -> None:
     for c in s["phases"]["timeline"]:
         print(f"  t {c['t']:7.1f} s  {c['from']} -> {c['to']}  ({c['trigger']})"
               + (f" {c['detail']}" if c["detail"] else ""))
-    for faults in (sensor_faults_line(s), command_faults_line(s)):
+    # the "left the OpArea" line too (a field review: 20.6 m out after a bad fix, unsaid)
+    for faults in (sensor_faults_line(s), command_faults_line(s),
+                   outside_line(s, "navigation track")):
         if faults:
             print(faults)
     print(f"  time in behaviours: {time_share(s['time_share']) or '—'}")

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import pytest
+
 from cptbt.batch.scenario import Environment
 from cptbt.batch.summary import where
 from cptbt.cli.output import fmt, fresh_folder, place, sensor_faults_line, time_share
@@ -153,3 +155,26 @@ def test_several_declared_points_are_printed_with_their_own_error_and_source() -
     # one true source: no source to name
     one = {**s, "sources_true": 1}
     assert "from source" not in declaration_lines(one)[-1]
+
+
+def test_a_served_run_says_it_left_the_oparea_on_its_navigation_track(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A field review: ``cptbt serve`` had a farthest_outside_m of 20.6 m (a bad fix) in its
+    summary and said nothing, where ``cptbt run`` prints the line; a served run knows only the
+    navigation track, and says so."""
+    import json
+    import types
+
+    from cptbt import cli
+    from cptbt.cli.serve_cmd import print_summary
+
+    mission = Path(__file__).resolve().parents[2] / "missions/small_oparea.yaml"
+    assert cli.main(["-q", "run", str(mission), "--out", str(tmp_path / "r"),
+                     "--no-figure"]) == 0
+    s = json.loads((tmp_path / "r/summary.json").read_text())
+    s |= {"farthest_outside_m": 20.6, "phases": {"timeline": []},
+          "link": {"stop_reason": "vehicle_done", "error": None, "handed_back": False,
+                   "heartbeats": 3}}
+    print_summary(s, types.SimpleNamespace(refusals=0))  # type: ignore[arg-type]
+    out = capsys.readouterr().out
+    assert "  left the OpArea: at most 20.6 m outside it (navigation track)" in out
