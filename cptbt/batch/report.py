@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from cptbt.batch.behaviour_times import behaviour_time_table
 from cptbt.batch.comparison import (
     command_fault_table,
     excursion_table,
@@ -408,8 +409,8 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
               "at the runs over the design effect the replicates' spread gives, with Student's "
               "t on replicates − 1 degrees of freedom; the SEMs likewise)."
               + (f" Note: {single}." if single else "")]
-    lines += excursion_table(groups)
-    lines += command_fault_table(groups)
+    lines += excursion_table(groups) + command_fault_table(groups)
+    lines += behaviour_time_table(groups)
     if is_maintain_study(every):  # nothing declared: TRO's tables say nothing
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         return path

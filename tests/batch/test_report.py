@@ -778,3 +778,25 @@ def test_a_report_without_figures_leaves_no_stale_ones(tmp_path: Path) -> None:
     write_report(grid_rows(configs=1), tmp_path, geometry)
     assert not (tmp_path / "success_and_false_declarations.png").exists()
     assert (tmp_path / "time_to_source_map.png").exists()
+
+
+def test_a_swept_behaviour_that_drove_little_is_said() -> None:
+    """A plug-in author's review: find_plume swept on a study whose vehicle met the plume on
+    its way to the start gave rows identical to the decimal (it drove in 1 run of 8), and
+    tables.md said nothing of what each behaviour drove."""
+    from cptbt.batch.behaviour_times import behaviour_time_table
+
+    def run(find: float | None) -> dict[str, Any]:
+        return {"time_find_plume_s": find, "time_maintain_plume_s": 100.0,
+                "time_maintain_plume.track_in_s": 60.0, "time_none_s": 5.0}
+
+    groups = {"find_plume=billiard": [run(30.0)] + [run(None)] * 3,
+              "find_plume=lawnmower": [run(40.0), run(10.0), run(20.0), run(30.0)]}
+    lines = behaviour_time_table(groups)
+    assert "| configuration | find_plume | maintain_plume |" in lines
+    assert f"| find_plume=billiard | {30 / 430:.1%} (1/4) | {400 / 430:.1%} (4/4) |" in lines
+    assert f"| find_plume=lawnmower | {100 / 500:.1%} (4/4) | {400 / 500:.1%} (4/4) |" in lines
+    (note,) = [line for line in lines if line.startswith("**Note")]
+    assert note == ("**Note: find_plume, swept here, drove little (find_plume=billiard: 1 of "
+                    "4 runs, 30 s in all): the rows compare little of find_plume's settings.**")
+    assert behaviour_time_table({"one": groups["find_plume=billiard"]}) == []

@@ -1,0 +1,79 @@
+"""``tables.md``'s account of what each behaviour family drove, per configuration.
+
+A sweep compares variants of a behaviour only as far as that behaviour drove: a review swept
+``find_plume.variant=billiard,lawnmower`` on a study whose vehicle met the plume on its way to
+the start, and the two rows came out identical to the decimal (find-plume drove in 1 run of
+8); on MSN007 it drove 6-12 s in all, and a 54-s difference between the rows was the runs'
+divergence, not the variants'. The results table had the times (``time_<family>_s``, NaN
+where a family never drove); ``tables.md`` had nothing.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Any
+
+Rows = list[dict[str, Any]]
+
+SELDOM = 0.5
+"""A swept family that drove in fewer than this share of a configuration's runs is noted ..."""
+
+LITTLE = 0.01
+"""... as is one that drove less than this share of its AMP time."""
+
+
+def _families(rows: Rows) -> list[str]:
+    """The behaviour families with a time column (``time_<family>_s``), in first-seen order."""
+    seen: dict[str, None] = {}
+    for r in rows:
+        for k in r:
+            if k.startswith("time_") and k.endswith("_s") and "." not in k:
+                seen.setdefault(k[5:-2], None)
+    return [f for f in seen if f not in ("none",)]
+
+
+def _seconds(row: dict[str, Any], family: str) -> float:
+    v = row.get(f"time_{family}_s")
+    return float(v) if isinstance(v, int | float) and math.isfinite(v) else 0.0
+
+
+def swept_families(labels: list[str], families: list[str]) -> list[str]:
+    """The families a configuration's label names (``find_plume=lawnmower``,
+    ``reacquire_plume.give_up_s=4``, ``maintain_plume.variant+reacquire_plume.variant=...``)."""
+    named = {m for label in labels for m in re.findall(r"([a-z_]+)[.=]", label)}
+    return [f for f in families if f in named]
+
+
+def behaviour_time_table(groups: dict[str, Rows]) -> list[str]:
+    """Per configuration, each family's share of the AMP's time and the runs it drove in, and a
+    note for a swept family that drove in few of a configuration's runs; none for one
+    configuration or a table without behaviour times."""
+    every = [r for rows in groups.values() for r in rows]
+    families = _families(every)
+    if len(groups) < 2 or not families:
+        return []
+    lines = ["", "## Time each behaviour drove", "",
+             "Each family's share of the AMP's time over a configuration's runs, and in how "
+             "many runs it drove at all: a configuration differs from another only where the "
+             "behaviours that differ drove.", "",
+             "| configuration | " + " | ".join(families) + " |",
+             "|---|" + "---:|" * len(families)]
+    little: dict[str, list[str]] = {}
+    swept = swept_families(list(groups), families)
+    for label, rows in groups.items():
+        total = sum(_seconds(r, f) for r in rows for f in families) or math.nan
+        cells = []
+        for f in families:
+            spent = sum(_seconds(r, f) for r in rows)
+            drove = sum(_seconds(r, f) > 0.0 for r in rows)
+            share = spent / total if math.isfinite(total) else math.nan
+            cells.append(f"{'—' if math.isnan(share) else f'{share:.1%}'} ({drove}/{len(rows)})")
+            if f in swept and (drove < SELDOM * len(rows) or not share >= LITTLE):
+                little.setdefault(f, []).append(
+                    f"{label}: {drove} of {len(rows)} runs, {spent:.0f} s in all")
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    for f, where in little.items():
+        lines += ["", f"**Note: {f}, swept here, drove little ({'; '.join(where)}): the "
+                  f"rows compare little of {f}'s settings.**"]
+    return lines
