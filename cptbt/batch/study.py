@@ -112,6 +112,7 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
     env: type[BaseModel] | None = (type(mission.environment) if mission.environment is not None
                                    else None)
     model = mission_model(default_registry(), env)
+    variants = {e.family: e.variant for e in mission.entries()}  # a mapping's, when it names none
     for i, combo in enumerate(combos):
         data = copy.deepcopy(base)
         coords = {}
@@ -120,7 +121,7 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         for path, value in sorted(settings, key=lambda pv: setting_order(pv[0])):
             apply_setting(data, path, value)
         for sweep, value in zip(sweeps, combo, strict=True):
-            coords[sweep.name] = value_label(value)
+            coords[sweep.name] = value_label(value, variants.get(sweep.name))
         swept = ", ".join(f"{k}={v}" for k, v in coords.items())
         try:  # the data as it is: what YAML text of it would parse back to
             validated = cast(MissionBase, validate_data(
@@ -214,7 +215,23 @@ def _swept_error(located: list[tuple[Loc, str]], source: str, lines: dict[Loc, i
                           if ("study", "sweeps", s.name) in lines), lines.get(loc))
         out.append(f"{source}:{where}: {path}: {msg} (with sweep {named})"
                    if where is not None else f"{source} [sweep {named}]: {path}: {msg}")
+        out[-1] += _whole_sweep_hint(loc, msg, sweeps)
     return MissionError(out)
+
+
+def _whole_sweep_hint(loc: Loc, msg: str, sweeps: Sequence[Sweep]) -> str:
+    """For a setting swept across variants that one of them lacks, how to give it to the others
+    alone (a plug-in author's review crossed a variant sweep with such a setting's)."""
+    if len(loc) < 4 or loc[0] != "behaviours" or not msg.startswith("unknown key of "):
+        return ""
+    family, key = str(loc[2]), str(loc[3])
+    swept = [str(v) for s in sweeps if f"{family}.variant" in s.paths for v in s.values]
+    lacking = msg.removeprefix(f"unknown key of {family} ").partition(";")[0]
+    others = [v for v in swept if v != lacking]
+    if lacking not in swept or not others:
+        return ""
+    return (f"; a setting only some variants have goes in a whole-behaviour sweep, with them: "
+            f"--sweep '{family}={lacking},{{variant: {others[0]}, {key}: VALUE}}'")
 
 
 @dataclass(frozen=True)

@@ -110,14 +110,16 @@ def value_yaml(value: Any) -> str:
     return str(value)
 
 
-def value_label(value: Any) -> str | Any:
+def value_label(value: Any, variant: str | None = None) -> str | Any:
     """A swept value as a results table holds it: a whole behaviour's mapping as
-    ``likelihood_map(radius_m=8, flyby=true)`` (``(radius_m=8)`` without a variant), any other
-    value as it is."""
+    ``likelihood_map(radius_m=8, flyby=true)`` (without a variant, the mission's: ``variant``;
+    a review's ``{half_width_m: 20}`` had read ``(half_width_m=20)``, no variant named), any
+    other value as it is."""
     if not isinstance(value, dict):
         return value
+    name = str(value.get("variant", variant or ""))
     rest = ", ".join(f"{k}={value_yaml(v)}" for k, v in value.items() if k != "variant")
-    return f"{value.get('variant', '')}({rest})" if rest else str(value.get("variant", "()"))
+    return f"{name}({rest})" if rest else (name or "()")
 
 
 NOT_SWEPT = {
@@ -267,7 +269,14 @@ def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
                 else:
                     flown.setdefault(str(value), set())
             for value, keys in flown.items():
-                if value == body.get("variant"):
+                if value == body.get("variant"):  # the mission's own: its settings, said
+                    # (a review: a bare name flew the mission's 12 m, another study's its 10)
+                    kept = [f"{k}={value_yaml(v)}" for k, v in body.items()
+                            if k != "variant" and k not in also and k in made]
+                    if kept and not rest:  # a whole-behaviour sweep, beside mappings
+                        notes.append(f"sweep {path}: {value} is the mission's own variant: "
+                                     f"where a value does not set them, it flies the mission's "
+                                     f"{family} settings ({', '.join(kept)}), not its defaults")
                     continue
                 try:
                     defaults = registry.get(family, value).params().model_dump(mode="json")

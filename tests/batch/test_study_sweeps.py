@@ -141,21 +141,28 @@ def test_a_whole_behaviour_sweep_compares_a_variant_with_settings_of_another() -
     mission = loads_mission(path.read_text(encoding="utf-8"), str(path), default_registry(),
                             Environment)
     sweep = Sweep.parse("declare_source=upflow_cluster,{variant: likelihood_map, radius_m: 8},"
-                        "{variant: likelihood_map, radius_m: 12, flyby: true}")
+                        "{variant: likelihood_map, radius_m: 12, flyby: true},{epsilon_m: 6}")
     configs = configurations(mission, [sweep], str(path))
     assert [c.coords for c in configs] == [
         {"declare_source": "upflow_cluster"},
         {"declare_source": "likelihood_map(radius_m=8)"},
-        {"declare_source": "likelihood_map(radius_m=12, flyby=true)"}]
+        {"declare_source": "likelihood_map(radius_m=12, flyby=true)"},
+        # a mapping without a variant is the mission's (a review's read "(epsilon_m=6)")
+        {"declare_source": "upflow_cluster(epsilon_m=6)"}]
+    configs = configs[:3]
     flown = [next(e for e in c.mission.entries() if e.family == "declare_source")
              for c in configs]
     assert [e.variant for e in flown] == ["upflow_cluster", "likelihood_map", "likelihood_map"]
     assert flown[0].params.epsilon_m == 4 and flown[0].params.recent_points == 6  # the mission's
     assert (flown[1].params.radius_m, flown[1].params.flyby) == (8, False)
     assert (flown[2].params.radius_m, flown[2].params.flyby) == (12, True)
-    (note,) = study_notes(mission, [sweep])
+    own, note = study_notes(mission, [sweep])
     assert note.startswith("sweep declare_source: likelihood_map flies with its own defaults")
     assert "no parameter for recent_points=6, epsilon_m=4.0" in note
+    # a review: a bare name flew the mission's settings in one study, the defaults in another
+    assert own == ("sweep declare_source: upflow_cluster is the mission's own variant: where "
+                   "a value does not set them, it flies the mission's declare_source settings "
+                   "(recent_points=6, epsilon_m=4.0), not its defaults")
     # the variant swept twice over is refused, and a bad setting names its sweep
     with pytest.raises(ValueError, match=r"declare_source and declare_source\.variant"):
         configurations(mission, [sweep, Sweep.parse("declare_source.variant=recent_box")],
@@ -572,3 +579,25 @@ def test_a_problem_names_the_sweep_that_set_its_key_alone() -> None:
     (line,) = caught.value.problems
     assert "[sweep perception.lambda_s=-1]: perception.lambda_s:" in line, line
     assert "perception.threshold=" not in line, line
+
+
+def test_a_setting_one_swept_variant_lacks_points_to_the_whole_behaviour_sweep() -> None:
+    """A plug-in author's review crossed a variant sweep with a sweep of a setting only one
+    variant has: refused, and the refusal did not say that a whole-behaviour sweep gives it."""
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.study import configurations
+    from cptbt.loader import MissionError, loads_mission
+    from cptbt.registry import default_registry
+
+    path = Path(__file__).resolve().parents[2] / "missions/small_oparea.yaml"
+    mission = loads_mission(path.read_text(encoding="utf-8"), str(path), default_registry(),
+                            Environment)
+    sweeps = [Sweep.parse("reacquire_plume.variant=three_point,cloverleaf"),
+              Sweep.parse("reacquire_plume.d_leaf_m=10,20")]
+    with pytest.raises(MissionError) as info:
+        configurations(mission, sweeps, str(path))
+    assert str(info.value).rstrip().endswith(
+        "unknown key of reacquire_plume three_point; known keys: speed_mps, arrive_radius_m, "
+        "pass_radius_m, wall_inset_m, radius_m, visits, variant; a setting only some variants "
+        "have goes in a whole-behaviour sweep, with them: --sweep "
+        "'reacquire_plume=three_point,{variant: cloverleaf, d_leaf_m: VALUE}'"), str(info.value)
