@@ -51,6 +51,8 @@ from typing import Any
 
 import pyarrow.parquet as pq
 
+from cptbt.batch.intervals import t975
+
 ROOT = Path(__file__).resolve().parents[1]
 MISSIONS = ROOT / "missions"
 TIME_LIMIT_S = 300.0
@@ -159,14 +161,19 @@ def grid_section(grids: dict[str, list[Row]], fig_dir: Path, judged: bool = True
     if "I_fig6" in grids:
         lines += ["With AB Fig. 6 (Strategy I, λ = 1 s, T_W = 3 s) on the same grid and plumes; AB "
                   "gives no number for Fig. 6, only that Fig. 11 is better.", ""]
-    lines += ["| reading | runs | success within 1 m in 300 s | mean time (failure = 300 s) "
-              "| AB |", "|---|---|---|---|---|"]
+    lines += ["| reading | runs | success within 1 m in 300 s, ± SE over the plumes (95% "
+              "interval) | mean time (failure = 300 s) ± SE over the plumes | AB |",
+              "|---|---|---|---|---|"]
     for key, rows in grids.items():
         reps = [int(r["replicate"]) for r in rows]
         s, s_se = clustered_mean_se([float(bool(r["success"])) for r in rows], reps)
         t, t_se = clustered_mean_se([time_or_limit(r) for r in rows], reps)
         ab = "97 %" if key.startswith("III") else "(Fig. 6: worse than Fig. 11)"
+        # the interval beside the SE (a reproducibility review read "± 1.9" as one): Student's
+        # t on the plumes less one, as tables.md's intervals
+        half = 100 * s_se * t975(len(set(reps)) - 1)
         lines.append(f"| {CONFIGS[key].label} | {len(rows)} | {100 * s:.1f} % ± {100 * s_se:.1f} "
+                     f"({max(0.0, 100 * s - half):.1f}–{min(100.0, 100 * s + half):.1f} %) "
                      f"| {t:.0f} ± {t_se:.0f} s | {ab} |")
     for key, rows in grids.items():
         if not key.startswith("III"):
@@ -221,7 +228,7 @@ def grid_paired(grids: dict[str, list[Row]], base: str = "III_last") -> list[str
     ref = {cell(r): r for r in grids[base]}
     lines = ["", f"Paired against {CONFIGS[base].label}, run by run (same start, same plume):",
              "", "| reading | pairs | only it succeeded | only the base succeeded | McNemar p "
-             "| time − base (failure = 300 s) |", "|---|---|---|---|---|---|"]
+             "| time − base (failure = 300 s) ± SE over the plumes |", "|---|---|---|---|---|---|"]
     for key, rows in grids.items():
         if key == base:
             continue
