@@ -7,7 +7,7 @@ from pathlib import Path
 
 from cptbt.batch.served import AmpCycles, served_summary
 from cptbt.bridge.serve import ServeResult
-from cptbt.link import ConcentrationSample, FlowSample, VehicleState
+from cptbt.link import ConcentrationSample, FlowSample, OverrideEnded, VehicleState
 from cptbt.loader import load_mission
 from cptbt.planner import Planner
 from cptbt.session import AmpSession
@@ -52,3 +52,31 @@ def test_a_clock_stepped_back_gives_no_negative_time() -> None:
     assert summary["T_F"] >= 0 and summary["sim_time_s"] >= summary["t0"]
     assert all(v >= 0 for v in summary["time_in_behaviour_s"].values())
     assert summary["clock_corrections"] >= 1
+
+
+def test_the_phase_timeline_keeps_the_planners_clock_across_a_step_back() -> None:
+    """A field review: a vehicle clock stepped back 100 s, and the timeline gave back "declared
+    and home" 58 s before the declaration's t3; the phases are now stamped on the planner's
+    clock, as t0-t3 are, so the timeline never runs backwards and gives back after t3."""
+    mission = load_mission(ROOT / "missions" / "tro2006_msn007.yaml")
+    link = Link()
+    session = AmpSession(mission, Planner(mission), link)
+
+    def report(t: float, mode: str) -> None:
+        link.inbox += [VehicleState(t, -60.0 + 0.01 * t, 10.0, 180.0, 1.5, 3.0, mode, 1),
+                       FlowSample(t, 0.1, 0.0), ConcentrationSample(t, 0.0)]
+        session.update()
+
+    report(0.0, "pre_launch")
+    for k in range(1, 2410):
+        report(k / 10, "mission")
+    assert session.in_override
+    for k in range(2410, 3000):
+        report(k / 10, "override")
+    for k in range(2000, 2100):  # the vehicle clock steps back 100 s at 300 s ...
+        report(k / 10, "override")
+    link.inbox.append(OverrideEnded(210.0, "watchdog", (0.0, 0.0)))  # ... then the vehicle
+    session.update()  # takes control back
+    times = [c.t_s for c in session.phases.timeline]
+    assert times == sorted(times), times
+    assert times[-1] >= 300.0  # after the step: the planner's clock, not the vehicle's 210 s

@@ -8,6 +8,7 @@ vehicle's own reports then lead to ``return_to_break_off``, ``mission_a.resumed`
 from __future__ import annotations
 
 import math
+import types
 from pathlib import Path
 
 import pytest
@@ -82,6 +83,7 @@ class StubPlanner:
         self.flows = 0
         self.ticks: list[float] = []
         self.speed = 1.5
+        self.perception = types.SimpleNamespace(on_clock=lambda t: t)  # a clock never corrected
 
     def add_sample(self, t: float, c: float) -> None:
         self.samples.append(c)
