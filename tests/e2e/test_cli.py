@@ -71,7 +71,7 @@ def test_settings_unlikely_meant_for_a_small_oparea_are_warned_of(tmp_path: Path
     res = cptbt("validate", str(small))
     assert res.returncode == 0 and ": ok (" in res.stdout, res.stderr
     lines = res.stderr.strip().splitlines()
-    assert len(lines) == 2, lines
+    assert len(lines) == 3, lines
     line = text[:text.index("- declare_source:")].count("\n") + 1
     top = next(i for i, ln in enumerate(text.splitlines(), 1) if ln.startswith("name:"))
     # no evaluation key: the default is warned of at the mission's first key, and said so
@@ -80,6 +80,11 @@ def test_settings_unlikely_meant_for_a_small_oparea_are_warned_of(tmp_path: Path
                                "declaration drawn at random"), lines[0]
     assert lines[1].startswith(f"{small}:{line}: behaviours[1].declare_source.radius_m: "
                                "warning: 10 m: the declaration disc covers 35%"), lines[1]
+    # and the three-point pattern's 15 m, beyond the 10 m left inside the walls' 10-m inset
+    three = text[:text.index("- reacquire_plume:")].count("\n") + 1
+    assert lines[2].startswith(f"{small}:{three}: behaviours[3].reacquire_plume.radius_m: "
+                               "warning: 15 m is longer than the OpArea's shorter side allows "
+                               "(30 m, less wall_inset_m each side: 10 m)"), lines[2]
     # a thin area: what fits inside counts (120 x 12 m: a 15 m disc covers 24%, not 49%)
     thin = text.replace("[15, -15]", "[60, -6]").replace("[15, 15]", "[60, 6]") \
         .replace("[-15, 15]", "[-60, 6]").replace("[-15, -15]", "[-60, -6]") \
