@@ -94,6 +94,7 @@ def test_settings_unlikely_meant_for_a_small_oparea_are_warned_of(tmp_path: Path
     res = cptbt("validate", str(small))
     assert res.returncode == 0 and "success_radius_m" not in res.stderr, res.stderr
     text += "evaluation: {criterion: declaration, success_radius_m: 5}\n"
+    text = text.replace("radius_m: 15, visits", "radius_m: 8, visits")  # fits inside: 10 m
     small.write_text(text.replace("likelihood_map}", "likelihood_map, radius_m: 5}"),
                      encoding="utf-8")
     assert cptbt("validate", str(small)).stderr == ""
