@@ -87,7 +87,8 @@ class PhaseChange:
     """One entry of the phase timeline.
 
     Attributes:
-        t_s: vehicle clock when the trigger fired, s.
+        t_s: when the trigger fired, s, on the planner's clock (the vehicle's, less the
+            steps back the planner corrected: ``AmpSession.fire_phase``).
         source: phase before.
         dest: phase after (equal to ``source`` for an internal transition).
         trigger: the trigger's name.

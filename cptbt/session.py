@@ -144,7 +144,7 @@ class AmpSession:
         """The vehicle's clock at its latest report (0 before any)."""
         return self.state.t_s if self.state is not None else 0.0
 
-    def _fire(self, trigger: str, t: float, detail: str = "") -> None:
+    def fire_phase(self, trigger: str, t: float, detail: str = "") -> None:
         """Fire a phase trigger at vehicle time ``t``, stamped on the planner's clock (the
         vehicle's, less the steps back the planner corrected): a field review's clock stepped
         back 100 s had the timeline give back "declared and home" 58 s before ``t3``, and a
@@ -168,13 +168,13 @@ class AmpSession:
         without = max((acc for _, acc in self._heard.values()), default=0.0)
         if self.in_override and without >= self._nav_timeout:
             self.link.send(OverrideRelease())
-            self._fire("amp_abort", t, f"no usable navigation for {without:.3g} s of the "
+            self.fire_phase("amp_abort", t, f"no usable navigation for {without:.3g} s of the "
                              f"vehicle's reports (the latest usable position at t = "
                              f"{self._fix_t:g} s)")
             return
         if self.phases.state == "mission_a.waypoints" and self._enable_due():
             self.link.send(OverrideRequest())
-            self._fire("amp_enable", t)
+            self.fire_phase("amp_enable", t)
             self.t_amp_start = self._take_t = self._elapsed_t = t
             self.amp_elapsed_s = 0.0
             self._control_t = None
@@ -223,7 +223,7 @@ class AmpSession:
             # mission" for a vehicle in a failsafe SURFACE the AMP would not take)
             why = (f"; {self._last_refusal}" if self._last_refusal and self._control_t is None
                    else "")
-            self._fire("watchdog_timeout", t, f"the vehicle {what}: mode "
+            self.fire_phase("watchdog_timeout", t, f"the vehicle {what}: mode "
                              f"{self.state.mode} for {t - since:g} s{why}")
             return False
         if self._control_t is None and t - self._take_t >= RETAKE_S:
@@ -307,11 +307,11 @@ class AmpSession:
             self.refusals += 1
             if self.in_override and msg.reason != self._last_refusal:
                 self._last_refusal = msg.reason
-                self._fire("command_refused", msg.t_s, msg.reason)
+                self.fire_phase("command_refused", msg.t_s, msg.reason)
         elif isinstance(msg, OverrideEnded) and msg.reason == "watchdog" and self.in_override:
             # (over MAVLink, any mode change out of GUIDED the AMP did not ask for: a field
             # re-test's pilot read as "no accepted command" while set-points went out)
-            self._fire("watchdog_timeout", msg.t_s,
+            self.fire_phase("watchdog_timeout", msg.t_s,
                              "the vehicle left the override: its watchdog (no accepted command "
                              f"for {self.spec.watchdog_s:g} s), a failsafe or a pilot")
 
@@ -336,7 +336,7 @@ class AmpSession:
                        "did not see the launch, and does not take over; start the AMP before "
                        "the launch")
                 log.warning(why)
-                self._fire("launch", s.t_s, why)
+                self.fire_phase("launch", s.t_s, why)
             else:
                 # Counted from the last report at the dock, or from this one if the clock
                 # restarted at the launch (a front seat on mission time: the dock's reports on
@@ -344,14 +344,14 @@ class AmpSession:
                 self._launch_base = self._dock_t if s.t_s >= self._dock_t else s.t_s
                 self._launch_prev_t = s.t_s
                 self._since_launch = s.t_s - self._launch_base
-                self._fire("launch", s.t_s)
+                self.fire_phase("launch", s.t_s)
         if s.mode == "post_mission" and ph.state != "post_mission":
-            self._fire("mission_a_complete", s.t_s)
+            self.fire_phase("mission_a_complete", s.t_s)
             return
         if ph.state == "amp.give_back" and s.mode in ("returning", "mission"):
-            self._fire("vehicle_returning", s.t_s)
+            self.fire_phase("vehicle_returning", s.t_s)
         if ph.state == "return_to_break_off" and s.mode == "mission":
-            self._fire("break_off_reached", s.t_s, self._where(s.x_m, s.y_m))
+            self.fire_phase("break_off_reached", s.t_s, self._where(s.x_m, s.y_m))
 
     def _where(self, x: float, y: float) -> str:
         """A planning point as the mission's frame names it (a review read an N-E mission's
@@ -403,7 +403,7 @@ class AmpSession:
         if due is None:
             return False
         self.link.send(OverrideRelease())
-        self._fire(due[0], t, due[1])
+        self.fire_phase(due[0], t, due[1])
         return True
 
     def _silent_give_back(self, t: float) -> None:
@@ -422,7 +422,7 @@ class AmpSession:
         self.link.send(OverrideRelease())
         why = getattr(self.planner, "silence", None)
         n = self._silent_cycles
-        self._fire("amp_abort", t, f"the planner gave no command for "
+        self.fire_phase("amp_abort", t, f"the planner gave no command for "
                          f"{self._silent_s:.3g} s ({n} planning cycle{'s' * (n != 1)})"
                          + (f": {why()}" if callable(why) else ""))
 

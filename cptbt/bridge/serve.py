@@ -195,7 +195,7 @@ def _hand_back(session: AmpSession, link: WireLink, result: ServeResult) -> bool
     if result.error:
         detail += f": {result.error}"
     try:
-        session.phases.fire("amp_abort", session.t, detail)
+        session.fire_phase("amp_abort", session.t, detail)
     except Exception:  # pragma: no cover - the release has gone; the timeline is secondary
         log.exception("could not record the hand-back")
     log.warning("AMP handed control back: %s", detail)

@@ -13,7 +13,7 @@ from cptbt.batch.frontseat import BackseatCodec, Codec, FrontSeatDouble, WireFau
 from cptbt.batch.scenario import environment_of
 from cptbt.batch.served import AmpCycles, served_summary
 from cptbt.bridge import LinkURIError, open_link, parse_uri
-from cptbt.bridge.serve import ServeOptions, serve
+from cptbt.bridge.serve import ServeOptions, ServeResult, serve
 from cptbt.cli import argtypes
 from cptbt.cli.argtypes import sigterm_as_interrupt
 from cptbt.cli.inspect_cmds import load
@@ -145,7 +145,15 @@ def cmd_serve(args: argparse.Namespace) -> int:
         print_summary(summary, result.session)
         extra = f", {args.log}" if args.log else ""
         print(f"  wrote {out / 'summary.json'}{extra}")
-    return 0 if result.stop_reason in ("post_mission", "given_back") else 1
+    return 0 if result.stop_reason in ("post_mission", "given_back") or _done_before(result) else 1
+
+
+def _done_before(result: ServeResult) -> bool:
+    """The link was lost after the AMP had given control back: its part was over (a field
+    review's MAVLink run at 20% loss declared, gave back, and exited 1 when the vehicle's
+    last report was lost)."""
+    return (result.stop_reason == "link_lost" and not result.handed_back
+            and any(c.dest == "amp.give_back" for c in result.session.phases.timeline))
 
 
 def print_summary(s: dict[str, Any], session: AmpSession) -> None:
@@ -158,6 +166,9 @@ def print_summary(s: dict[str, Any], session: AmpSession) -> None:
             "FALSE DECLARATION" if s["false_declaration"] else "no success")
     print(f"{s['mission']}: {s['outcome']} ({verdict}); stopped: {link['stop_reason']}"
           + (f" ({link['error']})" if link["error"] else "")
+          + (" after the AMP had given back (its part done)" if link["stop_reason"] == "link_lost"
+             and not link["handed_back"]
+             and any(c["to"] == "amp.give_back" for c in s["phases"]["timeline"]) else "")
           + ("; control handed back" if link["handed_back"] else ""))
     if s["declared_source"]:
         print(f"  declared at t3 = {fmt(s['t3'], ' s')}: source {place(s['declared_source'])}"

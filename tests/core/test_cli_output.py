@@ -178,3 +178,23 @@ def test_a_served_run_says_it_left_the_oparea_on_its_navigation_track(
     print_summary(s, types.SimpleNamespace(refusals=0))  # type: ignore[arg-type]
     out = capsys.readouterr().out
     assert "  left the OpArea: at most 20.6 m outside it (navigation track)" in out
+
+
+def test_a_link_lost_after_the_give_back_ends_serve_well() -> None:
+    """A field review: over MAVLink at 20% loss a mission declared, gave back, and ``serve``
+    exited 1 ("link_lost") when the vehicle's last report was lost. A link lost after the AMP
+    gave back is no failure of the AMP; one lost while it held control still is."""
+    import types
+
+    from cptbt.cli.serve_cmd import _done_before
+    from cptbt.phases import PhaseChange
+
+    def result(handed_back: bool, *dest: str) -> object:
+        timeline = [PhaseChange(float(i), "x", d, "t") for i, d in enumerate(dest)]
+        return types.SimpleNamespace(stop_reason="link_lost", handed_back=handed_back,
+                                     session=types.SimpleNamespace(
+                                         phases=types.SimpleNamespace(timeline=timeline)))
+
+    assert _done_before(result(False, "amp.override", "amp.give_back", "return_to_break_off"))
+    assert not _done_before(result(True, "amp.override", "amp.give_back"))  # lost holding it
+    assert not _done_before(result(False, "mission_a.waypoints"))  # never took over
