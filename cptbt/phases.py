@@ -73,6 +73,9 @@ TRANSITIONS: list[dict[str, Any]] = [
      "doc": "the vehicle is transiting back to the break-off point"},
     {"trigger": "break_off_reached", "source": "return_to_break_off", "dest": "mission_a.resumed",
      "doc": "the vehicle is back at the break-off point and resumes Mission A"},
+    {"trigger": "never_granted", "source": "amp.give_back", "dest": "mission_a.resumed",
+     "doc": "the vehicle never granted the override: it stayed in Mission A, and has no "
+            "break-off point to return to"},
     {"trigger": "mission_a_complete", "source": _LIVE, "dest": "post_mission",
      "doc": "the vehicle's own mission ended (last waypoint or its duration limit)"},
 ]

@@ -348,6 +348,11 @@ class AmpSession:
         if s.mode == "post_mission" and ph.state != "post_mission":
             self.fire_phase("mission_a_complete", s.t_s)
             return
+        if ph.state == "amp.give_back" and s.mode == "mission" and self._control_t is None:
+            # never in the override: no break-off to return to (a field review's MAVLink
+            # vehicle refused GUIDED, and the timeline had it "return" to where it was)
+            self.fire_phase("never_granted", s.t_s)
+            return
         if ph.state == "amp.give_back" and s.mode in ("returning", "mission"):
             self.fire_phase("vehicle_returning", s.t_s)
         if ph.state == "return_to_break_off" and s.mode == "mission":

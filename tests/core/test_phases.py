@@ -307,6 +307,11 @@ def test_a_take_the_vehicle_does_not_grant_is_sent_again_then_given_up() -> None
     last = s.phases.timeline[-1]
     assert last.trigger == "watchdog_timeout" and isinstance(link.sent[-1], OverrideRelease)
     assert last.detail == "the vehicle did not grant the override: mode mission for 20 s"
+    # it never left its mission: no return to a break-off point it never had (a field
+    # review's MAVLink timeline "returned" to where the vehicle was, in the same instant)
+    assert step(s, link, state(121.0)) == "mission_a.resumed"
+    assert s.phases.timeline[-1].trigger == "never_granted"
+    assert "return_to_break_off" not in [c.dest for c in s.phases.timeline]
 
 
 def test_a_take_refused_in_vain_says_why_in_the_give_back() -> None:
