@@ -229,7 +229,7 @@ class FrontSeatDouble:
         """Fly until the vehicle's mission ends, ``max_time_s`` (vehicle) or ``stop`` is set."""
         try:
             if self.wait_for_amp and not self._await_amp(connect_timeout_s, stop):
-                return self._finish()
+                return self.report  # finished below
             wall0 = time.monotonic()
             t0 = self.world.t_s
             next_beat = t0
@@ -256,9 +256,10 @@ class FrontSeatDouble:
                 while (left := due - time.monotonic()) > 0:  # hear the AMP while waiting
                     if self.udp.wait(left):
                         self._hear()
-        finally:
+        finally:  # an interrupted flight's report too (a review's ended "at t 0.0 s")
             self.udp.close()
-        return self._finish()
+            self._finish()
+        return self.report
 
     # -- internals --------------------------------------------------------------------------
     def _await_amp(self, timeout_s: float, stop: threading.Event | None) -> bool:
