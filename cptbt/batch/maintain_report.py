@@ -13,6 +13,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from cptbt.batch.intervals import mean_sem
 from cptbt.batch.sweeps import label_parts
 
 Rows = list[dict[str, Any]]
@@ -23,20 +24,21 @@ def is_maintain_study(rows: Rows) -> bool:
     return any(r.get("criterion") == "maintain" for r in rows)
 
 
+def _has_t_m(row: dict[str, Any]) -> bool:
+    v = row.get("T_M")
+    return v is not None and not (isinstance(v, float) and math.isnan(v))
+
+
 def _t_m(rows: Rows) -> list[float]:
-    out = []
-    for r in rows:
-        v = r.get("T_M")
-        if v is not None and not (isinstance(v, float) and math.isnan(v)):
-            out.append(float(v))
-    return out
+    return [float(r["T_M"]) for r in rows if _has_t_m(r)]
 
 
-def _mean_se(values: list[float]) -> tuple[float, float]:
+def _mean_se(rows: Rows, values: list[float]) -> tuple[float, float]:
+    """The mean and its SE over plumes (:func:`~cptbt.batch.intervals.mean_sem`: the starts of
+    a replicate fly one plume; the SE had treated them as independent)."""
     if not values:
         return math.nan, math.nan
-    se = statistics.stdev(values) / math.sqrt(len(values)) if len(values) > 1 else math.nan
-    return statistics.fmean(values), se
+    return statistics.fmean(values), mean_sem(rows, values)
 
 
 def _se_text(se: float) -> str:
@@ -49,11 +51,12 @@ def maintain_table(groups: dict[str, Rows]) -> list[str]:
     """Markdown lines: T_M per configuration (runs without a contact are counted, not averaged)."""
     lines = ["## Maintain time (AB eq. 3: T_M = T_Last − T_First of each contact, summed until "
              "contact is lost for good)",
-             "", "| configuration | runs | with a contact | mean T_M ± SE (s) | median T_M (s) "
-             "| came within the success radius |", "|---|---:|---:|---:|---:|---:|"]
+             "", "| configuration | runs | with a contact | mean T_M ± SE over plumes (s) "
+             "| median T_M (s) | came within the success radius |",
+             "|---|---:|---:|---:|---:|---:|"]
     for label, rows in groups.items():
         t_m = _t_m(rows)
-        m, se = _mean_se(t_m)
+        m, se = _mean_se([r for r in rows if _has_t_m(r)], t_m)
         med = statistics.median(t_m) if t_m else math.nan
         reached = sum(bool(r.get("success")) for r in rows)
         lines.append(f"| {label} | {len(rows)} | {len(t_m)} | "
@@ -95,7 +98,7 @@ def maintain_figure(groups: dict[str, Rows], path: Path, plt: Any) -> Path | Non
         name = ", ".join(f"{k}={v}" for k, v in c.items() if k != x_key) or "T_M"
         x = _number(c[x_key])
         assert x is not None
-        series[name][x] = _mean_se(_t_m(rows))
+        series[name][x] = _mean_se([r for r in rows if _has_t_m(r)], _t_m(rows))
     fig, ax = plt.subplots(figsize=(7.5, 4.5), layout="constrained")
     for name, points in sorted(series.items()):
         xs = sorted(points)
@@ -126,13 +129,15 @@ def maintain_paired_table(groups: dict[str, Rows]) -> list[str]:
     lines = ["## Paired maintain times", "",
              "Each configuration against the first" + (" of its world" if worlds else "")
              + ", run by run on the same plume and start: the mean difference in T_M (this "
-             "minus the first) over the runs with a contact in both, ± its paired SE.", "",
+             "minus the first) over the runs with a contact in both, ± its paired SE over "
+             "plumes.", "",
              "| configuration | against | pairs with a contact in both | T_M difference (s) |",
              "|---|---|---:|---:|"]
     for label, base, pairs in paired:
-        d = [float(a["T_M"]) - float(b["T_M"]) for a, b in pairs
-             if _t_m([a]) and _t_m([b])]
-        m, se = _mean_se(d)
+        both = [(a, float(a["T_M"]) - float(b["T_M"])) for a, b in pairs
+                if _has_t_m(a) and _has_t_m(b)]
+        d = [v for _, v in both]
+        m, se = _mean_se([a for a, _ in both], d)
         lines.append(f"| {label} | {base} | {len(d)} | "
                      + ("—" if not d else f"{m:.1f} ± {_se_text(se)}") + " |")
     return [*lines, ""]

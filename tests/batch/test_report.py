@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import statistics
 from pathlib import Path
 from typing import Any
 
@@ -800,3 +801,20 @@ def test_a_swept_behaviour_that_drove_little_is_said() -> None:
     assert note == ("**Note: find_plume, swept here, drove little (find_plume=billiard: 1 of "
                     "4 runs, 30 s in all): the rows compare little of find_plume's settings.**")
     assert behaviour_time_table({"one": groups["find_plume=billiard"]}) == []
+
+
+def test_the_maintain_time_se_counts_plumes() -> None:
+    """T_M's SE had treated every start of a replicate as independent (left over from the
+    session-27 change of the other tables): over 3 plumes of 4 starts whose T_M differ by plume
+    the SE is the clustered one, larger than the runs'."""
+    from cptbt.batch.intervals import mean_sem
+    from cptbt.batch.maintain_report import maintain_table
+
+    rows = [{**BASE, "criterion": "maintain", "replicate": r, "start": i,
+             "T_M": 10.0 * r + 0.5 * i} for r in range(3) for i in range(4)]
+    values = [float(r["T_M"]) for r in rows]
+    iid = statistics.stdev(values) / math.sqrt(len(values))
+    se = mean_sem(rows, values)
+    assert se > 1.5 * iid
+    (line,) = [ln for ln in maintain_table({"a": rows}) if ln.startswith("| a ")]
+    assert f"{statistics.fmean(values):.1f} ± {se:.1f}" in line, line
