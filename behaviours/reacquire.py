@@ -32,7 +32,8 @@ from py_trees.common import Access
 from pydantic import Field
 
 from cptbt.angles import unit
-from cptbt.node import BehaviourParams, PlanBehaviour
+from cptbt.frames import OpArea
+from cptbt.node import BehaviourParams, Contract, PlanBehaviour
 from cptbt.registry import BehaviourSpec
 from cptbt.types import Command, FlowEstimate, Percept, Point
 
@@ -55,6 +56,27 @@ class TourParams(BehaviourParams):
         ge=0,
         description="Every point of the tour is kept this far inside the OpArea walls, m",
     )
+
+
+def pattern_advice(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
+    """A triangle tour larger than the OpArea can hold (a review's ``d_leaf_m: 400`` in a
+    100-m-wide box validated silently): its three points span 1.5 times their distance from C
+    along the flow and √3 times across it (:meth:`_WaypointTour.triangle`), so once 1.5 times
+    that distance exceeds the OpArea's shorter side less ``wall_inset_m`` each side, no
+    centre and no flow direction fits it, and points are moved inside: the tour flown is not
+    the one drawn."""
+    key = "d_leaf_m" if isinstance(params, CloverleafParams) else "radius_m"
+    size = getattr(params, key)
+    assert isinstance(params, TourParams)
+    short = min(area.xmax - area.xmin, area.ymax - area.ymin)
+    room = short - 2.0 * params.wall_inset_m
+    if 1.5 * size <= room:
+        return []
+    return [(key, f"{size:g} m: the tour's points span 1.5 times that along the flow "
+                  f"({1.5 * size:g} m) and 1.7 times across it, more than the OpArea's shorter "
+                  f"side less wall_inset_m each side holds ({short:.0f} m less "
+                  f"{2 * params.wall_inset_m:g}: {room:.0f} m): wherever it is centred, points "
+                  "are moved inside the walls, so the tour flown is not the one drawn")]
 
 
 class _WaypointTour(PlanBehaviour):
@@ -181,6 +203,7 @@ class CloverleafReacquire(_WaypointTour):
     family: ClassVar[str] = "reacquire_plume"
     variant: ClassVar[str] = "cloverleaf"
     Params: ClassVar[type[BehaviourParams]] = CloverleafParams
+    contract: ClassVar[Contract] = Contract(advise=pattern_advice)
     params: CloverleafParams
 
     def passable(self, waypoint: Point, centre: Point) -> bool:
@@ -223,6 +246,7 @@ class ThreePointReacquire(_WaypointTour):
     family: ClassVar[str] = "reacquire_plume"
     variant: ClassVar[str] = "three_point"
     Params: ClassVar[type[BehaviourParams]] = ThreePointParams
+    contract: ClassVar[Contract] = Contract(advise=pattern_advice)
     params: ThreePointParams
 
     def lay_out(self, centre: Point, flow: FlowEstimate) -> tuple[Point, ...]:

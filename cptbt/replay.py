@@ -153,7 +153,9 @@ def story(log: LogData) -> list[str]:
     refs = 0
     cycles_in: dict[str, int] = {}
     for c in log.cycles:
-        t = float(c["t"])
+        # on the planner's clock, as the phases are (a vehicle clock that stepped back had
+        # sorted the give-back among cycles a hundred seconds earlier)
+        t = float((c.get("percept") or {}).get("t") or c["t"])
         active = c["active"]
         cycles_in[active or "no output"] = cycles_in.get(active or "no output", 0) + 1
         fam = active.split(".")[0] if active else None

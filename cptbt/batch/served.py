@@ -73,7 +73,9 @@ class AmpCycles:
     @staticmethod
     def _ended_now(session: AmpSession) -> bool:
         tl = session.phases.timeline
-        return bool(tl) and tl[-1].trigger in GIVE_BACK_TRIGGERS and tl[-1].t_s == session.t
+        # the timeline is on the planner's clock (AmpSession.fire_phase), the session's t not
+        now = session.planner.perception.on_clock(session.t)
+        return bool(tl) and tl[-1].trigger in GIVE_BACK_TRIGGERS and tl[-1].t_s == now
 
 
 def served_summary(result: ServeResult, cycles: AmpCycles, mission: MissionBase,
@@ -93,7 +95,7 @@ def served_summary(result: ServeResult, cycles: AmpCycles, mission: MissionBase,
                 or (c.trigger == "mission_a_complete" and c.source.startswith("amp."))), None)
     if end is not None:
         run.outcome = outcome_of(end.trigger, planner.declared_source is not None)
-        run.t_end = planner.perception.on_clock(end.t_s)
+        run.t_end = end.t_s  # on the planner's clock already (AmpSession.fire_phase)
     else:
         run.outcome = (Outcome.AMP_RUNNING if session.t_amp_start is not None
                        else Outcome.AMP_NOT_ENABLED)
@@ -115,7 +117,8 @@ def served_summary(result: ServeResult, cycles: AmpCycles, mission: MissionBase,
     phased = PhasedRun(
         amp=run, timeline=list(session.phases.timeline), t_amp_start=session.t_amp_start,
         break_off=cycles.break_off, resumed_at=cycles.resumed_at,
-        end_phase=session.phases.state, t_end=session.t, refusals=session.refusals,
+        end_phase=session.phases.state, t_end=planner.perception.on_clock(session.t),
+        refusals=session.refusals,
         waypoints=[], time_in_phase_s=cycles.phase_time,
     )
     summary["phases"] = phase_summary(phased, mission)

@@ -82,33 +82,16 @@ def pace_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem
 def leaf_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """A cloverleaf whose leaves (``d_leaf_m``) are no longer than the simulated vehicle's
     tightest turn: its waypoints cannot be flown as drawn (a review's ``d_leaf_m: 1``
-    validated; the parameter's own description asks for more than the turning radius).
-    A pattern larger than the OpArea is warned of too (a review's ``d_leaf_m: 400`` in a
-    100-m-wide box validated silently): its points are moved ``wall_inset_m`` inside the walls,
-    so what is flown is not the pattern drawn."""
+    validated; the parameter's own description asks for more than the turning radius)."""
     radius = params.vehicle.turning_radius_m
-    a = mission.op_area_geometry()
-    short = min(a.xmax - a.xmin, a.ymax - a.ymin)
     out: list[Problem] = []
     for i, e in enumerate(mission.entries()):
-        key = "d_leaf_m" if hasattr(e.params, "d_leaf_m") else "radius_m"
-        leaf = getattr(e.params, key, None) if e.family == "reacquire_plume" else None
-        if leaf is None:
-            continue
-        room = short - 2.0 * (getattr(e.params, "wall_inset_m", None) or 0.0)
-        if key == "d_leaf_m" and leaf <= radius:
-            out.append((("behaviours", i, e.family, key),
+        leaf = getattr(e.params, "d_leaf_m", None)
+        if leaf is not None and leaf <= radius:
+            out.append((("behaviours", i, e.family, "d_leaf_m"),
                         f"{plain(leaf)} m is not beyond the simulated vehicle's turning radius "
                         f"({plain(radius)} m, environment.vehicle.turning_radius_m): the vehicle "
                         "cannot fly its leaves as drawn (each turn is wider than a leaf)"))
-        elif leaf > room:
-            out.append((("behaviours", i, e.family, key),
-                        f"{plain(leaf)} m is longer than the OpArea's shorter side allows "
-                        f"({plain(round(short, 1))} m, less wall_inset_m each side: "
-                        f"{plain(round(room, 1))} m): "
-                        f"wherever {e.variant} is centred, its points across that side lie "
-                        "beyond the walls and are moved inside, so the pattern flown is not "
-                        "the one drawn"))
     return out
 
 

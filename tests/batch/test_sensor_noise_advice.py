@@ -149,17 +149,25 @@ def test_a_cloverleaf_tighter_than_the_vehicle_turns_is_warned_of(leaf: float,
         assert "turning radius (7.5 m, environment.vehicle.turning_radius_m)" in got[0]
 
 
-@pytest.mark.parametrize(("leaf", "warned"), [(90.0, False), (200.0, True)])
+@pytest.mark.parametrize(("leaf", "warned"), [(60.0, False), (62.0, True), (400.0, True)])
 def test_a_cloverleaf_larger_than_the_oparea_is_warned_of(leaf: float, warned: bool) -> None:
-    """A review's d_leaf_m: 400 in a 100-m-wide box validated silently: every leaf across the
-    box is moved inside the walls, so the pattern flown is not a cloverleaf. The two-source
-    box is 112 m across."""
+    """A review's d_leaf_m: 400 in a 100-m-wide box validated silently: its tips are moved
+    inside the walls, so the tour flown is not a cloverleaf. The tips span 1.5 d_leaf along
+    the flow (a diff review: d_leaf_m 80 in MSN007's 113-m box passed a check of d_leaf alone);
+    the two-source box is 112 m across, 92 m inside its walls' 10-m inset. Warned without a
+    simulated world too: it is the behaviour's own advice."""
     text = _mission(None).replace("d_leaf_m: 15,", f"d_leaf_m: {leaf},")
     got = _advice(text, "d_leaf_m")
     assert bool(got) == warned, got
     if warned:
-        assert got[0].startswith(f"{leaf:g} m is longer than the OpArea's shorter side allows "
-                                 "(112 m, less wall_inset_m each side:"), got[0]
+        assert got[0].startswith(f"{leaf:g} m: the tour's points span 1.5 times that along the "
+                                 f"flow ({1.5 * leaf:g} m) and 1.7 times across it, more than "
+                                 "the OpArea's shorter side less wall_inset_m each side holds "
+                                 "(112 m less 20: 92 m)"), got[0]
+    no_world = text[:text.index("\nenvironment:")] + "\n"  # a vehicle's mission
+    mission = loads_mission(no_world, "m.yaml", default_registry(), Environment)
+    assert mission.environment is None
+    assert [m for loc, m in mission.advisories() if loc[-1] == "d_leaf_m"] == got
 
 
 def _advice(text: str, key: str) -> list[str]:

@@ -61,11 +61,13 @@ def test_the_phase_timeline_keeps_the_planners_clock_across_a_step_back() -> Non
     mission = load_mission(ROOT / "missions" / "tro2006_msn007.yaml")
     link = Link()
     session = AmpSession(mission, Planner(mission), link)
+    cycles = AmpCycles(mission)
 
     def report(t: float, mode: str) -> None:
         link.inbox += [VehicleState(t, -60.0 + 0.01 * t, 10.0, 180.0, 1.5, 3.0, mode, 1),
                        FlowSample(t, 0.1, 0.0), ConcentrationSample(t, 0.0)]
         session.update()
+        cycles(session)
 
     report(0.0, "pre_launch")
     for k in range(1, 2410):
@@ -77,6 +79,14 @@ def test_the_phase_timeline_keeps_the_planners_clock_across_a_step_back() -> Non
         report(k / 10, "override")
     link.inbox.append(OverrideEnded(210.0, "watchdog", (0.0, 0.0)))  # ... then the vehicle
     session.update()  # takes control back
+    cycles(session)
     times = [c.t_s for c in session.phases.timeline]
     assert times == sorted(times), times
     assert times[-1] >= 300.0  # after the step: the planner's clock, not the vehicle's 210 s
+    # and the summary reads the end once, on that clock (a diff review: converted twice, the
+    # end read 410 s and the AMP's 70 s read 170 s)
+    summary = served_summary(ServeResult(session, "stopped"), cycles, mission, None)
+    assert summary["sim_time_s"] == times[-1] == 310.0
+    assert summary["T_total"] == summary["sim_time_s"] - summary["t0"] == 70.0
+    assert abs(sum(summary["time_in_behaviour_s"].values()) - 70.0) <= 1.0
+    assert summary["phases"]["run_time_s"] >= summary["phases"]["t_amp_start"]
