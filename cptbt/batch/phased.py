@@ -28,7 +28,7 @@ from cptbt.batch.outcome import Outcome, outcome_of
 from cptbt.batch.recorder import Recorder
 from cptbt.batch.scenario import environment_of, planning_angle
 from cptbt.batch.sim_link import LinkFaults, SimVehicleLink
-from cptbt.batch.summary import is_home_leg, where
+from cptbt.batch.summary import is_home_leg, outside_away_from, where
 from cptbt.mission import MissionBase
 from cptbt.phases import GIVE_BACK_TRIGGERS, PhaseChange
 from cptbt.planner import Planner
@@ -105,7 +105,7 @@ def simulate_phased(
     world.warm_up()
     source = Point(*params.source_xy_m)
     area = mission.op_area_geometry()
-    home_outside = "home" in mission.allow_outside
+    home_outside, home = "home" in mission.allow_outside, mission.to_xy(mission.home)
     waypoints = [mission.to_xy(w) for w in spec.waypoints]
     link = SimVehicleLink(world, spec, waypoints, faults)
     planner = planner or Planner(mission)
@@ -145,9 +145,11 @@ def simulate_phased(
         if session.t_amp_start is not None and ended is None:
             run.closest_m = min(run.closest_m, math.hypot(tx - source.x, ty - source.y))
             # every step, the give-back one too (a review: a row-less step had been left out),
-            # but not the way to a home the mission puts outside (summary.home_legs)
-            if not (home_outside and is_home_leg(planner.active)):
-                run.outside_m = max(run.outside_m, area.distance_outside(tx, ty))
+            # on the way to a home the mission puts outside, through the other walls only
+            out = (area.distance_outside(tx, ty) if not (home_outside and is_home_leg(
+                planner.active)) else float(outside_away_from(
+                    area, np.array([tx]), np.array([ty]), home)[0]))
+            run.outside_m = max(run.outside_m, out)
             if ticked:
                 _record_amp(run, planner, t, values, world, plume_grid)
         if ended is None:

@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 from cptbt.batch.comparison import OUTSIDE_NOTED_M
 from cptbt.batch.engine import VehicleRun
 from cptbt.batch.outcome import Verdict, judge
+from cptbt.frames import OpArea
 from cptbt.mission import MissionBase
 from cptbt.types import Point
 
@@ -370,6 +371,19 @@ def is_home_leg(active: str | None) -> bool:
     return bool(active) and (active.startswith("return_home.") or active.endswith(" (home)"))
 
 
+def outside_away_from(area: OpArea, x: NDArray[np.float64], y: NDArray[np.float64],
+                      home: Point) -> NDArray[np.float64]:
+    """How far outside the OpArea each point is through the walls ``home`` is not beyond: the
+    way to a home outside crosses its own walls, an overshoot through another is still an
+    excursion (a diff review: the turn after a declaration had gone 2.7 m out of the far
+    wall, hidden with the whole leg home)."""
+    lo_x, hi_x = np.maximum(area.xmin - x, 0.0), np.maximum(x - area.xmax, 0.0)
+    lo_y, hi_y = np.maximum(area.ymin - y, 0.0), np.maximum(y - area.ymax, 0.0)
+    dx = np.maximum(lo_x * (home.x >= area.xmin), hi_x * (home.x <= area.xmax))
+    dy = np.maximum(lo_y * (home.y >= area.ymin), hi_y * (home.y <= area.ymax))
+    return np.hypot(dx, dy)
+
+
 def home_legs(mission: MissionBase, active: Sequence[str]) -> NDArray[np.bool_] | None:
     """The rows driving to a home the mission puts outside the OpArea on purpose
     (``allow_outside: [home]``); None when home is not allowed outside."""
@@ -403,8 +417,9 @@ def _farthest_outside(mission: MissionBase, true: NDArray[np.float64],
     counts as far out as the track went: a review's start 25 m out, turned away and given
     back 30 m out, had read "at most 4.5 m outside it" (the detour's depth beyond its start,
     not a distance outside). Rows in ``skip`` (:func:`home_legs`: the way to a home the mission
-    puts outside) count as inside: a review's dock 18 m out read "left the OpArea: 10.9 m"
-    for the leg home after the declaration."""
+    puts outside) count only through the walls home is not beyond (:func:`outside_away_from`):
+    a review's dock 18 m out read "left the OpArea: 10.9 m" for the leg home after the
+    declaration."""
     if not len(true):
         return 0.0
     far = mission.op_area_geometry().distance_outside_array(true[:, 0], true[:, 1])
@@ -414,7 +429,9 @@ def _farthest_outside(mission: MissionBase, true: NDArray[np.float64],
     inside = np.flatnonzero(far == 0.0)
     entry = int(inside[0]) if len(inside) else len(far)
     if skip is not None and len(skip) == len(far):
-        far = np.where(skip, 0.0, far)
+        away = outside_away_from(mission.op_area_geometry(), true[:, 0], true[:, 1],
+                                 mission.to_xy(mission.home))
+        far = np.where(skip, away, far)
     before = float(np.nanmax(far[:entry], initial=0.0))
     # from the first known point (a diff review: a NaN first one made every detour 0)
     detour = before if before - far[known[0]] >= OUTSIDE_NOTED_M else 0.0

@@ -229,3 +229,17 @@ def test_the_way_in_from_a_start_placed_outside_is_not_an_excursion() -> None:
     # a detour on the way in (a review of the change: it had scored 0)
     detour = np.array([[a.xmin - 5.0, y], [a.xmin - 20.0, y], [a.xmin + 5.0, y]])
     assert _farthest_outside(mission, detour) == pytest.approx(20.0)
+
+
+def test_the_way_home_counts_only_the_walls_home_is_not_beyond() -> None:
+    """A diff review: blanking the whole leg home hid a 2.7-m overshoot through the far wall
+    on the turn after a declaration. Home beyond the low-y wall: that wall's crossing is the
+    mission's, any other wall's still an excursion."""
+    from cptbt.batch.summary import outside_away_from
+    from cptbt.frames import OpArea
+
+    area = OpArea(0.0, 100.0, 0.0, 50.0)
+    x = np.array([50.0, 105.0, 50.0, -2.0, 50.0])
+    y = np.array([-10.0, -5.0, 53.0, 20.0, 25.0])
+    away = outside_away_from(area, x, y, Point(50.0, -20.0))
+    assert away == pytest.approx([0.0, 5.0, 3.0, 2.0, 0.0])
