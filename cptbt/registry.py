@@ -131,7 +131,7 @@ class Registry:
         if not spec.family or not spec.variant:
             raise RegistryError(f"the BehaviourSpec {spec.summary or spec.params.__name__!r} "
                                 "has no family or variant name")
-        _check_params(spec)
+        check_params(spec)
         key = (spec.family, spec.variant)
         if key in self._specs:
             raise DuplicateBehaviourError(f"behaviour {spec.key} is registered twice")
@@ -342,7 +342,7 @@ def _entry_point_specs(ep: EntryPoint, registry: Registry,
     return staged.specs()
 
 
-def _check_params(spec: BehaviourSpec) -> None:
+def check_params(spec: BehaviourSpec) -> None:
     """A variant's ``Params``: a :class:`~cptbt.node.BehaviourParams` whose defaults pass its
     own rules. A plain pydantic model had registered and then read as a fault of the mission's
     line 3, and a default of -5 under ``gt=0`` flew (a plug-in author's review)."""

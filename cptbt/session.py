@@ -138,6 +138,7 @@ class AmpSession:
         self._launch_offset = 0.0  # the clock's steps back since the launch, added back
         self._launch_prev_t = math.nan  # the latest state time since the launch
         self._since_launch = 0.0  # the time since the launch at the latest report that counts
+        self._granted = False  # the vehicle reported the override since the latest take
 
     @property
     def t(self) -> float:
@@ -149,7 +150,8 @@ class AmpSession:
         vehicle's, less the steps back the planner corrected): a field review's clock stepped
         back 100 s had the timeline give back "declared and home" 58 s before ``t3``, and a
         2-h leap made a 900-s mission's override last 7 478 s."""
-        self.phases.fire(trigger, self.planner.perception.on_clock(t), detail)
+        clock = getattr(getattr(self.planner, "perception", None), "on_clock", None)
+        self.phases.fire(trigger, clock(t) if callable(clock) else t, detail)
 
     @property
     def in_override(self) -> bool:
@@ -178,6 +180,7 @@ class AmpSession:
             self.t_amp_start = self._take_t = self._elapsed_t = t
             self.amp_elapsed_s = 0.0
             self._control_t = None
+            self._granted = False  # the vehicle has reported the override since the take
             self._next_tick = t
         if self.in_override and not self._in_control(t):
             return
@@ -297,6 +300,7 @@ class AmpSession:
                 for kind in self._heard.values():
                     kind[1] = 0.0
             self.state = state
+            self._granted |= state.mode == "override"
             self._follow_vehicle_mode(state)
         elif isinstance(msg, FlowSample):
             self.planner.add_flow(msg.t_s, msg.vx_mps, msg.vy_mps)
@@ -348,7 +352,7 @@ class AmpSession:
         if s.mode == "post_mission" and ph.state != "post_mission":
             self.fire_phase("mission_a_complete", s.t_s)
             return
-        if ph.state == "amp.give_back" and s.mode == "mission" and self._control_t is None:
+        if ph.state == "amp.give_back" and s.mode == "mission" and not self._granted:
             # never in the override: no break-off to return to (a field review's MAVLink
             # vehicle refused GUIDED, and the timeline had it "return" to where it was)
             self.fire_phase("never_granted", s.t_s)

@@ -38,7 +38,13 @@ from cptbt.node import (
 )
 from cptbt.perception import Perception, PerceptionSettings
 from cptbt.planner import field_reached_at_start, mission_context
-from cptbt.registry import BehaviourSpec, Registry, default_registry
+from cptbt.registry import (
+    BehaviourSpec,
+    Registry,
+    RegistryError,
+    check_params,
+    default_registry,
+)
 from cptbt.tree import build_tree, plan_leaves
 from cptbt.types import Command, Percept, Point, Pose
 
@@ -332,6 +338,10 @@ def check_behaviour(
     """
     if isinstance(spec, type):
         spec = BehaviourSpec.of(spec)
+    try:  # what registration refuses (a diff review: a plug-in author met it only on loading)
+        check_params(spec)
+    except RegistryError as exc:
+        raise AssertionError(str(exc)) from None
     assert spec.params.model_config.get("frozen"), (
         f"{spec.key}: its Params ({spec.params.__name__}) is not frozen: a behaviour's "
         "settings are read-only, as the mission gave them (model_config frozen=True, as "

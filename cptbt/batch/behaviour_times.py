@@ -73,6 +73,9 @@ def behaviour_time_table(groups: dict[str, Rows]) -> list[str]:
                 little.setdefault(f, []).append(
                     f"{label}: {drove} of {len(rows)} runs, {spent:.0f} s in all")
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    if any(float(r.get("safety_entering_s") or 0.0) > 0.0 for r in every):
+        lines += ["", "Safety's share here includes bringing the vehicle in from a launch or "
+                  "start outside the OpArea, which \"Left the OpArea\" leaves out."]
     for f, where in little.items():
         lines += ["", f"**Note: {f}, swept here, drove little ({'; '.join(where)}): the "
                   f"rows compare little of {f}'s settings.**"]

@@ -146,10 +146,10 @@ def simulate_phased(
             run.closest_m = min(run.closest_m, math.hypot(tx - source.x, ty - source.y))
             # every step, the give-back one too (a review: a row-less step had been left out),
             # on the way to a home the mission puts outside, through the other walls only
-            out = (area.distance_outside(tx, ty) if not (home_outside and is_home_leg(
+            far = (area.distance_outside(tx, ty) if not (home_outside and is_home_leg(
                 planner.active)) else float(outside_away_from(
                     area, np.array([tx]), np.array([ty]), home)[0]))
-            run.outside_m = max(run.outside_m, out)
+            run.outside_m = max(run.outside_m, far)
             if ticked:
                 _record_amp(run, planner, t, values, world, plume_grid)
         if ended is None:

@@ -801,6 +801,11 @@ def test_a_swept_behaviour_that_drove_little_is_said() -> None:
     assert note == ("**Note: find_plume, swept here, drove little (find_plume=billiard: 1 of "
                     "4 runs, 30 s in all): the rows compare little of find_plume's settings.**")
     assert behaviour_time_table({"one": groups["find_plume=billiard"]}) == []
+    assert not any("Safety's share" in line for line in lines)
+    # a diff review: the two tables' safety shares differed, and neither said why
+    groups["find_plume=billiard"][0] |= {"time_safety_s": 12.0, "safety_entering_s": 10.0}
+    assert any(line.startswith("Safety's share here includes bringing the vehicle in")
+               for line in behaviour_time_table(groups))
 
 
 def test_the_maintain_time_se_counts_plumes() -> None:

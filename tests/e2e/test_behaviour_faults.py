@@ -274,9 +274,15 @@ def test_an_error_in_the_base_class_code_is_placed_there_not_in_a_library() -> N
         def estimate(self, p: Percept) -> Point | None:
             return p.pose.point
 
-    with pytest.raises(AssertionError) as info:
-        check_behaviour(FirstLost)
-    said = blame(info.value.__cause__)  # type: ignore[arg-type]
+    with pytest.raises(AssertionError, match=r"does not derive from cptbt\.behaviours\."
+                       r"declare_source\.DeclareParams"):
+        check_behaviour(FirstLost)  # said first, as registration says it
+    from cptbt.testing import ScriptedPerception, fresh_namespace, run_script
+
+    node = FirstLost(OwnParams(), namespace=fresh_namespace())  # flown all the same
+    with pytest.raises(AttributeError) as info:
+        run_script(node, [ScriptedPerception().step(0.0, 50.0, 0.0)])
+    said = blame(info.value)
     assert said is not None and "no attribute 'source_radius_m'" in said, said
     assert " (at declare_source.py:" in said, said
 
