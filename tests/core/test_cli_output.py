@@ -169,12 +169,13 @@ def test_a_served_run_says_it_left_the_oparea_on_its_navigation_track(
     from cptbt.cli.serve_cmd import print_summary
 
     mission = Path(__file__).resolve().parents[2] / "missions/small_oparea.yaml"
-    assert cli.main(["-q", "run", str(mission), "--out", str(tmp_path / "r"),
+    assert cli.main(["run", str(mission), "--out", str(tmp_path / "r"),
                      "--no-figure"]) == 0
     s = json.loads((tmp_path / "r/summary.json").read_text())
     s |= {"farthest_outside_m": 20.6, "phases": {"timeline": []},
           "link": {"stop_reason": "vehicle_done", "error": None, "handed_back": False,
                    "heartbeats": 3}}
+    capsys.readouterr()  # the run's own lines
     print_summary(s, types.SimpleNamespace(refusals=0))  # type: ignore[arg-type]
     out = capsys.readouterr().out
     assert "  left the OpArea: at most 20.6 m outside it (navigation track)" in out
