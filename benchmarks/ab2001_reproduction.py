@@ -170,7 +170,8 @@ def grid_section(grids: dict[str, list[Row]], fig_dir: Path, judged: bool = True
         t, t_se = clustered_mean_se([time_or_limit(r) for r in rows], reps)
         ab = "97 %" if key.startswith("III") else "(Fig. 6: worse than Fig. 11)"
         # the interval beside the SE (a reproducibility review read "± 1.9" as one): Student's
-        # t on the plumes less one, as tables.md's intervals
+        # t on the plumes less one (tables.md's rate intervals are Wilson's at the effective
+        # runs, with the same t: close to this, not equal)
         half = 100 * s_se * t975(len(set(reps)) - 1)
         lines.append(f"| {CONFIGS[key].label} | {len(rows)} | {100 * s:.1f} % ± {100 * s_se:.1f} "
                      f"({max(0.0, 100 * s - half):.1f}–{min(100.0, 100 * s + half):.1f} %) "

@@ -85,7 +85,8 @@ def main() -> None:
             res[f"{part} ({label})"] = v
     lines = ["# Space-aware infotaxis: cost per cycle per vehicle, 50 × 50 belief", "",
              f"`python benchmarks/infotaxis_cost.py --cycles {args.cycles} --candidates "
-             f"{args.candidates}`; {args.cycles} cycles at 10 Hz after 600 cycles of history.",
+             f"{args.candidates} --out {os.path.relpath(args.out, ROOT)}`; {args.cycles} "
+             "cycles at 10 Hz after 600 cycles of history.",
              "",
              f"Machine: {platform.machine()}, {os.cpu_count()} cores "
              f"({platform.processor() or 'processor not reported'}), Python "

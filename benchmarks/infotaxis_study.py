@@ -171,7 +171,8 @@ def main() -> None:
     lines = [
         "# Moth against infotaxis on the same plumes (issue 14)", "",
         f"`python benchmarks/infotaxis_study.py --ab-runs {args.ab_runs} --tro-runs "
-        f"{args.tro_runs}`: {wall / 60:.1f} min wall on {os.cpu_count()} cores "
+        f"{args.tro_runs} --out {os.path.relpath(args.out, ROOT)}`: {wall / 60:.1f} min wall on "
+        f"{os.cpu_count()} cores "
         f"({platform.machine()}, Python {platform.python_version()}; load average "
         f"{load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end, shared with other "
         "sessions). Times to source are over the successful runs; a failure counts in "

@@ -103,7 +103,8 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
 
     Runs pair by (replicate, start): the same plume, start and vehicle noise (:func:`pairings`).
     Success: the runs only one of the two succeeded in, with the exact McNemar p on them; time:
-    the mean paired difference over the runs both succeeded in, with its standard error.
+    the mean paired difference over the runs both succeeded in, with its standard error and
+    95% interval (Student's t on :func:`~cptbt.batch.intervals.mean_df` degrees of freedom).
     """
     if len(groups) < 2:
         return []

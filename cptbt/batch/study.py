@@ -23,7 +23,7 @@ from pydantic import BaseModel
 
 from cptbt import study_spec
 from cptbt.batch.integrity import digest
-from cptbt.batch.sweeps import Sweep, apply_setting, setting_order, value_label
+from cptbt.batch.sweeps import Sweep, apply_setting, setting_order, value_label, value_yaml
 from cptbt.loader import MissionError, dump_mission, located_errors, validate_data
 from cptbt.mission import Loc, MissionBase, dotted, mission_model, mission_to_data
 from cptbt.registry import default_registry
@@ -216,7 +216,7 @@ def _swept_error(located: list[tuple[Loc, str]], source: str, lines: dict[Loc, i
         out.append(f"{source}:{where}: {path}: {msg} (with sweep {named})"
                    if where is not None else f"{source} [sweep {named}]: {path}: {msg}")
         out[-1] += _whole_sweep_hint(loc, msg, sweeps)
-    return MissionError(out)
+    return MissionError(list(dict.fromkeys(out)))  # one line per problem, not per value
 
 
 def _whole_sweep_hint(loc: Loc, msg: str, sweeps: Sequence[Sweep]) -> str:
@@ -230,8 +230,10 @@ def _whole_sweep_hint(loc: Loc, msg: str, sweeps: Sequence[Sweep]) -> str:
     others = [v for v in swept if v != lacking]
     if lacking not in swept or not others:
         return ""
+    values = [value_yaml(v) for s in sweeps if f"{family}.{key}" in s.paths for v in s.values]
+    given = ",".join(f"{{variant: {o}, {key}: {v}}}" for o in others for v in values or ["VALUE"])
     return (f"; a setting only some variants have goes in a whole-behaviour sweep, with them: "
-            f"--sweep '{family}={lacking},{{variant: {others[0]}, {key}: VALUE}}'")
+            f"--sweep '{family}={lacking},{given}'")
 
 
 @dataclass(frozen=True)

@@ -600,4 +600,6 @@ def test_a_setting_one_swept_variant_lacks_points_to_the_whole_behaviour_sweep()
         "unknown key of reacquire_plume three_point; known keys: speed_mps, arrive_radius_m, "
         "pass_radius_m, wall_inset_m, radius_m, visits, variant; a setting only some variants "
         "have goes in a whole-behaviour sweep, with them: --sweep "
-        "'reacquire_plume=three_point,{variant: cloverleaf, d_leaf_m: VALUE}'"), str(info.value)
+        "'reacquire_plume=three_point,{variant: cloverleaf, d_leaf_m: 10},"
+        "{variant: cloverleaf, d_leaf_m: 20}'"), str(info.value)
+    assert str(info.value).count("\n") == 0  # told once, not once per swept value
