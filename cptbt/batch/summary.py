@@ -368,7 +368,8 @@ def _with_error(out: dict[str, float] | None, p: Point,
 def is_home_leg(active: str | None) -> bool:
     """Whether a behaviour (its recorded name) is driving home: ``return_home``, or a declaration
     behaviour on its way home after declaring."""
-    return bool(active) and (active.startswith("return_home.") or active.endswith(" (home)"))
+    return active is not None and (active.startswith("return_home.")
+                                   or active.endswith(" (home)"))
 
 
 def outside_away_from(area: OpArea, x: NDArray[np.float64], y: NDArray[np.float64],
