@@ -410,10 +410,8 @@ def test_a_current_sensor_gone_silent_is_said_once(caplog: pytest.LogCaptureFixt
     assert p.faults()["flow_held_cycles"] == (300 - 109) + (500 - 400)
 
 
-def test_the_fleet_counts_held_flow_cycles_as_the_scalar_perception_does() -> None:
-    """The held-flow count (the summary's ``flow_held_cycles``) of the fleet's perception is
-    the scalar one's: a sensor that goes silent, one whose samples are all rejected (too fast),
-    one that never had an estimate (nothing held), one that keeps reporting."""
+def _four_at_rest():  # type: ignore[no-untyped-def]
+    """Four scalar perceptions and a fleet one of four vehicles, all at (50, 0)."""
     import numpy as np
 
     from cptbt.fleet import FleetPerception
@@ -424,6 +422,17 @@ def test_the_fleet_counts_held_flow_cycles_as_the_scalar_perception_does() -> No
     fleet.set_poses(ids, np.full(4, 50.0), np.zeros(4), np.zeros(4))
     for p in scalars:
         p.set_pose(Pose(50, 0))
+    return scalars, fleet, ids
+
+
+def test_the_fleet_counts_held_flow_cycles_as_the_scalar_perception_does() -> None:
+    """The held-flow count (the summary's ``flow_held_cycles``) of the fleet's perception is
+    the scalar one's: a sensor that goes silent, one whose samples are all rejected (too fast),
+    one that never had an estimate (nothing held), one that keeps reporting."""
+    import numpy as np
+
+
+    scalars, fleet, ids = _four_at_rest()
     for k in range(400):
         t = float(k)
         vx = np.array([0.1 if k < 20 else math.nan, 0.1 if k < 30 else 9.0,
@@ -472,14 +481,8 @@ def test_a_fluorometer_that_never_starts_counts_once_it_is_late() -> None:
     that never starts, one late by less, one that keeps reporting)."""
     import numpy as np
 
-    from cptbt.fleet import FleetPerception
 
-    scalars = [make() for _ in range(4)]
-    fleet = FleetPerception(4, AREA, scalars[0].settings)
-    ids = np.arange(4)
-    fleet.set_poses(ids, np.full(4, 50.0), np.zeros(4), np.zeros(4))
-    for p in scalars:
-        p.set_pose(Pose(50, 0))
+    scalars, fleet, ids = _four_at_rest()
     for k in range(60):
         t = float(k)
         c = np.array([0.0 if k < 20 else math.nan, math.nan, 0.0 if k >= 5 else math.nan,
