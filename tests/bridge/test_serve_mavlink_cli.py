@@ -38,7 +38,7 @@ def test_msn007_flies_over_mavlink_end_to_end(tmp_path: Path) -> None:
     finally:
         vehicle.kill()
     assert served.returncode == 0, served.stderr
-    assert "declared (success); stopped: post_mission" in served.stdout
+    assert "declared (success); stopped: post_mission" in served.stdout, served.stdout
     s = json.loads((tmp_path / "run" / "summary.json").read_text())
     assert [c["trigger"] for c in s["phases"]["timeline"]] == [
         "launch", "amp_enable", "declared_home", "vehicle_returning", "break_off_reached",
