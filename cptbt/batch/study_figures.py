@@ -53,6 +53,17 @@ def _edges(centres: list[float]) -> np.ndarray:
     return np.concatenate([[c[0] - (mid[0] - c[0])], mid, [c[-1] + (c[-1] - mid[-1])]])
 
 
+def colour_top(groups: dict[str, Rows]) -> float:
+    """The map's colour scale's top, one for every panel (a review saw 0-950 s beside 0-1200
+    s): the largest cell drawn. A review's start of one failure in two (1495 s) had been drawn
+    in the top colour of a bar ending at its configuration's mean, 1267 s; and the longest
+    run's whole time, its drive home included, had left another's map less than half its
+    colours (top 1360 s, no cell past 564 s)."""
+    cells = [_mean([search_time(r) for r in runs]) for rows in groups.values()
+             for runs in _per_start(rows).values()]
+    return max([c for c in cells if math.isfinite(c)] + [1.0])
+
+
 def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry | None,
          per_config: dict[int, StudyGeometry] | None = None) -> Path | None:
     """Mean time to source over start positions (AB Figs. 6 and 11), one panel per config.
@@ -87,13 +98,7 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry 
     axes = grid_axes.ravel()[:n]
     for spare in grid_axes.ravel()[n:]:
         spare.remove()
-    # One colour scale for every panel (a review saw 0-950 s beside 0-1200 s), up to the
-    # largest cell drawn: a review's start of one failure in two (1495 s) had been drawn in
-    # the top colour of a bar ending at its configuration's mean, 1267 s.
-    cells = [_mean([search_time(r) for r in runs]) for rows in groups.values()
-             for runs in _per_start(rows).values()]
-    flown = max(float(r.get("sim_time_s") or 0) for rows in groups.values() for r in rows)
-    top = max([c for c in cells if math.isfinite(c)] + [flown, 1.0])
+    top = colour_top(groups)
     for ax, (label, rows) in zip(axes, groups.items(), strict=True):
         by = _per_start(rows)
         key = rows[0].get("config") if rows else None

@@ -91,7 +91,7 @@ def test_the_study_map_draws_every_true_source_on_one_colour_scale(
     geometry = StudyGeometry((0.0, 100.0, -50.0, 50.0), (20.0, 0.0), 0.0, ((70.0, 30.0),))
     rows = grid_rows()
     for r in rows:  # the second configuration's runs end earlier: its own maximum is lower
-        r["sim_time_s"] = 300.0 if r["config"] == 0 else 200.0
+        r["t3"] = 300.0 if r["config"] == 0 else 200.0
     write_report(rows, tmp_path, geometry)
     fig = seen[0]  # the map
     panels = [ax for ax in fig.axes if ax.get_title()]
@@ -101,7 +101,11 @@ def test_the_study_map_draws_every_true_source_on_one_colour_scale(
         assert list(stars.get_xdata()) == [20.0, 70.0] and list(stars.get_ydata()) == [0.0, 30.0]
     scales = {(c.norm.vmin, c.norm.vmax) for ax in panels for c in ax.collections
               if getattr(c, "norm", None) is not None and c.get_array() is not None}
-    assert scales == {(0.0, 300.0)}, scales
+    from cptbt.batch.report import by_configuration
+    from cptbt.batch.study_figures import colour_top
+
+    # one scale, its top the largest cell of either configuration
+    assert scales == {(0.0, colour_top(by_configuration(rows)))}, scales
 
 
 def test_a_two_source_study_counts_the_sources_found(tmp_path: Path) -> None:
@@ -823,3 +827,19 @@ def test_the_maintain_time_se_counts_plumes() -> None:
     assert se > 1.5 * iid
     (line,) = [ln for ln in maintain_table({"a": rows}) if ln.startswith("| a ")]
     assert f"{statistics.fmean(values):.1f} ± {se:.1f}" in line, line
+
+
+def test_the_map_colour_scale_ends_at_the_largest_cell() -> None:
+    """A researcher's review: the scale's top was the longest run's whole time, the drive home
+    included (1360 s where no cell passed 564 s), so the map used under half its colours. A
+    failure still counts at the time limit, so a failed start tops the scale."""
+    from cptbt.batch.study_figures import colour_top
+
+    def run(x: float, t3: float | None, sim: float) -> dict[str, Any]:
+        return {**BASE, "start_x": x, "start_y": 0.0, "success": t3 is not None, "t3": t3,
+                "sim_time_s": sim, "run_time_limit_s": 1800.0}
+
+    groups = {"a": [run(0.0, 500.0, 1360.0), run(0.0, 600.0, 900.0), run(50.0, 200.0, 300.0)]}
+    assert colour_top(groups) == pytest.approx(550.0)
+    groups["b"] = [run(0.0, None, 1800.0), run(50.0, 100.0, 200.0)]
+    assert colour_top(groups) == pytest.approx(1800.0)
