@@ -59,9 +59,9 @@ from typing import Any
 import numpy as np
 import yaml
 
+from cptbt.batch.comparison import td_share
 from cptbt.batch.engine import simulate
 from cptbt.batch.intervals import wilson
-from cptbt.batch.report import td_share
 from cptbt.batch.scenario import Environment, launch_pose, to_sim_params
 from cptbt.batch.study import group_seeds
 from cptbt.batch.summary import summarise

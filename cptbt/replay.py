@@ -129,14 +129,19 @@ def replay(log: LogData | Path | str, mission: MissionBase | Path | str | None =
     return ReplayReport(m.name, original.name, len(data.cycles), first, differing)
 
 
+def _t(cycle: dict[str, Any]) -> float:
+    """A logged cycle's time on the planner's clock (its percept's), else the vehicle's."""
+    return float((cycle.get("percept") or {}).get("t") or cycle["t"])
+
+
 def story(log: LogData) -> list[str]:
     """A log's mission story, one line per event: phases, behaviour changes (by family, so
     track-in/out flips do not flood it), first detection, declaration; then the share of cycles
     in each behaviour leaf."""
     lines = [f"{log.mission.get('name')}: {len(log.cycles)} AMP cycles"
              + (f" ({log.mission['source']})" if log.mission.get("source") else "")]
-    if log.cycles:
-        lines[0] += f", t {float(log.cycles[0]['t']):.1f}–{float(log.cycles[-1]['t']):.1f} s"
+    if log.cycles:  # the planner's clock, as the lines below (an attacker's clock step)
+        lines[0] += f", t {_t(log.cycles[0]):.1f}–{_t(log.cycles[-1]):.1f} s"
     events: list[tuple[float, int, str]] = []
     try:  # the places in the mission's own frame too (a review read only planning x, y)
         m: MissionBase | None = logged_mission(log)
@@ -155,7 +160,7 @@ def story(log: LogData) -> list[str]:
     for c in log.cycles:
         # on the planner's clock, as the phases are (a vehicle clock that stepped back had
         # sorted the give-back among cycles a hundred seconds earlier)
-        t = float((c.get("percept") or {}).get("t") or c["t"])
+        t = _t(c)
         active = c["active"]
         cycles_in[active or "no output"] = cycles_in.get(active or "no output", 0) + 1
         fam = active.split(".")[0] if active else None

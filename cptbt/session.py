@@ -139,6 +139,8 @@ class AmpSession:
         self._launch_prev_t = math.nan  # the latest state time since the launch
         self._since_launch = 0.0  # the time since the launch at the latest report that counts
         self._granted = False  # the vehicle reported the override since the latest take
+        self._phase_offset = 0.0  # the phase clock less the vehicle's (_track_clock)
+        self._phase_prev = -math.inf  # the phase clock at the latest report
 
     @property
     def t(self) -> float:
@@ -146,12 +148,33 @@ class AmpSession:
         return self.state.t_s if self.state is not None else 0.0
 
     def fire_phase(self, trigger: str, t: float, detail: str = "") -> None:
-        """Fire a phase trigger at vehicle time ``t``, stamped on the planner's clock (the
-        vehicle's, less the steps back the planner corrected): a field review's clock stepped
-        back 100 s had the timeline give back "declared and home" 58 s before ``t3``, and a
-        2-h leap made a 900-s mission's override last 7 478 s."""
+        """Fire a phase trigger at vehicle time ``t``, stamped on the session's phase clock
+        (:meth:`_track_clock`): a field review's clock stepped back 100 s had the timeline
+        give back "declared and home" 58 s before ``t3``, and a 2-h leap made a 900-s
+        mission's override last 7 478 s."""
+        stamp = t + self._phase_offset if math.isfinite(t) else self._phase_prev
+        self.phases.fire(trigger, max(stamp, self._phase_prev), detail)
+
+    def _track_clock(self, t: float) -> None:
+        """Keep the phase clock: the vehicle's, shifted by its steps back and its leaps beyond
+        :data:`~cptbt.perception.MAX_CLOCK_JUMP_S` (each continued from the previous report),
+        and while the AMP drives the planner's own (so the timeline and t0-t3 agree). A step
+        after the give-back, when the planner no longer cycles, is corrected here too (an
+        attacker's 700-s step back had the timeline run backwards after the give-back)."""
         clock = getattr(getattr(self.planner, "perception", None), "on_clock", None)
-        self.phases.fire(trigger, clock(t) if callable(clock) else t, detail)
+        if self.in_override and callable(clock):
+            self._phase_offset = clock(t) - t
+        now = t + self._phase_offset
+        prev = self._phase_prev
+        if math.isfinite(prev) and (now < prev or now - prev > MAX_CLOCK_JUMP_S):
+            self._phase_offset += prev - now
+            now = prev
+        self._phase_prev = now
+
+    @property
+    def phase_now(self) -> float:
+        """The phase clock at the vehicle's latest report (:meth:`_track_clock`; 0 before)."""
+        return self._phase_prev if math.isfinite(self._phase_prev) else 0.0
 
     @property
     def in_override(self) -> bool:
@@ -300,6 +323,7 @@ class AmpSession:
                 for kind in self._heard.values():
                     kind[1] = 0.0
             self.state = state
+            self._track_clock(state.t_s)
             self._granted |= state.mode == "override"
             self._follow_vehicle_mode(state)
         elif isinstance(msg, FlowSample):

@@ -15,7 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from cptbt.batch.intervals import clustered_mcnemar, mean_df, mean_interval, mean_sem
+from cptbt.batch.intervals import (
+    clustered_mcnemar,
+    mean_df,
+    mean_interval,
+    mean_sem,
+    sign_flip_floor,
+)
 from cptbt.batch.outcome import ERROR_OUTCOME
 from cptbt.batch.sweeps import changes_world, value_yaml
 from cptbt.policy import RELINQUISH_OUTSIDE_M
@@ -141,9 +147,12 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
             lo, hi = mean_interval(runs, d.tolist())
             diff += f" ({fmt(lo)} to {fmt(hi)}, {mean_df(runs)} df)"
         p = clustered_mcnemar(pairs)
+        floor = sign_flip_floor(pairs) if p is not None else None
         p = mcnemar(here_only, there_only) if p is None else p
+        least = (f" (the least {round(math.log2(2 / floor))} plumes can give)"
+                 if floor is not None and p <= floor * (1 + 1e-9) else "")
         lines.append(f"| {label} | {base} | {len(pairs)} | {here_only} / {there_only} "
-                     f"| {p:.2g} | {diff} | {d.size} |")
+                     f"| {p:.2g}{least} | {diff} | {d.size} |")
     return lines
 
 
@@ -210,6 +219,41 @@ def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
                      f"{meta['until_sem']:g} (or {meta.get('max_runs_per_start')} per start).")
     lines += [f"- Note: {note}" for note in meta.get("notes") or []]
     return [*lines, ""]
+
+
+def td_share(row: dict[str, Any]) -> float | None:
+    """T_D as a share of the mission time to declaration, ``T_total = t3 - t0`` (TRO Table
+    III), when both exist. Not ``T_D / t3``: a run with the vehicle's own mission first starts
+    its measures at t0 > 0 (a review: 29% by t3 where TRO's share is 43.5%)."""
+    if row.get("T_D") is None:
+        return None
+    total = row.get("T_total")
+    if total is None and row.get("t3") is not None:  # a table without T_total
+        total = float(row["t3"]) - float(row.get("t0") or 0.0)
+    if not total:
+        return None
+    return float(row["T_D"]) / float(total)
+
+
+def errors_note(rows: Rows) -> str | None:
+    """What the study's runs that stopped on an error (a bug; outcome ``error``, see
+    :func:`cptbt.batch.worker.failed_rows`) were, in one sentence; None when there are none."""
+    bad = [r for r in rows if r.get("outcome") == ERROR_OUTCOME]
+    if not bad:
+        return None
+    first = bad[0]
+    return (f"{len(bad)} of {len(rows)} runs stopped on an error (outcome 'error', counted as "
+            f"failures; they are not flown again on resume): the first, "
+            f"{first.get('configuration') or first.get('config')} replicate "
+            f"{first.get('replicate')} start {first.get('start')}: {first.get('error')}")
+
+
+def every_source_declared(row: dict[str, Any]) -> bool:
+    """Whether a run declared as many points as it had true sources (a row from before the
+    count was kept: yes): a several-source run's ``error_m`` is its worst declared point's, and
+    a rule that declares one source alone had read as 4.8 m off (a review)."""
+    n = row.get("sources_declared")
+    return n is None or int(n) >= int(row.get("sources_true") or 1)
 
 
 OUTSIDE_NOTED_M = 0.05

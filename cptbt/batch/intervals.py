@@ -154,6 +154,20 @@ def plumes_note(rows: Rows) -> str | None:
     return None
 
 
+def sign_flip_floor(pairs: Sequence[tuple[dict[str, Any], dict[str, Any]]]) -> float | None:
+    """The smallest p :func:`clustered_mcnemar` can give these pairs, ``2 / 2^m`` for the ``m``
+    plumes whose difference is not 0; None where it does not apply (every replicate one pair,
+    or no plume differs). A review read 12 to 0 over 3 plumes, p 0.25, as "not significant":
+    0.25 is the least any test over 3 plumes can say."""
+    if len({a.get("replicate", id(a)) for a, _ in pairs}) == len(pairs):
+        return None
+    by: dict[Any, int] = defaultdict(int)
+    for a, b in pairs:
+        by[a.get("replicate", id(a))] += int(bool(a.get("success"))) - int(bool(b.get("success")))
+    m = sum(v != 0 for v in by.values())
+    return 2.0 / 2**m if m else None
+
+
 def clustered_mcnemar(pairs: Sequence[tuple[dict[str, Any], dict[str, Any]]]) -> float | None:
     """Two-sided p of the paired success difference with the pairs clustered by replicate, or
     None when every replicate holds one pair (the exact McNemar then applies: the pairs are

@@ -73,9 +73,9 @@ class AmpCycles:
     @staticmethod
     def _ended_now(session: AmpSession) -> bool:
         tl = session.phases.timeline
-        # the timeline is on the planner's clock (AmpSession.fire_phase), the session's t not
-        now = session.planner.perception.on_clock(session.t)
-        return bool(tl) and tl[-1].trigger in GIVE_BACK_TRIGGERS and tl[-1].t_s == now
+        # the timeline is on the phase clock (AmpSession.fire_phase), the session's t not
+        return (bool(tl) and tl[-1].trigger in GIVE_BACK_TRIGGERS
+                and tl[-1].t_s == session.phase_now)
 
 
 def served_summary(result: ServeResult, cycles: AmpCycles, mission: MissionBase,
@@ -99,7 +99,7 @@ def served_summary(result: ServeResult, cycles: AmpCycles, mission: MissionBase,
     else:
         run.outcome = (Outcome.AMP_RUNNING if session.t_amp_start is not None
                        else Outcome.AMP_NOT_ENABLED)
-        run.t_end = planner.perception.on_clock(session.t)
+        run.t_end = session.phase_now
     run.declared = planner.declared_source
     run.lost_contacts = planner.percept.lost_contacts if planner.percept else ()
     run.sensor_faults = planner.perception.faults()
@@ -117,8 +117,7 @@ def served_summary(result: ServeResult, cycles: AmpCycles, mission: MissionBase,
     phased = PhasedRun(
         amp=run, timeline=list(session.phases.timeline), t_amp_start=session.t_amp_start,
         break_off=cycles.break_off, resumed_at=cycles.resumed_at,
-        end_phase=session.phases.state, t_end=planner.perception.on_clock(session.t),
-        refusals=session.refusals,
+        end_phase=session.phases.state, t_end=session.phase_now, refusals=session.refusals,
         waypoints=[], time_in_phase_s=cycles.phase_time,
     )
     summary["phases"] = phase_summary(phased, mission)

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from cptbt.batch.comparison import search_time
+from cptbt.batch.comparison import every_source_declared, search_time
 from cptbt.batch.compass import _north_arrow, _north_points, north_corner
 from cptbt.batch.figures import flow_arrow
 from cptbt.batch.intervals import rate_interval, replicates
@@ -290,8 +290,11 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
     """Declaration error and T_D share (TRO Table III) histograms, where they exist."""
     judged = {k: rows for k, rows in groups.items()
               if any(r.get("criterion", "declaration") == "declaration" for r in rows)}
+    # several sources: the runs that declared one point a source (a rule declaring one alone
+    # had drawn inside the success line; a review)
     err = {k: [float(r["error_m"]) for r in rows if r.get("error_m") is not None
-               and r.get("t3") is not None] for k, rows in judged.items()}
+               and r.get("t3") is not None and every_source_declared(r)]
+           for k, rows in judged.items()}
     share = {k: [v for v in map(td_share, rows) if v is not None] for k, rows in judged.items()}
     if not any(err.values()) and not any(share.values()):
         return None
@@ -320,7 +323,7 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
     # Several true sources: a run's error_m is its worst declared source's, and T_D and t3
     # end at the declaration that completed the set (a review read them as the first's).
     several = any(_several_sources(rows) for rows in judged.values())
-    a1.set_xlabel("declaration error, the worst declared source's (m)" if several
+    a1.set_xlabel("worst declared source's error, runs declaring every source (m)" if several
                   else "declaration error (m)")
     a2.set_xlabel("T_D of the last declaration / mission time to it (TRO Table III)" if several
                   else "T_D / mission time to declaration (TRO Table III)")

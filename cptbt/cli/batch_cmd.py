@@ -368,8 +368,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
                   f"{Path(args.out) / 'logs'} ({len(logged)} file"
                   f"{'s' if len(logged) != 1 else ''}{note})")
     _plots(table, Path(args.out), args.quiet, geometry, figures=not args.no_plots)
+    from cptbt.batch.comparison import errors_note
     from cptbt.batch.outcome import ERROR_OUTCOME
-    from cptbt.batch.report import errors_note
     from cptbt.cli import DEBUG_ENV
 
     rows = load_results(table)

@@ -129,3 +129,15 @@ def test_a_mean_difference_over_few_plumes_has_students_t_on_the_plumes_less_one
     one_each = [{"replicate": r} for r in range(8)]
     assert mean_df(one_each) == 7  # independent runs: the runs less one
     assert mean_df([{"replicate": 0}] * 8) == 7  # one plume: the runs (and a note says so)
+
+
+def test_a_p_at_the_floor_of_few_plumes_is_said() -> None:
+    """A review read 12 to 0 over 3 plumes, p 0.25, as "not significant": 0.25 is the least a
+    test over 3 plumes can give, and the paired table says so."""
+    from cptbt.batch.comparison import paired_table
+
+    base = {"criterion": "declaration", "t3": 50.0, "start_x": 0.0, "start_y": 0.0}
+    groups = {c: [{**base, "configuration": c, "replicate": r, "start": i,
+                   "success": c == "b"} for r in range(3) for i in range(4)] for c in "ab"}
+    (row,) = [line for line in paired_table(groups) if line.startswith("| b ")]
+    assert "| 12 / 0 | 0.25 (the least 3 plumes can give) |" in row, row

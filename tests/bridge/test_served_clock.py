@@ -85,8 +85,18 @@ def test_the_phase_timeline_keeps_the_planners_clock_across_a_step_back() -> Non
     assert times[-1] >= 300.0  # after the step: the planner's clock, not the vehicle's 210 s
     # and the summary reads the end once, on that clock (a diff review: converted twice, the
     # end read 410 s and the AMP's 70 s read 170 s)
+    for t in (211.0, 212.0):  # the vehicle returns to its break-off ...
+        report(t, "returning")
+    for t in (12.0, 13.0):  # ... its clock steps back 200 s more, and it resumes its mission
+        report(t, "mission")
+    times = [c.t_s for c in session.phases.timeline]
+    # after the give-back too, when the planner no longer cycles (an attacker's 700-s step
+    # back had the timeline run backwards there)
+    assert times == sorted(times) and times[-1] >= 312.0, times
+    assert [c.trigger for c in session.phases.timeline][-2:] == [
+        "vehicle_returning", "break_off_reached"]
     summary = served_summary(ServeResult(session, "stopped"), cycles, mission, None)
-    assert summary["sim_time_s"] == times[-1] == 310.0
+    assert summary["phases"]["run_time_s"] >= times[-1]
+    assert summary["sim_time_s"] == times[-3] == 310.0
     assert summary["T_total"] == summary["sim_time_s"] - summary["t0"] == 70.0
     assert abs(sum(summary["time_in_behaviour_s"].values()) - 70.0) <= 1.0
-    assert summary["phases"]["run_time_s"] >= summary["phases"]["t_amp_start"]
