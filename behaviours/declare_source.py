@@ -99,8 +99,8 @@ class SourceDeclaration(PlanBehaviour):
     def decide(self, p: Percept) -> Command | None:
         """No output until declared; then head for the source, and from within reach, home."""
         assert self.context is not None
-        if self.declared is None:
-            return None
+        if self.declared is None or not p.pose.located:  # no fix yet: no bearing to drive
+            return None  # (an attacker's rule declaring a fixed point failed check_behaviour)
         here = p.pose.point
         if not self.heading_home and here.distance_to(self.declared) <= self.params.source_radius_m:
             self.heading_home = True

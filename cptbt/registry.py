@@ -387,7 +387,8 @@ def _check_inherited_params(where: str, cls: type[PlanBehaviour], params: type) 
                 f"from {wanted.__module__}.{wanted.__qualname__}, the Params of "
                 f"{base.__module__}.{base.__qualname__} it subclasses (whose code reads its "
                 "settings): derive it from that")
-        return  # the nearest base that names Params decides
+        # every base that names Params, not the nearest alone: a class of two behaviours'
+        # had passed with the Params of one (an attacker's)
 
 
 def _builtin(entry_point_value: str) -> bool:

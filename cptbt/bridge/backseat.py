@@ -217,7 +217,7 @@ def parse_line(line: bytes | str) -> tuple[int, InMessage | OutMessage | Heartbe
         raise ProtocolError("malformed", str(exc)[:80]) from None
     if not isinstance(d, dict):
         raise ProtocolError("malformed", "not a JSON object")
-    if d.get("v") != VERSION:
+    if d.get("v") != VERSION or isinstance(d.get("v"), bool):  # true == 1 in Python
         raise ProtocolError("version", f"version {d.get('v')!r}, this side speaks {VERSION}")
     seq = _int(d, "seq")
     kind = d.get("type")
@@ -243,12 +243,14 @@ def parse_line(line: bytes | str) -> tuple[int, InMessage | OutMessage | Heartbe
         msg = CommandRefused(_num(d, "t_s"), cmd, reason)
     elif kind == "ended":
         b = d.get("break_off_m")
-        if not (isinstance(b, list) and len(b) == 2
-                and all(isinstance(v, int | float) and not isinstance(v, bool) for v in b)):
+        if not (isinstance(b, list) and len(b) == 2):
             raise ProtocolError("invalid", "ended: break_off_m must be [x, y]")
+        # each through _num's checks: a 400-digit integer had raised OverflowError out of
+        # the decoder and ended a served mission (an attacker's), and 1e400 read as inf
+        xy = _num({"type": "ended", "x": b[0]}, "x"), _num({"type": "ended", "y": b[1]}, "y")
         msg = OverrideEnded(_num(d, "t_s"),
                             _choice(d, "reason", END_REASONS),  # type: ignore[arg-type]
-                            (float(b[0]), float(b[1])))
+                            (float(xy[0]), float(xy[1])))
     elif kind == "command":
         msg = HeadingSpeedCommand(_num(d, "heading_deg"), _num(d, "speed_mps"),
                                   _num(d, "depth_m", optional=True))

@@ -82,6 +82,7 @@ def test_a_sensor_dropout_is_a_null_reading_not_a_malformed_line(validator) -> N
 
 
 @pytest.mark.parametrize("line", [
+    b'{"v":true,"seq":1,"type":"take"}',                          # true is no version (an attacker)
     b'{"v":1,"seq":1,"type":"sample","t_s":1}',                   # no value at all, not null
     b'{"v":1,"seq":1,"type":"nav","t_s":1}',                      # fields missing
     b'{"v":1,"seq":1,"type":"command","heading_deg":"north","speed_mps":1}',
@@ -221,3 +222,15 @@ def test_a_backlog_early_in_a_mission_is_no_restart_either() -> None:
         d.feed(encode(VehicleState(k / 10, 0, 0, 0, 1), k))
     backlog = [d.feed(encode(VehicleState(k / 10, 0, 0, 0, 1), k)) for k in range(60, 80)]
     assert not any(backlog) and d.counts["restarts"] == 0
+
+
+def test_a_hostile_break_off_point_is_an_ignored_line_not_a_crash() -> None:
+    """An attacker's ``ended`` line with a 400-digit break-off coordinate raised OverflowError
+    out of the decoder and ended a served mission as an internal error; 1e400 read as inf."""
+    decoder = Decoder()
+    big = "1" + "0" * 400
+    for value in (big, "1e400", '"north"', "true"):
+        line = ('{"v":1,"seq":1,"type":"ended","t_s":1,"reason":"released","break_off_m":['
+                + value + ',0]}\n').encode()
+        assert decoder.feed(line) == []
+    assert decoder.ignored == 4
