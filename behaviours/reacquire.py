@@ -59,24 +59,27 @@ class TourParams(BehaviourParams):
 
 
 def pattern_advice(params: BehaviourParams, area: OpArea) -> list[tuple[str, str]]:
-    """A triangle tour larger than the OpArea can hold (a review's ``d_leaf_m: 400`` in a
-    100-m-wide box validated silently): its three points span 1.5 times their distance from C
-    along the flow and √3 times across it (:meth:`_WaypointTour.triangle`), so once 1.5 times
-    that distance exceeds the OpArea's shorter side less ``wall_inset_m`` each side, no
-    centre and no flow direction fits it, and points are moved inside: the tour flown is not
-    the one drawn."""
+    """A triangle tour the OpArea cannot hold (a review's ``d_leaf_m: 400`` in a 100-m-wide
+    box validated silently): its three points lie 120° apart at ``d_leaf_m`` (``radius_m``)
+    from C (:meth:`_WaypointTour.triangle`), so it spans 1.5 times that along the flow and
+    1.73 times across. When no orientation of it fits inside the OpArea less ``wall_inset_m``
+    each side (checked every degree: in a square it needs 1.67 times the distance, a reading
+    of 1.5 had passed 19 m in 30 m of room, an attacker's), points are moved inside the walls
+    wherever it is centred, so the tour flown is not the one drawn."""
     key = "d_leaf_m" if isinstance(params, CloverleafParams) else "radius_m"
-    size = getattr(params, key)
+    size = float(getattr(params, key))
     assert isinstance(params, TourParams)
-    short = min(area.xmax - area.xmin, area.ymax - area.ymin)
-    room = short - 2.0 * params.wall_inset_m
-    if 1.5 * size <= room:
-        return []
-    return [(key, f"{size:g} m: the tour's points span 1.5 times that along the flow "
-                  f"({1.5 * size:g} m) and 1.7 times across it, more than the OpArea's shorter "
-                  f"side less wall_inset_m each side holds ({short:.0f} m less "
-                  f"{2 * params.wall_inset_m:g}: {room:.0f} m): wherever it is centred, points "
-                  "are moved inside the walls, so the tour flown is not the one drawn")]
+    room_x = area.xmax - area.xmin - 2.0 * params.wall_inset_m
+    room_y = area.ymax - area.ymin - 2.0 * params.wall_inset_m
+    for deg in range(120):
+        a = [math.radians(deg + 120 * k) for k in range(3)]
+        xs, ys = [size * math.cos(v) for v in a], [size * math.sin(v) for v in a]
+        if max(xs) - min(xs) <= room_x and max(ys) - min(ys) <= room_y:
+            return []
+    return [(key, f"{size:g} m: the tour's points, 120° apart at that distance from its centre, "
+                  f"fit in no orientation inside the OpArea less wall_inset_m each side "
+                  f"({max(room_x, 0):.0f} × {max(room_y, 0):.0f} m): wherever it is centred, "
+                  "points are moved inside the walls, so the tour flown is not the one drawn")]
 
 
 class _WaypointTour(PlanBehaviour):

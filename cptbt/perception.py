@@ -179,6 +179,7 @@ class Perception:
         self._start_t = math.nan  # the first cycle without one, before any reading
         self._early = 0  # cycles without a reading before the first, not yet counted
         self._silent = False  # the outage under way has been warned of
+        self._outages = 0  # outages of SILENT_SENSOR_S so far
         self.latest: Percept | None = None
 
     def faults(self) -> dict[str, int]:
@@ -336,8 +337,8 @@ class Perception:
         sensor is that late (a first cycle before the first sample is no fault)."""
         if math.isfinite(conc):
             if self._silent:
-                log.warning("fluorometer readings back at t = %g s, after %g s without one",
-                            t, t - self._read_t)
+                log.log(self._outage_level(), "fluorometer readings back at t = %.1f s, after "
+                        "%.1f s without one", t, t - self._read_t)
             self._read_t, self._silent = t, False
             return
         if math.isnan(self._read_t):  # none yet: a sensor starting counts once it is late
@@ -353,9 +354,17 @@ class Perception:
             since = self._read_t
         if not self._silent and t - since >= SILENT_SENSOR_S:
             self._silent = True
-            log.warning("no fluorometer reading for %g s (t = %g s on the planner clock): the "
-                        "planner sees no plume, and cannot tell clean water from a silent "
-                        "sensor", t - since, t)
+            self._outages += 1
+            log.log(self._outage_level(), "no fluorometer reading kept for %.1f s (t = %.1f s on "
+                    "the planner clock; none sent, or each dropped as missing, stuck or late: "
+                    "outage %d): the planner sees no plume, and cannot tell clean water from a "
+                    "silent sensor", t - since, t, self._outages)
+
+    def _outage_level(self) -> int:
+        """WARNING for the 1st, 10th, 100th ... outage and its end, DEBUG for the others (an
+        attacker's sensor off 11 s and on 11 s had printed 148 lines in one run)."""
+        n = self._outages
+        return logging.WARNING if n > 0 and 10 ** int(math.log10(n)) == n else logging.DEBUG
 
     def cycle(self, t: float) -> Percept:
         """Close the current cycle at vehicle time ``t`` and return its percept.

@@ -153,17 +153,19 @@ def test_a_cloverleaf_tighter_than_the_vehicle_turns_is_warned_of(leaf: float,
 def test_a_cloverleaf_larger_than_the_oparea_is_warned_of(leaf: float, warned: bool) -> None:
     """A review's d_leaf_m: 400 in a 100-m-wide box validated silently: its tips are moved
     inside the walls, so the tour flown is not a cloverleaf. The tips span 1.5 d_leaf along
-    the flow (a diff review: d_leaf_m 80 in MSN007's 113-m box passed a check of d_leaf alone);
-    the two-source box is 112 m across, 92 m inside its walls' 10-m inset. Warned without a
-    simulated world too: it is the behaviour's own advice."""
+    the flow and 1.73 across (a diff review: d_leaf_m 80 in MSN007's 113-m box passed a check
+    of d_leaf alone); the two-source box is 234 × 92 m inside its walls' 10-m inset, which
+    holds the tour up to 61 m. Warned without a simulated world too: the behaviour's own
+    advice."""
     text = _mission(None).replace("d_leaf_m: 15,", f"d_leaf_m: {leaf},")
     got = _advice(text, "d_leaf_m")
     assert bool(got) == warned, got
     if warned:
-        assert got[0].startswith(f"{leaf:g} m: the tour's points span 1.5 times that along the "
-                                 f"flow ({1.5 * leaf:g} m) and 1.7 times across it, more than "
-                                 "the OpArea's shorter side less wall_inset_m each side holds "
-                                 "(112 m less 20: 92 m)"), got[0]
+        assert got[0] == (f"{leaf:g} m: the tour's points, 120° apart at that distance from "
+                          "its centre, fit in no orientation inside the OpArea less "
+                          "wall_inset_m each side (234 × 92 m): wherever it is centred, points "
+                          "are moved inside the walls, so the tour flown is not the one drawn"
+                          ), got[0]
     no_world = text[:text.index("\nenvironment:")] + "\n"  # a vehicle's mission
     mission = loads_mission(no_world, "m.yaml", default_registry(), Environment)
     assert mission.environment is None

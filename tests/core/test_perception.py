@@ -467,12 +467,22 @@ def test_a_fluorometer_gone_silent_is_said_and_counted(caplog: pytest.LogCapture
             p.cycle(float(k))
         said = [r.getMessage() for r in caplog.records]
         assert len(said) == 1 and said[0].startswith(
-            f"no fluorometer reading for {SILENT_SENSOR_S:g} s (t = 209 s"), said
+            f"no fluorometer reading kept for {SILENT_SENSOR_S:.1f} s (t = 209.0 s"), said
         p.add_sample(229.5, 0.0)
         p.cycle(230.0)
         assert caplog.records[-1].getMessage().startswith(
-            "fluorometer readings back at t = 230 s, after 31 s")
-    assert p.faults()["blind_cycles"] == 30
+            "fluorometer readings back at t = 230.0 s, after 31.0 s")
+        # an attacker's sensor off 11 s, on 11 s: outages 1, 10 and 100 said, not each one
+        k = 231
+        for _ in range(120):
+            for _ in range(11):
+                p.cycle(float(k))
+                k += 1
+            p.add_sample(k - 0.5, 0.0)
+            p.cycle(float(k))
+            k += 1
+        assert len(caplog.records) == 2 + 2 * 2  # outages 10 and 100, each with its end
+    assert p.faults()["blind_cycles"] == 30 + 120 * 11
 
 
 def test_a_fluorometer_that_never_starts_counts_once_it_is_late() -> None:

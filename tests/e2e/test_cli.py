@@ -80,12 +80,13 @@ def test_settings_unlikely_meant_for_a_small_oparea_are_warned_of(tmp_path: Path
                                "declaration drawn at random"), lines[0]
     assert lines[1].startswith(f"{small}:{line}: behaviours[1].declare_source.radius_m: "
                                "warning: 10 m: the declaration disc covers 35%"), lines[1]
-    # and the three-point tour's 15 m: 22.5 m along the flow, beyond the 10 m left inside the
+    # and the three-point tour's 15 m, which no orientation fits in the 10 m left inside the
     # walls' 10-m inset
     three = text[:text.index("- reacquire_plume:")].count("\n") + 1
     assert lines[2].startswith(f"{small}:{three}: behaviours[3].reacquire_plume.radius_m: "
-                               "warning: 15 m: the tour's points span 1.5 times that along "
-                               "the flow (22.5 m)"), lines[2]
+                               "warning: 15 m: the tour's points, 120° apart at that "
+                               "distance from its centre, fit in no orientation inside the "
+                               "OpArea less wall_inset_m each side (10 × 10 m)"), lines[2]
     # a thin area: what fits inside counts (120 x 12 m: a 15 m disc covers 24%, not 49%)
     thin = text.replace("[15, -15]", "[60, -6]").replace("[15, 15]", "[60, 6]") \
         .replace("[-15, 15]", "[-60, 6]").replace("[-15, -15]", "[-60, -6]") \
@@ -95,7 +96,7 @@ def test_settings_unlikely_meant_for_a_small_oparea_are_warned_of(tmp_path: Path
     res = cptbt("validate", str(small))
     assert res.returncode == 0 and "success_radius_m" not in res.stderr, res.stderr
     text += "evaluation: {criterion: declaration, success_radius_m: 5}\n"
-    text = text.replace("radius_m: 15, visits", "radius_m: 6, visits")  # 9 m: fits in 10 m
+    text = text.replace("radius_m: 15, visits", "radius_m: 5, visits")  # fits in 10 m
     small.write_text(text.replace("likelihood_map}", "likelihood_map, radius_m: 5}"),
                      encoding="utf-8")
     assert cptbt("validate", str(small)).stderr == ""
