@@ -218,6 +218,7 @@ def study_header(meta: dict[str, Any], configurations: int) -> list[str]:
                      "the largest relative SEM of a mean time to source was at most "
                      f"{meta['until_sem']:g} (or {meta.get('max_runs_per_start')} per start).")
     lines += [f"- Note: {note}" for note in meta.get("notes") or []]
+    lines += [f"- Warning (as `cptbt validate` gives it): {w}" for w in meta.get("warnings") or []]
     return [*lines, ""]
 
 

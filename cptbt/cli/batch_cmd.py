@@ -185,7 +185,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         mission = mission.model_copy(update={"mission_a": None})
     _check_planner(mission)
     spec = mission.study
-    sweeps, configs = study_configs(args, mission)
+    sweeps, configs, warnings = study_configs(args, mission)
     starts = study_starts(args, mission, spec)
     check_starts(mission, starts)
     if (at_source := starts_at_a_source(mission, starts)) and not args.quiet:
@@ -253,6 +253,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         "seeding": "SeedSequence(root_seed, spawn_key=(replicate, 0)) for the plume; "
                    "(replicate, 1, start) for each vehicle",
         "notes": study_notes(mission, sweeps),
+        "warnings": warnings,
     }
     if adaptive:
         metadata |= {"until_sem": args.until_sem, "runs_per_round": runs_per_start,

@@ -22,8 +22,9 @@ from cptbt.study_spec import configs_note, configs_problem
 
 
 def study_configs(args: argparse.Namespace,
-                  mission: MissionBase) -> tuple[list[Sweep], list[Config]]:
-    """The study's sweeps and configurations, with the notes and warnings they call for."""
+                  mission: MissionBase) -> tuple[list[Sweep], list[Config], list[str]]:
+    """The study's sweeps and configurations, with the notes they call for, and the warnings
+    (printed unless ``--quiet``, and returned for ``study.json``)."""
     own = study_sweeps(mission)
     seen: dict[str, Sweep] = {}
     for s in args.sweep:  # a path twice: the second had silently replaced the first (a review)
@@ -59,9 +60,9 @@ def study_configs(args: argparse.Namespace,
         raise UsageError(f"batch: {exc}") from None
     for note in study_notes(mission, sweeps):
         print(f"cptbt: note: {note}", file=sys.stderr)
-    if not args.quiet:
-        warn_swept(mission, configs if sweeps else [], args.mission)
-    return sweeps, configs
+    warnings = warn_swept(mission, configs if sweeps else [], args.mission,
+                          echo=not args.quiet)
+    return sweeps, configs, warnings
 
 
 _UNKNOWN = object()  # a path whose fallback value is not known: no study value is taken for it

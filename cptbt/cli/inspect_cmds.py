@@ -107,11 +107,13 @@ def study_sweeps(mission: MissionBase) -> list[Sweep]:
 
 
 def warn_swept(mission: MissionBase, configs: list[Config], source: str,
-               own: bool = True) -> None:
+               own: bool = True, echo: bool = True) -> list[str]:
     """The advisories of the configurations a study flies: the mission file's own at their
     lines (``FILE:LINE: path: warning:``) if some configuration keeps them (not those every
     sweep overrides; ``own=False``: none, they were printed already), then each swept
-    configuration's others, one ``FILE [sweep ...]: path: warning:`` line each."""
+    configuration's others, one ``FILE [sweep ...]: path: warning:`` line each. Printed to
+    stderr (``echo``) and returned: a study's ``tables.md`` heads with them (a review met a
+    warning about the comparison on the terminal only)."""
     from cptbt.advice import NO_START
 
     def flown(advice: list[tuple[Loc, str]]) -> list[tuple[Loc, str]]:
@@ -120,9 +122,7 @@ def warn_swept(mission: MissionBase, configs: list[Config], source: str,
 
     shown = flown(advisories_of(mission))
     if not configs:
-        if own:
-            print_advisories(source, shown)
-        return
+        return print_advisories(source, shown, echo) if own else []
     kept: set[tuple[Loc, str]] = set()
     extra: list[str] = []
     for c in configs:
@@ -133,20 +133,25 @@ def warn_swept(mission: MissionBase, configs: list[Config], source: str,
                 kept.add((loc, msg))
             else:
                 extra.append(f"{source} [sweep {sweep}]: {dotted(loc)}: warning: {msg}")
-    if own:
-        print_advisories(source, [a for a in shown if a in kept])
+    said = print_advisories(source, [a for a in shown if a in kept], echo) if own else []
     for line in dict.fromkeys(extra):
-        print(line, file=sys.stderr)
-
-
-def print_advisories(path: str, advice: list[tuple[Loc, str]]) -> None:
-    """Print a mission file's advisories to stderr, one ``FILE:LINE: path: warning: message``
-    line each, in the file's line order."""
-    if advice:
-        _, lines = parse_yaml(mission_text(path), path)
-        for line in format_problems([(loc, f"warning: {msg}") for loc, msg in advice], lines,
-                                    path, by_line=True):
+        if echo:
             print(line, file=sys.stderr)
+        said.append(line)
+    return said
+
+
+def print_advisories(path: str, advice: list[tuple[Loc, str]], echo: bool = True) -> list[str]:
+    """Print a mission file's advisories to stderr (``echo``), one ``FILE:LINE: path: warning:
+    message`` line each, in the file's line order; the lines."""
+    if not advice:
+        return []
+    _, lines = parse_yaml(mission_text(path), path)
+    said = format_problems([(loc, f"warning: {msg}") for loc, msg in advice], lines, path,
+                           by_line=True)
+    for line in said if echo else ():
+        print(line, file=sys.stderr)
+    return list(said)
 
 
 def add_parsers(sub: Any) -> None:

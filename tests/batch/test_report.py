@@ -551,7 +551,8 @@ def test_tables_say_what_was_flown(tmp_path: Path) -> None:
         "mission": "missions/x.yaml", "mission_name": "x", "root_seed": 7,
         "starts": [[0, 0], [1, 0]], "runs_per_start": 3, "time_limit_s": None,
         "sweeps": {"environment.flow_speed_mps": [0.1, 0.2]},
-        "notes": ["environment.flow_speed_mps is swept: not the same plume"]}))
+        "notes": ["environment.flow_speed_mps is swept: not the same plume"],
+        "warnings": ["m.yaml:23: behaviours[3].reacquire_plume.d_leaf_m: warning: 15 m: ..."]}))
     rows = [{**r, "configuration": f"flow_speed_mps={v}", "environment.flow_speed_mps": v}
             for v in (0.1, 0.2) for r in line_rows()]
     write_report(rows, tmp_path, figures=False)
@@ -561,6 +562,9 @@ def test_tables_say_what_was_flown(tmp_path: Path) -> None:
     assert "not across the values of a setting of the simulated world" in text
     assert "## Paired comparisons" not in text  # each value a world of its own: none pairs
     assert "- Note: environment.flow_speed_mps is swept: not the same plume" in text
+    # validate's warnings too (a new user's met the terminal only, beside a comparison)
+    assert ("- Warning (as `cptbt validate` gives it): m.yaml:23: behaviours[3].reacquire_plume."
+            "d_leaf_m: warning: 15 m: ...") in text
 
 
 def test_pairing_follows_what_changes_the_world() -> None:
