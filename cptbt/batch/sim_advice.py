@@ -179,6 +179,10 @@ TURN_GUARD_RADII = 10.0
 """An OpArea narrower than this many of the vehicle's turning radii, without
 ``turn_guard_radius_m``, is warned of."""
 
+GUARDED_RADII = 5.0
+"""... and one narrower than this many, with it (a new user's 30-m channel, 4 radii: every run
+outside; the 50-m box, 6.7 radii: 1% of the time, 4.1 m on average)."""
+
 
 def turn_guard_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """A small OpArea without ``turn_guard_radius_m`` (a review's 50-m box was not told of
@@ -198,6 +202,13 @@ def turn_guard_advice(mission: MissionBase, params: EnvironmentParams) -> list[P
                  f"vehicle's turning circle ({plain(2 * r)} m, twice its {plain(r)}-m radius): "
                  "every turn-around carries it outside, whatever turn_guard_radius_m, and "
                  "safety takes over")]
+    if mission.turn_guard_radius_m is not None and short < GUARDED_RADII * r:
+        return [(("op_area", "corners"),
+                 f"the OpArea is {plain(round(short, 1))} m across, under {GUARDED_RADII:g} of "
+                 f"the simulated vehicle's {plain(r)}-m turning radii: even with "
+                 "turn_guard_radius_m, turns at the walls carry it outside (a review's 30-m "
+                 "channel with the guard: 60 runs of 60 outside, up to 11.7 m); keep a hard "
+                 "boundary that far beyond the walls")]
     if mission.turn_guard_radius_m is not None or short >= TURN_GUARD_RADII * r:
         return []
     return [(("op_area", "corners"),

@@ -68,6 +68,24 @@ def test_a_small_oparea_without_a_turn_guard_is_told_of_it(half: float, guard: f
         assert got[0].startswith(f"the OpArea is {2 * half} m across"), got
 
 
+@pytest.mark.parametrize(("half", "warned"), [(18, True), (19, False)])
+def test_a_narrow_oparea_is_told_of_with_the_turn_guard_too(half: float, warned: bool) -> None:
+    """A new user's 30-m channel with the guard sent 60 runs of 60 outside, up to 11.7 m, and
+    validated silently: under 5 turning radii (37.5 m) across, the guard is not enough."""
+    text = (ROOT / "missions/small_oparea.yaml").read_text(encoding="utf-8")
+    for a, b in (("[25, -25]", f"[{half}, -{half}]"), ("[25, 25]", f"[{half}, {half}]"),
+                 ("[-25, 25]", f"[-{half}, {half}]"), ("[-25, -25]", f"[-{half}, -{half}]"),
+                 ("home: [-20, 0]", "home: [-10, 0]")):
+        text = text.replace(a, b)
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    assert mission.turn_guard_radius_m == 7.5
+    got = [msg for loc, msg in advisories(mission) if "even with turn_guard_radius_m" in msg]
+    assert bool(got) == warned, got
+    if warned:
+        assert got[0].startswith(f"the OpArea is {2 * half} m across, under 5 of the simulated "
+                                 "vehicle's 7.5-m turning radii: even with"), got
+
+
 @pytest.mark.parametrize(("out", "warned"), [(20, False), (21, True)])
 def test_an_outward_current_is_counted_in_the_turn_back(out: float, warned: bool) -> None:
     """A review's start 21-22 m outside, heading straight out with the current flowing out
