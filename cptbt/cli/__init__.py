@@ -65,7 +65,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
                         help="log more: -v what the planner corrected (clock steps, rejected "
                         "samples), -vv everything")
     parser.add_argument("-q", "--quiet-log", dest="quiet_log", action="store_true",
-                        help="log errors only")
+                        help="log errors only (validation warnings and summaries still "
+                        "print: for no output at all, run --quiet or batch --quiet)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     inspect_cmds.add_parsers(sub)
     phases_cmd.add_parsers(sub)
