@@ -271,8 +271,14 @@ def variant_sweep_notes(mission: MissionBase, sweeps: list[Sweep]) -> list[str]:
             for value, keys in flown.items():
                 if value == body.get("variant"):  # the mission's own: its settings, said
                     # (a review: a bare name flew the mission's 12 m, another study's its 10)
+                    # ... less those every value naming it sets (an attacker's note listed
+                    # radius_m beside two values that each set it)
+                    mine = [v if isinstance(v, dict) else {} for v in sweep.values
+                            if (v.get("variant", body.get("variant")) if isinstance(v, dict)
+                                else v) == value]
+                    each = set.intersection(*(set(v) for v in mine)) if mine else set()
                     kept = [f"{k}={value_yaml(v)}" for k, v in body.items()
-                            if k != "variant" and k not in also and k in made]
+                            if k != "variant" and k not in also | each and k in made]
                     if kept and not rest:  # a whole-behaviour sweep, beside mappings
                         notes.append(f"sweep {path}: {value} is the mission's own variant: "
                                      f"where a value does not set them, it flies the mission's "

@@ -603,3 +603,19 @@ def test_a_setting_one_swept_variant_lacks_points_to_the_whole_behaviour_sweep()
         "'reacquire_plume=three_point,{variant: cloverleaf, d_leaf_m: 10},"
         "{variant: cloverleaf, d_leaf_m: 20}'"), str(info.value)
     assert str(info.value).count("\n") == 0  # told once, not once per swept value
+
+
+def test_the_own_variant_note_leaves_out_what_every_value_sets() -> None:
+    """An attacker's note listed radius_m=15 beside two values that each set radius_m."""
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.sweeps import study_notes
+    from cptbt.loader import loads_mission
+    from cptbt.registry import default_registry
+
+    path = Path(__file__).resolve().parents[2] / "missions/small_oparea.yaml"
+    mission = loads_mission(path.read_text(encoding="utf-8"), str(path), default_registry(),
+                            Environment)
+    (note,) = study_notes(mission, [Sweep.parse("reacquire_plume={radius_m: 10},{radius_m: 12}")])
+    assert "(wall_inset_m=10.0, visits=10)" in note, note
+    (note,) = study_notes(mission, [Sweep.parse("reacquire_plume=three_point,{radius_m: 12}")])
+    assert "(wall_inset_m=10.0, radius_m=15.0, visits=10)" in note, note
