@@ -23,10 +23,13 @@ meanwhile), or an override it left without an ``ended`` message.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
 from transitions.extensions.nesting import HierarchicalMachine, NestedState
+
+from cptbt.perception import MAX_CLOCK_JUMP_S
 
 
 class _DotState(NestedState):
@@ -151,6 +154,38 @@ class MissionPhases:
     def can_fire(self, trigger: str) -> bool:
         """Whether ``trigger`` is valid in the current phase."""
         return trigger in self.machine.get_triggers(self.state)
+
+
+class PhaseClock:
+    """The clock a phase timeline is stamped on: the vehicle's, its steps back and its leaps
+    beyond :data:`~cptbt.perception.MAX_CLOCK_JUMP_S` each continued from the previous report,
+    and, while the AMP drives, the planner's (so the timeline and t0-t3 agree). A field
+    review's clock stepped back 100 s had the timeline give back "declared and home" 58 s
+    before ``t3``, a 2-h leap had made a 900-s override last 7 478 s, and an attacker's step
+    after the give-back, when the planner no longer cycles, had run the timeline backwards."""
+
+    def __init__(self) -> None:
+        self.offset = 0.0  # the phase clock less the vehicle's
+        self.prev = -math.inf  # the phase clock at the latest report
+
+    def track(self, t: float, planner_t: float | None = None) -> None:
+        """A vehicle report at ``t``; ``planner_t``: the planner's clock then, while it drives."""
+        if planner_t is not None:
+            self.offset = planner_t - t
+        now = t + self.offset
+        if math.isfinite(self.prev) and (now < self.prev or now - self.prev > MAX_CLOCK_JUMP_S):
+            self.offset += self.prev - now
+            now = self.prev
+        self.prev = now
+
+    def stamp(self, t: float) -> float:
+        """An event at vehicle time ``t`` on this clock (never before the latest report)."""
+        return max(t + self.offset if math.isfinite(t) else self.prev, self.prev)
+
+    @property
+    def now(self) -> float:
+        """The clock at the latest report (0 before any)."""
+        return self.prev if math.isfinite(self.prev) else 0.0
 
 
 def leaf_states() -> list[str]:

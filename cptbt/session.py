@@ -34,7 +34,7 @@ from cptbt.link import (
 from cptbt.mission import MissionBase
 from cptbt.mission_a import MissionASpec
 from cptbt.perception import MAX_CLOCK_JUMP_S, MAX_FIX_OUTSIDE_M
-from cptbt.phases import MissionPhases
+from cptbt.phases import MissionPhases, PhaseClock
 from cptbt.planner import Planner
 from cptbt.policy import give_back_trigger
 from cptbt.types import Command, Point
@@ -139,8 +139,7 @@ class AmpSession:
         self._launch_prev_t = math.nan  # the latest state time since the launch
         self._since_launch = 0.0  # the time since the launch at the latest report that counts
         self._granted = False  # the vehicle reported the override since the latest take
-        self._phase_offset = 0.0  # the phase clock less the vehicle's (_track_clock)
-        self._phase_prev = -math.inf  # the phase clock at the latest report
+        self.clock = PhaseClock()  # what the timeline is stamped on
 
     @property
     def t(self) -> float:
@@ -148,33 +147,19 @@ class AmpSession:
         return self.state.t_s if self.state is not None else 0.0
 
     def fire_phase(self, trigger: str, t: float, detail: str = "") -> None:
-        """Fire a phase trigger at vehicle time ``t``, stamped on the session's phase clock
-        (:meth:`_track_clock`): a field review's clock stepped back 100 s had the timeline
-        give back "declared and home" 58 s before ``t3``, and a 2-h leap made a 900-s
-        mission's override last 7 478 s."""
-        stamp = t + self._phase_offset if math.isfinite(t) else self._phase_prev
-        self.phases.fire(trigger, max(stamp, self._phase_prev), detail)
+        """Fire a phase trigger at vehicle time ``t``, stamped on the phase clock
+        (:class:`~cptbt.phases.PhaseClock`)."""
+        self.phases.fire(trigger, self.clock.stamp(t), detail)
 
     def _track_clock(self, t: float) -> None:
-        """Keep the phase clock: the vehicle's, shifted by its steps back and its leaps beyond
-        :data:`~cptbt.perception.MAX_CLOCK_JUMP_S` (each continued from the previous report),
-        and while the AMP drives the planner's own (so the timeline and t0-t3 agree). A step
-        after the give-back, when the planner no longer cycles, is corrected here too (an
-        attacker's 700-s step back had the timeline run backwards after the give-back)."""
+        """The phase clock at a vehicle report: the planner's own while the AMP drives."""
         clock = getattr(getattr(self.planner, "perception", None), "on_clock", None)
-        if self.in_override and callable(clock):
-            self._phase_offset = clock(t) - t
-        now = t + self._phase_offset
-        prev = self._phase_prev
-        if math.isfinite(prev) and (now < prev or now - prev > MAX_CLOCK_JUMP_S):
-            self._phase_offset += prev - now
-            now = prev
-        self._phase_prev = now
+        self.clock.track(t, clock(t) if self.in_override and callable(clock) else None)
 
     @property
     def phase_now(self) -> float:
-        """The phase clock at the vehicle's latest report (:meth:`_track_clock`; 0 before)."""
-        return self._phase_prev if math.isfinite(self._phase_prev) else 0.0
+        """The phase clock at the vehicle's latest report (0 before any)."""
+        return self.clock.now
 
     @property
     def in_override(self) -> bool:
@@ -203,7 +188,7 @@ class AmpSession:
             self.t_amp_start = self._take_t = self._elapsed_t = t
             self.amp_elapsed_s = 0.0
             self._control_t = None
-            self._granted = False  # the vehicle has reported the override since the take
+            self._granted = False
             self._next_tick = t
         if self.in_override and not self._in_control(t):
             return
@@ -377,8 +362,7 @@ class AmpSession:
             self.fire_phase("mission_a_complete", s.t_s)
             return
         if ph.state == "amp.give_back" and s.mode == "mission" and not self._granted:
-            # never in the override: no break-off to return to (a field review's MAVLink
-            # vehicle refused GUIDED, and the timeline had it "return" to where it was)
+            # no break-off to return to (a field review's vehicle refused GUIDED)
             self.fire_phase("never_granted", s.t_s)
             return
         if ph.state == "amp.give_back" and s.mode in ("returning", "mission"):

@@ -135,9 +135,8 @@ class ScriptedPerception:
 
     def lost_contacts(self, points: Iterable[tuple[float, float]], at: tuple[float, float],
                       t0: float = 0.0) -> list[Percept]:
-        """Contacts made and lost, for a declaration rule: per point, a cycle detecting plume
-        at it, then one at ``at`` in clean water ``lambda_s`` plus a second later (the contact
-        lost there, the point added to ``p.lost_contacts``); the next point a second after."""
+        """Contacts made and lost: per point, a detection at it, then a cycle at ``at`` in
+        clean water ``lambda_s`` + 1 s later (the point joins ``p.lost_contacts``)."""
         lam = self.perception.settings.lambda_s
         percepts: list[Percept] = []
         t = t0
@@ -191,12 +190,9 @@ class TreeHarness:
     @classmethod
     def from_mission(cls, mission: MissionBase, registry: Registry | None = None, *,
                      start: Point | None = None) -> TreeHarness:
-        """The mission's whole tree, in a fresh blackboard namespace, with the context and
-        starting keys the planner gives it (:func:`~cptbt.planner.mission_context`: the
-        mission's home, start, cruise speed and threshold; ``field_reached`` false when there
-        is a move-to-field): what ``cptbt run`` flies. A review's harness built with
-        :func:`make_context` flew find-plume at 1 m/s toward (0, 0) where the planner flew
-        move-to-field at the mission's 1.5 m/s."""
+        """The mission's whole tree, in a fresh namespace, with the context and keys the
+        planner gives it (:func:`~cptbt.planner.mission_context`): what ``cptbt run`` flies
+        (a review's, built with :func:`make_context`, had flown find-plume first)."""
         root = build_tree(mission.entries(), registry or default_registry(), fresh_namespace())
         return cls(root, mission_context(mission, start),
                    field_reached=field_reached_at_start(mission))
@@ -338,7 +334,7 @@ def check_behaviour(
     """
     if isinstance(spec, type):
         spec = BehaviourSpec.of(spec)
-    try:  # what registration refuses (a diff review: a plug-in author met it only on loading)
+    try:  # what registration refuses
         check_params(spec)
     except RegistryError as exc:
         raise AssertionError(str(exc)) from None

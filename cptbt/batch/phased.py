@@ -25,10 +25,11 @@ from cptbt.batch.engine import (
     run_loop,
 )
 from cptbt.batch.outcome import Outcome, outcome_of
+from cptbt.batch.outside import is_home_leg, outside_away_from
 from cptbt.batch.recorder import Recorder
 from cptbt.batch.scenario import environment_of, planning_angle
 from cptbt.batch.sim_link import LinkFaults, SimVehicleLink
-from cptbt.batch.summary import is_home_leg, outside_away_from, where
+from cptbt.batch.summary import where
 from cptbt.mission import MissionBase
 from cptbt.phases import GIVE_BACK_TRIGGERS, PhaseChange
 from cptbt.planner import Planner

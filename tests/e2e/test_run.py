@@ -209,7 +209,7 @@ def test_the_way_to_a_home_and_from_a_launch_outside_are_not_excursions(tmp_path
 def test_the_way_in_from_a_start_placed_outside_is_not_an_excursion() -> None:
     """A review's start 20 m outside the box (``allow_outside: [start]``) printed "left the
     OpArea: at most 19.8 m": the way in is the mission's. Once in, leaving counts again."""
-    from cptbt.batch.summary import _farthest_outside
+    from cptbt.batch.outside import farthest_outside as _farthest_outside
 
     mission = load_mission(ROOT / "missions/small_oparea.yaml", default_registry(), Environment)
     a = mission.op_area_geometry()
@@ -235,7 +235,7 @@ def test_the_way_home_counts_only_the_walls_home_is_not_beyond() -> None:
     """A diff review: blanking the whole leg home hid a 2.7-m overshoot through the far wall
     on the turn after a declaration. Home beyond the low-y wall: that wall's crossing is the
     mission's, any other wall's still an excursion."""
-    from cptbt.batch.summary import outside_away_from
+    from cptbt.batch.outside import outside_away_from
     from cptbt.frames import OpArea
 
     area = OpArea(0.0, 100.0, 0.0, 50.0)
