@@ -357,8 +357,9 @@ class Perception:
             self._outages += 1
             log.log(self._outage_level(), "no fluorometer reading kept for %.1f s (t = %.1f s on "
                     "the planner clock; none sent, or each dropped as missing, stuck or late: "
-                    "outage %d): the planner sees no plume, and cannot tell clean water from a "
-                    "silent sensor", t - since, t, self._outages)
+                    "outage %d; said at the 1st, 10th, 100th ..., each with -vv): the planner "
+                    "sees no plume, and cannot tell clean water from a silent sensor",
+                    t - since, t, self._outages)
 
     def _outage_level(self) -> int:
         """WARNING for the 1st, 10th, 100th ... outage and its end, DEBUG for the others (an

@@ -157,9 +157,10 @@ class MissionPhases:
 
 
 class PhaseClock:
-    """The clock a phase timeline is stamped on: the vehicle's, its steps back and its leaps
-    beyond :data:`~cptbt.perception.MAX_CLOCK_JUMP_S` each continued from the previous report,
-    and, while the AMP drives, the planner's (so the timeline and t0-t3 agree). A field
+    """The clock a phase timeline is stamped on: the vehicle's as it reads until the AMP takes
+    over (:meth:`raw`), the planner's while the AMP drives (so the timeline and t0-t3 agree),
+    and after the give-back the vehicle's with its steps back and its leaps beyond
+    :data:`~cptbt.perception.MAX_CLOCK_JUMP_S` each continued from the previous report. A field
     review's clock stepped back 100 s had the timeline give back "declared and home" 58 s
     before ``t3``, a 2-h leap had made a 900-s override last 7 478 s, and an attacker's step
     after the give-back, when the planner no longer cycles, had run the timeline backwards."""
@@ -177,6 +178,12 @@ class PhaseClock:
             self.offset += self.prev - now
             now = self.prev
         self.prev = now
+
+    def raw(self, t: float) -> None:
+        """A vehicle report at ``t`` taken as it reads: before the AMP's take-over (t0 is on
+        the vehicle's clock; a diff review's front seat restarting its clock at the launch had
+        stood a corrected clock still through the whole override)."""
+        self.offset, self.prev = 0.0, t if math.isfinite(t) else self.prev
 
     def stamp(self, t: float) -> float:
         """An event at vehicle time ``t`` on this clock (never before the latest report)."""

@@ -152,7 +152,10 @@ class AmpSession:
         self.phases.fire(trigger, self.clock.stamp(t), detail)
 
     def _track_clock(self, t: float) -> None:
-        """The phase clock at a vehicle report: the planner's own while the AMP drives."""
+        """The phase clock at a vehicle report (:class:`~cptbt.phases.PhaseClock`)."""
+        if self.t_amp_start is None:
+            self.clock.raw(t)
+            return
         clock = getattr(getattr(self.planner, "perception", None), "on_clock", None)
         self.clock.track(t, clock(t) if self.in_override and callable(clock) else None)
 

@@ -317,7 +317,8 @@ def check_behaviour(
     - no leaf changed its class's data (a list appended to, an attribute set on the class),
       looked for after every tick: such state is shared by every instance, so one run leaks
       into the next run of a worker;
-    - its ``Params`` is frozen (the settings are read-only, as the mission gave them);
+    - its ``Params`` derives from its bases' (as loading checks), and is frozen (the
+      settings are read-only, as the mission gave them);
     - a reacquire-plume variant has output only while out of the plume, a maintain-plume
       variant only while in it (``p.in_plume``): the slots' turns (SPEC §3);
     - every blackboard key the node wrote under its namespace was declared (registered by

@@ -149,8 +149,9 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
         p = clustered_mcnemar(pairs)
         floor = sign_flip_floor(pairs) if p is not None else None
         p = mcnemar(here_only, there_only) if p is None else p
-        least = (f" (the least {round(math.log2(2 / floor))} plumes can give)"
-                 if floor is not None and p <= floor * (1 + 1e-9) else "")
+        least = (f" (the least a test over the {round(math.log2(2 / floor))} plumes that "
+                 "differ can give)" if floor is not None and floor < 1.0
+                 and p <= floor * (1 + 1e-9) else "")
         lines.append(f"| {label} | {base} | {len(pairs)} | {here_only} / {there_only} "
                      f"| {p:.2g}{least} | {diff} | {d.size} |")
     return lines

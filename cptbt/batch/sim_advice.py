@@ -216,7 +216,9 @@ def turn_guard_advice(mission: MissionBase, params: EnvironmentParams) -> list[P
              f"the simulated vehicle's {plain(r)}-m turning radii: a turn at a wall carries it "
              f"outside, and safety takes over (4% of the time on a 50-m box); "
              f"turn_guard_radius_m: {plain(r)} starts such turns on the side that keeps the "
-             "turning circle inside (1%; missions/small_oparea.yaml)")]
+             "turning circle inside (1%; missions/small_oparea.yaml)"
+             + ("; under 5 radii across not even that keeps every run in (a 30-m channel with "
+                "it: 60 runs of 60 outside)" if short < GUARDED_RADII * r else ""))]
 
 
 def _under(v: float) -> str:

@@ -247,7 +247,8 @@ def parse_line(line: bytes | str) -> tuple[int, InMessage | OutMessage | Heartbe
             raise ProtocolError("invalid", "ended: break_off_m must be [x, y]")
         # each through _num's checks: a 400-digit integer had raised OverflowError out of
         # the decoder and ended a served mission (an attacker's), and 1e400 read as inf
-        xy = _num({"type": "ended", "x": b[0]}, "x"), _num({"type": "ended", "y": b[1]}, "y")
+        xy = [_num({"type": "ended", f"break_off_m[{i}]": v}, f"break_off_m[{i}]")
+              for i, v in enumerate(b)]
         msg = OverrideEnded(_num(d, "t_s"),
                             _choice(d, "reason", END_REASONS),  # type: ignore[arg-type]
                             (float(xy[0]), float(xy[1])))

@@ -140,4 +140,4 @@ def test_a_p_at_the_floor_of_few_plumes_is_said() -> None:
     groups = {c: [{**base, "configuration": c, "replicate": r, "start": i,
                    "success": c == "b"} for r in range(3) for i in range(4)] for c in "ab"}
     (row,) = [line for line in paired_table(groups) if line.startswith("| b ")]
-    assert "| 12 / 0 | 0.25 (the least 3 plumes can give) |" in row, row
+    assert "| 12 / 0 | 0.25 (the least a test over the 3 plumes that differ can give) |" in row, row

@@ -100,3 +100,37 @@ def test_the_phase_timeline_keeps_the_planners_clock_across_a_step_back() -> Non
     assert summary["sim_time_s"] == times[-3] == 310.0
     assert summary["T_total"] == summary["sim_time_s"] - summary["t0"] == 70.0
     assert abs(sum(summary["time_in_behaviour_s"].values()) - 70.0) <= 1.0
+
+
+def test_a_clock_step_before_the_take_leaves_the_override_its_own_length() -> None:
+    """A diff review: with the vehicle's clock stepped back 100 s during Mission A (or
+    restarted at the launch, which the session supports), a corrected phase clock stood still
+    through the override and a 30-s override read T_total 99.8 s. Until the take the timeline
+    reads the vehicle's clock as it is, as t0 does."""
+    mission = load_mission(ROOT / "missions" / "tro2006_msn007.yaml")
+    link = Link()
+    session = AmpSession(mission, Planner(mission), link)
+    cycles = AmpCycles(mission)
+
+    def report(t: float, mode: str) -> None:
+        link.inbox += [VehicleState(t, -60.0 + 0.01 * t, 10.0, 180.0, 1.5, 3.0, mode, 1),
+                       FlowSample(t, 0.1, 0.0), ConcentrationSample(t, 0.0)]
+        session.update()
+        cycles(session)
+
+    report(0.0, "pre_launch")
+    for k in range(1, 1000):  # 100 s of Mission A ...
+        report(k / 10, "mission")
+    k = 0
+    while not session.in_override:  # ... then the clock steps back 100 s: the take 140 s later
+        report(k / 10, "mission")
+        k += 1
+    take = session.t
+    for j in range(1, 301):  # a 30-s override, then the vehicle takes control back
+        report(take + j / 10, "override")
+    link.inbox.append(OverrideEnded(take + 30.0, "watchdog", (0.0, 0.0)))
+    session.update()
+    cycles(session)
+    summary = served_summary(ServeResult(session, "stopped"), cycles, mission, None)
+    assert abs(summary["T_total"] - 30.0) < 0.5, summary["T_total"]
+    assert summary["phases"]["time_in_phase_s"]["amp.override"] > 29.0
