@@ -93,8 +93,7 @@ class PhaseChange:
     """One entry of the phase timeline.
 
     Attributes:
-        t_s: when the trigger fired, s, on the planner's clock (the vehicle's, less the
-            steps back the planner corrected: ``AmpSession.fire_phase``).
+        t_s: when the trigger fired, s, on the session's :class:`PhaseClock`.
         source: phase before.
         dest: phase after (equal to ``source`` for an internal transition).
         trigger: the trigger's name.

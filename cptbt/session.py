@@ -2,7 +2,7 @@
 
 :class:`AmpSession` is the AMP computer's main loop (OMAE "AMP-REMUS protocols"): it reads what
 the vehicle reports through a :class:`cptbt.link.VehicleLink`, fires the phase triggers of
-:mod:`cptbt.phases` on the vehicle's clock, feeds and ticks the :class:`cptbt.planner.Planner`
+:mod:`cptbt.phases` on a phase clock, feeds and ticks the :class:`cptbt.planner.Planner`
 while the AMP has the override, and sends its commands back through the link. It never touches
 the vehicle (or a simulator) any other way.
 
