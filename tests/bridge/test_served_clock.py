@@ -27,7 +27,9 @@ class Link:
         pass
 
 
-def test_a_clock_stepped_back_gives_no_negative_time() -> None:
+def _served():  # type: ignore[no-untyped-def]
+    """MSN007 served through the scripted link: the mission, link, session, cycle observer,
+    and ``report(t, mode, conc)``, one vehicle report (navigation, flow, a sample) handled."""
     mission = load_mission(ROOT / "missions" / "tro2006_msn007.yaml")  # take-over at 240 s
     link = Link()
     session = AmpSession(mission, Planner(mission), link)
@@ -38,6 +40,12 @@ def test_a_clock_stepped_back_gives_no_negative_time() -> None:
                        FlowSample(t, 0.1, 0.0), ConcentrationSample(t, conc)]
         session.update()
         cycles(session)
+
+    return mission, link, session, cycles, report
+
+
+def test_a_clock_stepped_back_gives_no_negative_time() -> None:
+    mission, _, session, cycles, report = _served()
 
     report(0.0, "pre_launch")
     for k in range(1, 2410):  # to 241 s, in Mission A, then the take-over
@@ -58,16 +66,7 @@ def test_the_phase_timeline_keeps_the_planners_clock_across_a_step_back() -> Non
     """A field review: a vehicle clock stepped back 100 s, and the timeline gave back "declared
     and home" 58 s before the declaration's t3; the phases are now stamped on the planner's
     clock, as t0-t3 are, so the timeline never runs backwards and gives back after t3."""
-    mission = load_mission(ROOT / "missions" / "tro2006_msn007.yaml")
-    link = Link()
-    session = AmpSession(mission, Planner(mission), link)
-    cycles = AmpCycles(mission)
-
-    def report(t: float, mode: str) -> None:
-        link.inbox += [VehicleState(t, -60.0 + 0.01 * t, 10.0, 180.0, 1.5, 3.0, mode, 1),
-                       FlowSample(t, 0.1, 0.0), ConcentrationSample(t, 0.0)]
-        session.update()
-        cycles(session)
+    mission, link, session, cycles, report = _served()
 
     report(0.0, "pre_launch")
     for k in range(1, 2410):
@@ -107,16 +106,7 @@ def test_a_clock_step_before_the_take_leaves_the_override_its_own_length() -> No
     restarted at the launch, which the session supports), a corrected phase clock stood still
     through the override and a 30-s override read T_total 99.8 s. Until the take the timeline
     reads the vehicle's clock as it is, as t0 does."""
-    mission = load_mission(ROOT / "missions" / "tro2006_msn007.yaml")
-    link = Link()
-    session = AmpSession(mission, Planner(mission), link)
-    cycles = AmpCycles(mission)
-
-    def report(t: float, mode: str) -> None:
-        link.inbox += [VehicleState(t, -60.0 + 0.01 * t, 10.0, 180.0, 1.5, 3.0, mode, 1),
-                       FlowSample(t, 0.1, 0.0), ConcentrationSample(t, 0.0)]
-        session.update()
-        cycles(session)
+    mission, link, session, cycles, report = _served()
 
     report(0.0, "pre_launch")
     for k in range(1, 1000):  # 100 s of Mission A ...
