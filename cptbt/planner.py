@@ -65,10 +65,10 @@ class Planner:
         self.mission = mission
         self.registry = registry or default_registry()
         entries = mission.entries()
-        self.op_area = mission.op_area_geometry()
+        self.context = mission_context(mission, start)
+        self.op_area = self.context.op_area
         self.perception = Perception(self.op_area, mission.perception,
                                      nominal_period_s=1.0 / mission.cycle_hz)
-        self.context = mission_context(mission, start)
         self.namespace = namespace or f"/cptbt/p{next(_ids)}"
         self.root = build_tree(entries, self.registry, self.namespace)
         self.leaves = plan_leaves(self.root)

@@ -352,7 +352,7 @@ def check_params(spec: BehaviourSpec) -> None:
         raise RegistryError(f"{where}: its Params ({getattr(params, '__name__', params)!r}) is "
                             "not a cptbt.node.BehaviourParams subclass: derive it from one")
     for cls in spec.behaviour_classes:
-        _check_inherited_params(where, cls, params if cls.Params is params else cls.Params)
+        _check_inherited_params(where, cls, cls.Params)
     # by the key the model reads (an alias: validated by name, a plug-in's aliased field had
     # been refused as an extra key, a diff review)
     given = {(f.validation_alias if isinstance(f.validation_alias, str) else f.alias or name):

@@ -159,13 +159,21 @@ def sign_flip_floor(pairs: Sequence[tuple[dict[str, Any], dict[str, Any]]]) -> f
     plumes whose difference is not 0; None where it does not apply (every replicate one pair,
     or no plume differs). A review read 12 to 0 over 3 plumes, p 0.25, as "not significant":
     0.25 is the least any test over 3 plumes can say."""
+    by = _plume_differences(pairs)
+    m = sum(v != 0 for v in by.values()) if by is not None else 0
+    return 2.0 / 2**m if m else None
+
+
+def _plume_differences(pairs: Sequence[tuple[dict[str, Any], dict[str, Any]]]
+                       ) -> dict[Any, int] | None:
+    """Each plume's ``b_k - c_k`` (the starts only the first succeeded in, less those only the
+    second did), by replicate; None when every replicate holds one pair."""
     if len({a.get("replicate", id(a)) for a, _ in pairs}) == len(pairs):
         return None
     by: dict[Any, int] = defaultdict(int)
     for a, b in pairs:
         by[a.get("replicate", id(a))] += int(bool(a.get("success"))) - int(bool(b.get("success")))
-    m = sum(v != 0 for v in by.values())
-    return 2.0 / 2**m if m else None
+    return by
 
 
 def clustered_mcnemar(pairs: Sequence[tuple[dict[str, Any], dict[str, Any]]]) -> float | None:
@@ -181,11 +189,9 @@ def clustered_mcnemar(pairs: Sequence[tuple[dict[str, Any], dict[str, Any]]]) ->
     ``|sum d_k|`` is at least the one seen, computed exactly by convolution. Durkalski's
     chi-square was asymptotic, and with few plumes too small (a review: p = 0.029 from 5
     plumes, where no test over 5 plumes goes below 2/32 = 0.0625)."""
-    if len({a.get("replicate", id(a)) for a, _ in pairs}) == len(pairs):
+    by = _plume_differences(pairs)
+    if by is None:
         return None
-    by: dict[Any, int] = defaultdict(int)
-    for a, b in pairs:
-        by[a.get("replicate", id(a))] += int(bool(a.get("success"))) - int(bool(b.get("success")))
     d = [abs(v) for v in by.values() if v != 0]
     if not d:
         return 1.0

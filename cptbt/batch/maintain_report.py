@@ -33,6 +33,12 @@ def _t_m(rows: Rows) -> list[float]:
     return [float(r["T_M"]) for r in rows if _has_t_m(r)]
 
 
+def _t_m_mean_se(rows: Rows) -> tuple[float, float]:
+    """Mean T_M and its SE over the runs with a contact."""
+    kept = [r for r in rows if _has_t_m(r)]
+    return _mean_se(kept, _t_m(kept))
+
+
 def _mean_se(rows: Rows, values: list[float]) -> tuple[float, float]:
     """The mean and its SE over plumes (:func:`~cptbt.batch.intervals.mean_sem`: the starts of
     a replicate fly one plume; the SE had treated them as independent)."""
@@ -56,7 +62,7 @@ def maintain_table(groups: dict[str, Rows]) -> list[str]:
              "|---|---:|---:|---:|---:|---:|"]
     for label, rows in groups.items():
         t_m = _t_m(rows)
-        m, se = _mean_se([r for r in rows if _has_t_m(r)], t_m)
+        m, se = _t_m_mean_se(rows)
         med = statistics.median(t_m) if t_m else math.nan
         reached = sum(bool(r.get("success")) for r in rows)
         lines.append(f"| {label} | {len(rows)} | {len(t_m)} | "
@@ -98,7 +104,7 @@ def maintain_figure(groups: dict[str, Rows], path: Path, plt: Any) -> Path | Non
         name = ", ".join(f"{k}={v}" for k, v in c.items() if k != x_key) or "T_M"
         x = _number(c[x_key])
         assert x is not None
-        series[name][x] = _mean_se([r for r in rows if _has_t_m(r)], _t_m(rows))
+        series[name][x] = _t_m_mean_se(rows)
     fig, ax = plt.subplots(figsize=(7.5, 4.5), layout="constrained")
     for name, points in sorted(series.items()):
         xs = sorted(points)

@@ -184,9 +184,9 @@ def summarise(
     flow samples, cycle times not after the previous one) up to the end of the AMP's part;
     ``flow_held_cycles`` the cycles planned on a held flow estimate (no usable flow sample in
     ``perception.flow_window_s``: the last estimate stands in for the current);
-    ``blind_cycles`` the cycles with no fluorometer reading after the first (a dropout, stuck
-    samples dropped, or a sensor that stopped sending: a field review's dead fluorometer had
-    read as a plume not found).
+    ``blind_cycles`` the cycles with no fluorometer reading (a dropout, stuck samples dropped,
+    or a sensor that stopped sending; before the first reading, once it is 10 s late: a field
+    review's dead fluorometer had read as a plume not found).
     ``nonfinite_commands`` counts the cycles a behaviour asked ``command()`` for a non-finite
     heading or speed (none was sent: the behaviour below drove), ``unflyable_commands`` those
     whose speed the simulated vehicle cannot fly (it flew the nearest it can), and

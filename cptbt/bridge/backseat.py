@@ -164,8 +164,13 @@ def _num(d: dict[str, Any], key: str, optional: bool = False) -> Any:
     v = d.get(key)
     if v is None and optional:
         return None
+    return _number(v, d.get("type"), key)
+
+
+def _number(v: Any, kind: Any, key: str) -> float:
+    """A JSON number as a finite float, else a ProtocolError naming the message and key."""
     if isinstance(v, bool) or not isinstance(v, int | float):
-        raise ProtocolError("invalid", f"{d.get('type')}: {key} must be a number")
+        raise ProtocolError("invalid", f"{kind}: {key} must be a number")
     # A literal beyond the float range (1e400 reads as inf, a 400-digit integer overflows):
     # a non-finite number as NaN/Infinity are (a review: such fields had been decoded).
     try:
@@ -173,7 +178,7 @@ def _num(d: dict[str, Any], key: str, optional: bool = False) -> Any:
     except OverflowError:
         f = math.inf
     if not math.isfinite(f):
-        raise ProtocolError("malformed", f"{d.get('type')}: non-finite number {key}")
+        raise ProtocolError("malformed", f"{kind}: non-finite number {key}")
     return f
 
 
@@ -247,8 +252,7 @@ def parse_line(line: bytes | str) -> tuple[int, InMessage | OutMessage | Heartbe
             raise ProtocolError("invalid", "ended: break_off_m must be [x, y]")
         # each through _num's checks: a 400-digit integer had raised OverflowError out of
         # the decoder and ended a served mission (an attacker's), and 1e400 read as inf
-        xy = [_num({"type": "ended", f"break_off_m[{i}]": v}, f"break_off_m[{i}]")
-              for i, v in enumerate(b)]
+        xy = [_number(v, "ended", f"break_off_m[{i}]") for i, v in enumerate(b)]
         msg = OverrideEnded(_num(d, "t_s"),
                             _choice(d, "reason", END_REASONS),  # type: ignore[arg-type]
                             (float(xy[0]), float(xy[1])))
