@@ -110,7 +110,10 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
     Runs pair by (replicate, start): the same plume, start and vehicle noise (:func:`pairings`).
     Success: the runs only one of the two succeeded in, with the exact McNemar p on them; time:
     the mean paired difference over the runs both succeeded in, with its standard error and
-    95% interval (Student's t on :func:`~cptbt.batch.intervals.mean_df` degrees of freedom).
+    95% interval (Student's t on :func:`~cptbt.batch.intervals.mean_df` degrees of freedom);
+    search time (:func:`search_time`, a failure at its time limit): the same over every pair
+    (a review: the difference over the runs both succeeded in leaves out a configuration's
+    failures, so it alone can favour the one that fails more).
     """
     if len(groups) < 2:
         return []
@@ -129,23 +132,19 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
              "over plumes, or over runs where that is larger; then its 95% interval, Student's "
              "t on the plumes less one, or the runs less one where each plume holds one). A "
              "difference over the runs both succeeded in leaves out the runs only one did: read "
-             "it with the counts beside it.", "",
+             "it with the counts beside it. The search-time difference is over every pair, a "
+             "failure counting as its time limit (AB Fig. 6's measure, the table's search time), "
+             "with its SE and interval alike.", "",
              "| configuration | against | pairs | succeeded only here / only there | McNemar p "
-             "| time difference (s) | both succeeded |",
-             "|---|---|---:|---:|---:|---:|---:|"]
+             "| time difference (s) | both succeeded | search-time difference (s) |",
+             "|---|---|---:|---:|---:|---:|---:|---:|"]
     for label, base, pairs in paired:
         here_only = sum(bool(a.get("success")) and not b.get("success") for a, b in pairs)
         there_only = sum(bool(b.get("success")) and not a.get("success") for a, b in pairs)
         both = [(a, time_to_source(a) - time_to_source(b)) for a, b in pairs
                 if a.get("success") and b.get("success")]
-        both = [(a, v) for a, v in both if math.isfinite(v)]
-        d = np.array([v for _, v in both], dtype=float)
-        runs = [a for a, _ in both]
-        se = mean_sem(runs, d.tolist())  # over plumes, as the intervals
-        diff = f"{fmt(float(d.mean()) if d.size else None)} ± {fmt(se)}"
-        if d.size >= 2 and math.isfinite(se):  # a review: ± SE over 4 plumes read as ± 2 SE
-            lo, hi = mean_interval(runs, d.tolist())
-            diff += f" ({fmt(lo)} to {fmt(hi)}, {mean_df(runs)} df)"
+        size, diff = _mean_difference(both)
+        searched = _mean_difference([(a, search_time(a) - search_time(b)) for a, b in pairs])[1]
         p = clustered_mcnemar(pairs)
         floor = sign_flip_floor(pairs) if p is not None else None
         p = mcnemar(here_only, there_only) if p is None else p
@@ -153,8 +152,22 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
                  "differ can give)" if floor is not None and floor < 1.0
                  and p <= floor * (1 + 1e-9) else "")
         lines.append(f"| {label} | {base} | {len(pairs)} | {here_only} / {there_only} "
-                     f"| {p:.2g}{least} | {diff} | {d.size} |")
+                     f"| {p:.2g}{least} | {diff} | {size} | {searched} |")
     return lines
+
+
+def _mean_difference(pairs: list[tuple[dict[str, Any], float]]) -> tuple[int, str]:
+    """(how many, "mean ± SE (95% interval, df)") of paired differences, each with its row
+    (the row names its plume): the SE over plumes, as the intervals'."""
+    kept = [(a, v) for a, v in pairs if math.isfinite(v)]
+    d = np.array([v for _, v in kept], dtype=float)
+    runs = [a for a, _ in kept]
+    se = mean_sem(runs, d.tolist())
+    text = f"{fmt(float(d.mean()) if d.size else None)} ± {fmt(se)}"
+    if d.size >= 2 and math.isfinite(se):  # a review: ± SE over 4 plumes read as ± 2 SE
+        lo, hi = mean_interval(runs, d.tolist())
+        text += f" ({fmt(lo)} to {fmt(hi)}, {mean_df(runs)} df)"
+    return d.size, text
 
 
 def code_change(meta: dict[str, Any], where: str) -> tuple[str, str] | None:

@@ -524,7 +524,7 @@ def test_paired_comparisons_count_discordant_runs_within_a_world() -> None:
     def run(config: str, rep: int, ok: bool, t3: float, flow: float) -> dict[str, Any]:
         return {**BASE, "configuration": config, "replicate": rep, "start": 0,
                 "start_x": 0.0, "success": ok, "t3": t3 if ok else None,
-                "environment.flow_speed_mps": flow}
+                "environment.flow_speed_mps": flow, "run_time_limit_s": 300.0}
 
     groups = {
         "a": [run("a", r, r != 3, 100.0, 0.1) for r in range(6)],
@@ -538,8 +538,13 @@ def test_paired_comparisons_count_discordant_runs_within_a_world() -> None:
     d = [-8.0, -6.0, -5.0]
     se = np.std(d, ddof=1) / np.sqrt(3)
     lo, hi = np.mean(d) - 4.303 * se, np.mean(d) + 4.303 * se  # Student's t, 2 df
+    # over every pair, a failure at its limit (300 s): b failed 0 and 1, a failed 3
+    s = [300.0 - 100, 300.0 - 100, -8.0, 93.0 - 300, -6.0, -5.0]
+    s_se = np.std(s, ddof=1) / np.sqrt(6)
+    s_lo, s_hi = np.mean(s) - 2.571 * s_se, np.mean(s) + 2.571 * s_se  # 5 df
     assert rows[0] == (f"| b | a | 6 | 1 / 2 | {mcnemar(1, 2):.2g} | "
-                       f"{np.mean(d):.1f} ± {se:.1f} ({lo:.1f} to {hi:.1f}, 2 df) | 3 |")
+                       f"{np.mean(d):.1f} ± {se:.1f} ({lo:.1f} to {hi:.1f}, 2 df) | 3 | "
+                       f"{np.mean(s):.1f} ± {s_se:.1f} ({s_lo:.1f} to {s_hi:.1f}, 5 df) |")
     assert mcnemar(0, 0) == 1.0 and mcnemar(0, 6) == pytest.approx(2 / 64)
     assert paired_table({"a": groups["a"]}) == []
 
