@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 from cptbt.policy import RELINQUISH_OUTSIDE_M
 
 if TYPE_CHECKING:
+    from cptbt.frames import OpArea
     from cptbt.mission import MissionBase, Problem
 
 SUCCESS_DISC_SHARE = 1 / 3
@@ -49,6 +50,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
                         f"{need:g} Hz {e.family} {e.variant} needs: its timings are fractions "
                         "of a second (SPEC §2), which a slower cycle only meets late"))
     out += order_advice(mission) + family_advice(mission) + start_advice(mission)
+    out += allowed_inside_advice(mission, area)
     cycle, lam = 1.0 / mission.cycle_hz, mission.perception.lambda_s
     if cycle > lam:  # a review's AB strategy at 0.2 Hz never reacquired
         out.append((("cycle_hz",), f"{mission.cycle_hz:g} Hz is a cycle of {cycle:g} s, "
@@ -144,6 +146,26 @@ def start_advice(mission: MissionBase) -> list[Problem]:
           else ("behaviours", families.index("move_to_field"), "move_to_field"))
     return [(at, f"{NO_START}: under cptbt run move_to_field has no goal and the vehicle "
              "starts at home (a study's --grid or --starts gives each run a start of its own)")]
+
+
+def allowed_inside_advice(mission: MissionBase, area: OpArea) -> list[Problem]:
+    """A ``start`` or ``home`` listed in ``allow_outside`` that lies inside the OpArea (a review:
+    a home meant for a dock outside, placed inside by a slip of frame or sign, said nothing)."""
+    out: list[Problem] = []
+    for i, key in enumerate(mission.allow_outside):
+        coord = getattr(mission, key, None) if key in ("start", "home") else None
+        if coord is None:
+            continue
+        if key == "start" and mission.study is not None and mission.study.starts:
+            continue  # the listing allows the study's starts outside
+        p = mission.to_xy(coord)
+        if area.distance_outside(p.x, p.y) <= 0:
+            also = ("" if key == "home" else
+                    "; a study's starts outside (--starts, --grid) are allowed by it")
+            out.append((("allow_outside", i), f"{key!r} is listed but lies inside the OpArea: "
+                        f"the listing has no effect on it (a slip in its coordinates or frame?)"
+                        f"{also}"))
+    return out
 
 
 NO_START = "the mission has no start"

@@ -247,6 +247,17 @@ def test_move_to_field_without_a_start_is_told() -> None:
     assert not [w for _, w in load(GOOD).advisories() if "no start" in w]
 
 
+def test_a_place_allowed_outside_but_inside_is_told() -> None:
+    """A review: ``allow_outside: [home]`` with the home inside (a slip of frame or sign in a
+    dock's coordinates) said nothing."""
+    inside = load(GOOD.replace("home: [5, 0]", "home: [5, 0]\nallow_outside: [start, home]"))
+    told = [(loc, why) for loc, why in inside.advisories() if "listing has no effect" in why]
+    assert [loc for loc, _ in told] == [("allow_outside", 0), ("allow_outside", 1)]
+    assert told[1][1].startswith("'home' is listed but lies inside the OpArea"), told
+    outside = load(GOOD.replace("home: [5, 0]", "home: [-5, 0]\nallow_outside: [home]"))
+    assert not [w for _, w in outside.advisories() if "no effect" in w]
+
+
 def test_a_mission_without_safety_is_told() -> None:
     """A review removed safety and flew out to the give-back 30 m outside, validated silently."""
     none = load(GOOD.replace("  - safety: {}\n", ""))
