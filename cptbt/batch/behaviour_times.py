@@ -23,14 +23,22 @@ LITTLE = 0.01
 """... as is one that drove less than this share of its AMP time."""
 
 
+ORDER = ("safety", "declare_source", "maintain_plume", "reacquire_plume", "find_plume",
+         "move_to_field", "return_home")
+"""The table's columns: TRO Fig. 2's priorities first, then other families by name (a review:
+in first-seen order two studies' tables could not be read side by side)."""
+
+DECIDES = ("declare_source",)
+"""Families whose work is a decision rather than driving: a declaration rule drives only to its
+point and home, so its driving time says nothing of how much of it a sweep compared (a
+review's declaration sweep, 11 runs to 0 in McNemar's test, was noted as "drove little")."""
+
+
 def _families(rows: Rows) -> list[str]:
-    """The behaviour families with a time column (``time_<family>_s``), in first-seen order."""
-    seen: dict[str, None] = {}
-    for r in rows:
-        for k in r:
-            if k.startswith("time_") and k.endswith("_s") and "." not in k:
-                seen.setdefault(k[5:-2], None)
-    return [f for f in seen if f not in ("none",)]
+    """The behaviour families with a time column (``time_<family>_s``), in :data:`ORDER`."""
+    seen = {k[5:-2] for r in rows for k in r
+            if k.startswith("time_") and k.endswith("_s") and "." not in k} - {"none"}
+    return sorted(seen, key=lambda f: (ORDER.index(f) if f in ORDER else len(ORDER), f))
 
 
 def _seconds(row: dict[str, Any], family: str) -> float:
@@ -69,7 +77,8 @@ def behaviour_time_table(groups: dict[str, Rows]) -> list[str]:
             drove = sum(_seconds(r, f) > 0.0 for r in rows)
             share = spent / total if math.isfinite(total) else math.nan
             cells.append(f"{'—' if math.isnan(share) else f'{share:.1%}'} ({drove}/{len(rows)})")
-            if f in swept and (drove < SELDOM * len(rows) or not share >= LITTLE):
+            seldom = drove < SELDOM * len(rows) or not share >= LITTLE
+            if f in swept and f not in DECIDES and seldom:
                 little.setdefault(f, []).append(
                     f"{label}: {drove} of {len(rows)} runs, {spent:.0f} s in all")
         lines.append(f"| {label} | " + " | ".join(cells) + " |")

@@ -136,7 +136,8 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
              "failure counting as its time limit (AB Fig. 6's measure, the table's search time), "
              "with its SE and interval alike.", "",
              "| configuration | against | pairs | succeeded only here / only there | McNemar p "
-             "| time difference (s) | both succeeded | search-time difference (s) |",
+             "| both succeeded | time difference over them (s) | search-time difference over "
+             "every pair (s) |",
              "|---|---|---:|---:|---:|---:|---:|---:|"]
     for label, base, pairs in paired:
         here_only = sum(bool(a.get("success")) and not b.get("success") for a, b in pairs)
@@ -152,7 +153,7 @@ def paired_table(groups: dict[str, Rows]) -> list[str]:
                  "differ can give)" if floor is not None and floor < 1.0
                  and p <= floor * (1 + 1e-9) else "")
         lines.append(f"| {label} | {base} | {len(pairs)} | {here_only} / {there_only} "
-                     f"| {p:.2g}{least} | {diff} | {size} | {searched} |")
+                     f"| {p:.2g}{least} | {size} | {diff} | {searched} |")
     return lines
 
 
