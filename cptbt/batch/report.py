@@ -421,8 +421,11 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
                    "compass)." if frame is not None else
                    "Places in the planning frame (x along the OpArea's long axis).")
                   + " D1 ends at t2, the first pass within 13 m of the declared point (SPEC "
-                  "§11), so D1/D0 can be below 1. The mean row's D1/D0 and T_D share are the "
-                  "means of each run's ratio, not the ratios of the means beside them.", ""]
+                  "§11), so D1/D0 can be below 1, and is 0 where the first detection was "
+                  "already that close (t2 = t1: marked; TRO Table IV's mean counts such runs, "
+                  "and the mean row gives it with and without them). The mean row's D1/D0 and "
+                  "T_D share are the means of each run's ratio, not the ratios of the means "
+                  "beside them.", ""]
         axes = "(N, E)" if frame is not None else "(x, y)"
         lines += [f"| run | start {axes} | declared {axes} | error (m) | T_F (s) | T_T (s) "
                   "| T_D (s) | T_D share | D0 (m) | D1 (m) | D2 (m) | D3 (m) | D1/D0 |",
@@ -437,7 +440,8 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
                 f"| {fmt(r.get('T_F'))} | {fmt(r.get('T_T'))} "
                 f"| {fmt(r.get('T_D'))} | {fmt(share * 100 if share is not None else None)}% "
                 f"| {fmt(r.get('D0'))} | {fmt(r.get('D1'))} | {fmt(r.get('D2'))} "
-                f"| {fmt(r.get('D3'))} | {fmt(r.get('D1_over_D0'), 2)} |")
+                f"| {fmt(r.get('D3'))} | {fmt(r.get('D1_over_D0'), 2)}"
+                f"{' (t2 = t1)' if _at_first(r) else ''} |")
         keys = ("error_m", "T_F", "T_T", "T_D", "D0", "D1", "D2", "D3", "D1_over_D0")
         means = {k: _mean([r.get(k) for r in declared]) for k in keys}
         # several sources: the runs that declared one a source (a diff review: 4.8 m here too)
@@ -447,6 +451,22 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
             f"| mean of {len(declared)} declared | | | {fmt(means['error_m'])} "
             f"| {fmt(means['T_F'])} | {fmt(means['T_T'])} | {fmt(means['T_D'])} "
             f"| {fmt(share * 100)}% | {fmt(means['D0'])} | {fmt(means['D1'])} "
-            f"| {fmt(means['D2'])} | {fmt(means['D3'])} | {fmt(means['D1_over_D0'], 2)} |")
+            f"| {fmt(means['D2'])} | {fmt(means['D3'])} | {fmt(means['D1_over_D0'], 2)}"
+            f"{_zeros_note(declared)} |")
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
+
+
+def _at_first(row: dict[str, Any]) -> bool:
+    """The run's first detection was within 13 m of its declared point (t2 = t1): T_T, D1 and
+    D1/D0 are 0 by SPEC §11's definition, not by an ideal path (a review)."""
+    return row.get("T_T") == 0 and row.get("D1_over_D0") is not None
+
+
+def _zeros_note(declared: Rows) -> str:
+    """How many of the mean's D1/D0 are 0 because t2 = t1, and the mean without them."""
+    zeros = sum(_at_first(r) for r in declared)
+    if not zeros:
+        return ""
+    rest = _mean([r.get("D1_over_D0") for r in declared if not _at_first(r)])
+    return f" ({zeros} at 0, t2 = t1; {fmt(rest, 2)} without)"

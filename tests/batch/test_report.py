@@ -218,6 +218,26 @@ def maintain_rows() -> list[dict[str, Any]]:
     return rows
 
 
+def test_d1_over_d0_zeros_where_t2_is_t1_are_marked(tmp_path: Path) -> None:
+    """A review: runs whose first detection was already within 13 m of the declared point have
+    D1/D0 = 0 by SPEC §11's definition, unmarked, and the mean row averaged them in."""
+    def declared(rep: int, t_t: float, ratio: float) -> dict[str, Any]:
+        return {**BASE, "replicate": rep, "start": 0, "start_x": 10.0, "success": True,
+                "t3": 100.0, "error_m": 2.0, "T_F": 20.0, "T_T": t_t, "T_D": 80.0 - t_t,
+                "D0": 30.0, "D1": 30.0 * ratio, "D2": 10.0, "D3": 30.0 * ratio + 10.0,
+                "D1_over_D0": ratio}
+
+    rows = [declared(0, 0.0, 0.0), declared(1, 30.0, 1.2), declared(2, 40.0, 1.6)]
+    write_report(rows, tmp_path, figures=False)
+    text = (tmp_path / "tables.md").read_text(encoding="utf-8")
+    (first,) = [line for line in text.splitlines() if line.startswith("| r0s0 ")]
+    assert first.endswith("| 0.00 (t2 = t1) |"), first
+    (mean,) = [line for line in text.splitlines() if line.startswith("| mean of 3 declared ")]
+    assert mean.endswith("| 0.93 (1 at 0, t2 = t1; 1.40 without) |"), mean
+    assert not [line for line in text.splitlines() if line.startswith("| r1s0 ")
+                and "t2 = t1" in line]
+
+
 def test_a_maintain_study_reports_t_m_against_its_numeric_setting(tmp_path: Path) -> None:
     names = {p.name for p in write_report(maintain_rows(), tmp_path)}
     assert "maintain_time.png" in names
