@@ -210,7 +210,7 @@ def trajectory_figure(
         mission.to_xy(mission.start) if mission.start is not None else None)
     if st is not None:
         ax.plot(st.x, st.y, "D", mfc="none", mec="#1f77b4", ms=8, mew=1.5,
-                label="start point (move-to-field goal)" if goal is not None
+                label="study start (move-to-field goal)" if goal is not None
                 else "mission start (move-to-field goal)")
     home = mission.to_xy(mission.home)
     ax.plot(home.x, home.y, "^", mfc="#8c564b", mec="black", ms=9, label="home")
