@@ -158,6 +158,8 @@ class LikelihoodMapDeclare(SeveralSources):
             "search_given_up": self.search_given_up, "search_end": self.search_end,
             "held_in_known_plume": self.held_in_known_plume,
             "held_at": None if self.held_at is None else (self.held_at.x, self.held_at.y),
+            "verifying_at": None if self.candidate is None else (self.candidate.x,
+                                                                 self.candidate.y),
         }
 
     def watch(self, p: Percept) -> None:

@@ -112,6 +112,7 @@ class RunSummary:
     search_end_t: float | None = None
     held_in_known_plume: int | None = None
     held_candidate: dict[str, float] | None = None
+    verifying_candidate: dict[str, float] | None = None
     unchecked: int | None = None
     closest_approach_m: float | None = None
     farthest_outside_m: float = 0.0
@@ -174,7 +175,9 @@ def summarise(
     ``search_end`` which of the two; ``held_in_known_plume`` the cycles a confident candidate
     was held where a declared source's plume blinds the up-flow check, ``held_candidate``
     the latest such candidate not resolved by a later declaration (a probable source the rule
-    could not confirm; not a declaration, and not judged).
+    could not confirm; not a declaration, and not judged); ``verifying_candidate`` the
+    candidate a fly-by was verifying when the run ended (a review: a run out of time mid-fly-by
+    said nothing of where it was verifying; not a declaration, and not judged).
     ``missing_samples``, ``stuck_samples``, ``late_samples``, ``rejected_fixes``,
     ``rejected_flow_samples`` and ``clock_corrections`` count what the perception dropped or
     corrected (fluorometer samples that were not finite, a dropout; a fluorometer reading stuck
@@ -322,6 +325,8 @@ def summarise(
         held_in_known_plume=report.get("held_in_known_plume"),
         held_candidate=(where(mission, Point(*report["held_at"])) if report.get("held_at")
                         else None),
+        verifying_candidate=(where(mission, Point(*report["verifying_at"]))
+                             if report.get("verifying_at") else None),
         unchecked=report.get("unchecked"),
         closest_approach_m=run.closest_m if math.isfinite(run.closest_m) else None,
         farthest_outside_m=max(farthest_outside(mission, true, home_legs(mission, active)),

@@ -102,7 +102,8 @@ def flatten(summary: dict[str, Any]) -> dict[str, Any]:
         if isinstance(value, dict):
             for sub, v in value.items():
                 row[f"{key}_{sub}"] = v
-        elif value is None and key in ("declared_source", "held_candidate"):
+        elif value is None and key in ("declared_source", "held_candidate",
+                                       "verifying_candidate"):
             # a place that may be absent: its columns all the same (one schema for every study)
             for sub in axes:
                 row[f"{key}_{sub}"] = None

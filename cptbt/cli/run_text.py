@@ -143,5 +143,7 @@ def why_ended(s: dict[str, Any]) -> str | None:
                 "the up-flow check cannot tell the two: known_plume_max_prob"
                 + (f"; the latest, unconfirmed, at {place(s['held_candidate'])}"
                    if s.get("held_candidate") else "") + ")" if held else "")
-            if any(s["declared_sources"]) else "with no declaration")
+            if any(s["declared_sources"]) else "with no declaration" + (
+                f" (a fly-by was verifying a candidate at {place(s['verifying_candidate'])})"
+                if s.get("verifying_candidate") else ""))
     return WHY_ENDED.get(s["outcome"])  # a StrEnum: its members are their strings

@@ -28,7 +28,8 @@ def test_the_map_panel_marks_every_kind_of_point_the_report_names() -> None:
     """A review saw a held candidate (on the true third source) left off the figure."""
     import numpy as np
 
-    from cptbt.batch.figures import _map_panel, pyplot
+    from cptbt.batch.figures import pyplot
+    from cptbt.batch.map_figure import map_panel
     from cptbt.frames import OpArea
     from cptbt.types import Point, SourceBelief
 
@@ -38,15 +39,17 @@ def test_the_map_panel_marks_every_kind_of_point_the_report_names() -> None:
     belief = SourceBelief(100.0, xs, ys, post, (Point(10, 0),))
     fig, ax = plt.subplots()
     report = {"withdrawn_at": [(1.0, 2.0)], "superseded_at": [(5.0, 0.0)],
-              "held_at": (-20.5, -34.7)}
-    _map_panel(ax, belief, OpArea(-50, 50, -50, 50), [Point(10, 0), Point(-20, -35)],
-               [Point(10, 0)], report, plt)
+              "held_at": (-20.5, -34.7), "verifying_at": (30.0, 12.0)}
+    map_panel(ax, belief, OpArea(-50, 50, -50, 50), [Point(10, 0), Point(-20, -35)],
+              [Point(10, 0)], report, plt)
     marks = {line.get_label(): (list(line.get_xdata()), list(line.get_ydata()))
              for line in ax.lines}
     assert marks["withdrawn after fly-by"] == ([1.0], [2.0])
     assert marks["replaced declaration (taken for the same source)"] == ([5.0], [0.0])
     assert marks["held candidate (unconfirmed: in a declared source's plume)"] == (
         [-20.5], [-34.7])
+    # a run out of time mid-fly-by (a review: where it was verifying was drawn nowhere)
+    assert marks["candidate a fly-by was verifying"] == ([30.0], [12.0])
     plt.close(fig)
 
 

@@ -221,6 +221,9 @@ def test_a_place_a_run_may_lack_has_the_same_columns_either_way() -> None:
     geo = {"x": 1.0, "y": 2.0, "north": 3.0, "east": 4.0, "lat": 32.9, "lon": -118.5}
     row = flatten({"true_source": geo, "held_candidate": None, "declared_source": None})
     assert row["held_candidate_lat"] is None and row["declared_source_lon"] is None
+    assert set(flatten({"verifying_candidate": None})) == {  # a fly-by's candidate alike
+        "verifying_candidate_x", "verifying_candidate_y", "verifying_candidate_north",
+        "verifying_candidate_east", "declared_points"}
 
 
 @pytest.mark.parametrize(("args", "says"), [

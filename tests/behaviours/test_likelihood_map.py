@@ -224,6 +224,9 @@ def fly_by(plume_on_pass: Plume) -> tuple[LikelihoodMapDeclare, list[Point]]:
     harness, script, t = sweep(node, plume, lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20]))
     assert node.candidate is not None and node.declared is None, "no candidate"
     assert harness.get("declared_source") is None  # a candidate is not a declaration
+    # reported while under way (a run out of time mid-fly-by said nothing of it: a review)
+    verifying = (node.candidate.x, node.candidate.y)
+    assert harness.get("declaration_report")["verifying_at"] == verifying
     route = list(node.route)
     x, y = lawnmower([95, 80, 65, 50, 40, 35, 32, 28, 24, 20])[t - 1]
     vehicle = FakeVehicle(x, y)
@@ -236,6 +239,7 @@ def fly_by(plume_on_pass: Plume) -> tuple[LikelihoodMapDeclare, list[Point]]:
         t += 1
     # recorded as a fly-by until the cycle that judges it (the figures draw it apart)
     assert set(actives[:-1]) == {"declare_source.likelihood_map (fly-by)"}
+    assert harness.get("declaration_report")["verifying_at"] is None  # judged
     return node, route
 
 

@@ -128,6 +128,18 @@ def test_the_sources_line_says_how_the_search_for_more_ended() -> None:
         "(unconfirmed) at x 42.7 m, y 3.5 m; fly-bys 0, withdrawn 0")
 
 
+def test_a_run_out_of_time_mid_fly_by_says_where_it_was_verifying() -> None:
+    """A review: a fly-by cut short by the time limit drew and reported no candidate."""
+    from cptbt.cli.run_text import why_ended
+
+    s = {"outcome": "timeout", "criterion": "declaration", "declared_sources": [],
+         "verifying_candidate": {"x": -70.2, "y": 11.6}}
+    assert why_ended(s) == ("the AMP's time limit came with no declaration (a fly-by was "
+                            "verifying a candidate at x -70.2 m, y 11.6 m)")
+    assert why_ended({**s, "verifying_candidate": None}) == (
+        "the AMP's time limit came with no declaration")
+
+
 def test_a_d1_over_d0_below_one_is_explained() -> None:
     """A review read D1/D0 0.4 as an impossible tracking efficiency: D1 ends at t2, within
     13 m of the declared point (SPEC §11), so it can be shorter than D0."""

@@ -288,7 +288,8 @@ def test_the_map_panel_is_titled_and_several_declarations_are_numbered_in_order(
     panel was."""
     import numpy as np
 
-    from cptbt.batch.figures import _map_panel, pyplot
+    from cptbt.batch.figures import pyplot
+    from cptbt.batch.map_figure import map_panel
     from cptbt.frames import OpArea
     from cptbt.types import SourceBelief
 
@@ -299,13 +300,13 @@ def test_the_map_panel_is_titled_and_several_declarations_are_numbered_in_order(
     first, second = Point(20.0, 10.0), Point(60.0, -20.0)
     plt = pyplot()
     fig, ax = plt.subplots()
-    _map_panel(ax, belief, area, [Point(21.0, 9.0), Point(58.0, -22.0)], [first, second], {},
-               plt)
+    map_panel(ax, belief, area, [Point(21.0, 9.0), Point(58.0, -22.0)], [first, second], {},
+              plt)
     assert ax.get_title().endswith("map at the last declaration")  # not "the declaration's"
     numbers = {t.get_text(): t.xy for t in ax.texts if t.get_text()}
     assert numbers == {"1": (first.x, first.y), "2": (second.x, second.y)}
     fig2, one = plt.subplots()
-    _map_panel(one, belief, area, [Point(21.0, 9.0)], [first], {}, plt)
+    map_panel(one, belief, area, [Point(21.0, 9.0)], [first], {}, plt)
     assert not [t for t in one.texts if t.get_text()]  # one declaration: nothing to order
     assert one.get_title().endswith("map at the declaration")
     plt.close(fig)
