@@ -308,7 +308,10 @@ def excursion_table(groups: dict[str, Rows]) -> list[str]:
              "Runs whose true track went outside the OpArea while the AMP drove "
              f"(`farthest_outside_m`; the AMP gives control back "
              f"{RELINQUISH_OUTSIDE_M:g} m out, TRO II), the "
-             "farthest, and the share of the AMP's time the safety behaviour drove. The way in "
+             "farthest, and the share of the AMP's time the safety behaviour drove (it acts "
+             "on the navigation estimate, by default once that is 5 m out: a true track a few "
+             "metres out need not wake it, and a navigation error can wake it with the true "
+             "track inside). The way in "
              "from a launch or start outside the OpArea and the way to a home the mission puts "
              "outside (`allow_outside`) are left out of both.", "",
              "| configuration | runs outside | farthest outside (m) | safety drove |",
