@@ -311,7 +311,9 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
     # two reviews); the colours follow the configurations whether or not a panel has them all.
     colours = {k: f"C{i}" for i, k in enumerate(judged)}
     for ax, values, bins in ((a1, err, edges),
-                             (a2, share, np.linspace(0.0, 1.0, max(8, 20 // many) + 1))):
+                             # tenths (twentieths for one): edges on the axis's ticks (a
+                             # review had to infer which 1/8-wide bin a bar stood for)
+                             (a2, share, np.linspace(0.0, 1.0, (20 if many == 1 else 10) + 1))):
         have = [k for k in judged if values[k]]
         if have:
             # edged: runs in adjacent bins had drawn as one wide block (a review read 3 as 1)
@@ -340,9 +342,11 @@ def _distributions(groups: dict[str, Rows], path: Path, plt: Any) -> Path | None
                 runs = len(judged[text])  # the runs that declared nothing are said (a review
                 # read "n = 28" of a study of 30)
                 of = f" of {runs} runs" if max(n_err, n_share) < runs else ""
-                text += (f" (n = {n_err}{of})" if n_err == n_share or not n_share
+                count = (f" (n = {n_err}{of})" if n_err == n_share or not n_share
                          else f" (n = {n_share}{of})" if not n_err
                          else f" (n = {n_err} errors, {n_share} T_D shares{of})")
+                # unbreakable spaces: wrapped whole, not mid-phrase (a review's "16 / runs)")
+                text += " " + count[1:].replace(" ", "\u00a0")
             entries.setdefault(text, handle)
     if entries:  # under the panels, long labels wrapped (two sweeps' labels had run off the
         # page and over each other, a legend per panel: a review)

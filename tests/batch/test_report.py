@@ -491,12 +491,14 @@ def test_the_study_figures_say_what_each_panel_and_bar_is(tmp_path: Path,
     assert _distributions(uneven, tmp_path / "d3.png", pyplot()) is not None
     (legend,) = seen[-1].legends
     texts = [t.get_text().replace("\n", " ") for t in legend.get_texts()]
-    assert texts[0] == "variant=v0 (n = 5 errors, 4 T_D shares)", texts
+    # the count is one unbreakable phrase (a review's label wrapped as "(n = 13 of 16 / runs)")
+    assert texts[0] == "variant=v0 " + "(n = 5 errors, 4 T_D shares)".replace(" ", "\u00a0")
     # a run that declared nothing is said (a paper reviewer read "n = 28" of 30 runs)
     silent = {k: [*v, {**v[0], "t3": None, "error_m": None, "T_D": None}]
               for k, v in with_radius.items()}
     assert _distributions(silent, tmp_path / "d4.png", pyplot()) is not None
-    texts = [t.get_text().replace("\n", " ") for t in seen[-1].legends[0].get_texts()]
+    texts = [t.get_text().replace("\n", " ").replace("\u00a0", " ")
+             for t in seen[-1].legends[0].get_texts()]
     n = len(with_radius["variant=v0"])
     assert texts[0].startswith(f"variant=v0 (n = {n}") and f"of {n + 1} runs)" in texts[0], texts
     groups: dict[str, list[dict[str, Any]]] = {}
