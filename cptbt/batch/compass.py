@@ -144,6 +144,18 @@ def _place_labels(fig: Any, ax: Any, labels: list[tuple[Any, Spots]],
     # the arrows too (north, current): a review's label stood on the north arrow's shaft
     taken += [t.arrow_patch.get_window_extent(renderer) for t in ax.texts
               if getattr(t, "arrow_patch", None) is not None and t.get_visible()]
+    # and an arrow and its label as one block (a gid they share): another review's label stood
+    # between "mean current" and its arrow, read as the current's
+    from matplotlib.transforms import Bbox
+
+    blocks: dict[str, list[Any]] = {}
+    for t in ax.texts:
+        if t.get_gid() and t.get_visible():
+            blocks.setdefault(t.get_gid(), []).append(t)
+    taken += [Bbox.union([t.get_window_extent(renderer) for t in members]
+                         + [t.arrow_patch.get_window_extent(renderer) for t in members
+                            if getattr(t, "arrow_patch", None) is not None])
+              for members in blocks.values()]
     for text, spots in labels:
         for spot in spots:
             text.set_position(spot)

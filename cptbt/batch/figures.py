@@ -351,7 +351,7 @@ def flow_arrow(ax: Any, area: OpArea, flow_deg: float,
     arrow = ax.annotate("", xy=(cx + size * math.cos(th), cy + size * math.sin(th)),
                         xytext=(cx, cy),
                         arrowprops={"arrowstyle": "-|>", "color": "#1f3b73", "lw": 1.8},
-                        zorder=4)
+                        zorder=4, gid="mean current")  # one block with its label (compass)
     arrow.arrow_patch.set_path_effects(halo)
     if turn is None:  # y drawn down: screen-up is -y
         down = math.sin(th) > 0.2  # the head ends below the tail
@@ -364,7 +364,7 @@ def flow_arrow(ax: Any, area: OpArea, flow_deg: float,
     lift = 0.35 * size if down else -0.35 * size  # the label on the side the head leaves
     ax.text(cx + lift * up[0], cy + lift * up[1], "mean current",
             color="#1f3b73", fontsize=7, ha="center", va="bottom" if down else "top",
-            path_effects=halo, zorder=4)
+            path_effects=halo, zorder=4, gid="mean current")
 
 
 def _track(ax: Any, run: VehicleRun, waypoints: Sequence[Point] | None) -> None:
