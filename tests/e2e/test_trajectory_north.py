@@ -377,6 +377,26 @@ def test_a_graticule_label_keeps_off_the_arrows() -> None:
     assert label.get_visible() and label.get_position() == (80.0, 50.0)
 
 
+def test_a_graticule_label_keeps_off_the_gap_between_an_arrow_and_its_label() -> None:
+    """A review's 180°00.000' stood between "mean current" and its arrow, clear of both but
+    read as the current's: the two are one block (their shared gid)."""
+    import matplotlib.pyplot as plt
+
+    from cptbt.batch.compass import _place_labels
+
+    fig, ax = plt.subplots()
+    ax.set_xlim(0, 100)
+    ax.set_ylim(0, 100)
+    ax.annotate("", xy=(50, 20), xytext=(50, 40), arrowprops={"arrowstyle": "-|>"},
+                gid="mean current")
+    ax.text(50, 60, "mean current", ha="center", va="bottom", fontsize=7, gid="mean current")
+    label = ax.text(50, 50, "180°00.000'", ha="center", va="center", fontsize=7)
+    fig.canvas.draw()
+    _place_labels(fig, ax, [(label, [(50.0, 50.0), (80.0, 50.0)])])
+    plt.close(fig)
+    assert label.get_position() == (80.0, 50.0)
+
+
 def test_the_saved_figure_keeps_its_y_label_on_the_page(tmp_path: Path) -> None:
     """A review's 300 x 120 m box with the current at 45°: the saved trajectory.png had its y
     label cut at the page's left edge (the layout, settled in one pass at saving, had not
