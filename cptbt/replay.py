@@ -147,8 +147,13 @@ def story(log: LogData) -> list[str]:
         m: MissionBase | None = logged_mission(log)
     except Exception:  # a mission that no longer loads here (a plug-in not installed)
         m = None
+    start = log.mission.get("start_xy")
     for c in log.phases:
         detail = f" — {c['detail']}" if c.get("detail") else ""
+        if c.get("trigger") == "study_run_start" and start and m is not None:
+            # a study's start, in the mission's frame as the places below (a review)
+            mode = str(c.get("detail") or "").rpartition(", ")[2]
+            detail = f" — start at {_at(m, *start)}" + (f", {mode}" if mode else "")
         events.append((float(c["t"]), 0, f"phase {c['from']} -> {c['to']} "
                                           f"({c['trigger']}){detail}"))
     family: str | None = ""  # behaviour changes by family: track-in/out flips are one story

@@ -85,6 +85,9 @@ def test_a_batch_log_is_its_results_row_and_replays_bit_for_bit(logs) -> None:
         assert rep.identical and rep.cycles == len(data.cycles) > 50
         text = "\n".join(story(data))
         assert "study_run_start" in text and "cptbt batch: config 0" in text
+        # the study's start in the mission's frame, as the detections (a review)
+        assert ("(study_run_start) — start at N " in text
+                and f"({row['start_x']:.1f}, {row['start_y']:.1f}) (planning frame), " in text)
 
 
 def test_log_runs_without_mcap_is_a_usage_error_that_writes_nothing(
