@@ -20,16 +20,10 @@ from pydantic import BaseModel, ValidationError
 from cptbt.coercions import coercions, data_path
 from cptbt.mission import Loc, MissionBase, Problem, dotted, mission_model, mission_to_data
 from cptbt.registry import Registry, default_registry
-from cptbt.yaml_dialect import MissionLoader, old_number
+from cptbt.yaml_dialect import MAX_DEPTH, MAX_VALUES, MissionLoader, old_number
 
 MAX_BYTES = 1_000_000
 """A mission file larger than this is refused (the shipped ones are a few kB)."""
-
-MAX_DEPTH = 40
-"""Deepest nesting of mappings and sequences a mission may have (the shipped ones: 5)."""
-
-MAX_VALUES = 50_000
-"""Most values a mission may hold once its aliases are expanded (a guard against alias bombs)."""
 
 MOVED_KEYS: dict[tuple[str, ...], str] = {
     ("threshold",): "perception.threshold",

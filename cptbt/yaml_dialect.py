@@ -47,8 +47,21 @@ _OLD_NUMBERS = (
 all: a mission refuses them rather than fly a number its author did not write."""
 
 
-class OldNumberError(yaml.YAMLError):
+class RefusedValueError(yaml.YAMLError):
+    """A value the mission dialect refuses (the message says why)."""
+
+
+class OldNumberError(RefusedValueError):
     """A plain scalar in one of :data:`_OLD_NUMBERS`' forms."""
+
+
+MAX_VALUES = 50_000
+"""Most values a mission, or one ``--sweep`` value, may hold once its aliases are expanded (a
+guard against alias bombs)."""
+
+MAX_DEPTH = 40
+"""Deepest nesting of mappings and sequences a mission, or one ``--sweep`` value, may have (the
+shipped missions: 5)."""
 
 
 MAX_NUMBER_CHARS = 100
@@ -80,6 +93,10 @@ def load_scalar(text: str) -> Any:
 
     Raises:
         OldNumberError: a number in an old YAML 1.1 form (:func:`old_number`).
+        RefusedValueError: an alias that contains itself, more than :data:`MAX_VALUES` values
+            once aliases are expanded, or nesting deeper than :data:`MAX_DEPTH` (the mission
+            loader's guards: an attacker's ``--sweep`` value had recursed without end, and an
+            alias bomb had taken 0.9 GB).
     """
     loader = MissionLoader(text)
     try:
@@ -95,11 +112,32 @@ def load_scalar(text: str) -> Any:
 
 
 def _scalars(node: yaml.Node | None) -> list[yaml.Node]:
-    """Every scalar node of a value (depth-first; a sweep value is small)."""
-    if node is None:
-        return []
-    if isinstance(node, yaml.MappingNode):
-        return [s for k, v in node.value for s in (*_scalars(k), *_scalars(v))]
-    if isinstance(node, yaml.SequenceNode):
-        return [s for item in node.value for s in _scalars(item)]
-    return [node]
+    """Every scalar node of a value, depth-first, within the loader's guards (see
+    :func:`load_scalar`)."""
+    out: list[yaml.Node] = []
+    on_path: set[int] = set()
+    seen = 0
+
+    def visit(n: yaml.Node, depth: int) -> None:
+        nonlocal seen
+        seen += 1
+        if seen > MAX_VALUES:
+            raise RefusedValueError(f"more than {MAX_VALUES} values once aliases are "
+                                    "expanded: refused (an alias bomb?)")
+        if depth > MAX_DEPTH:
+            raise RefusedValueError(f"nested deeper than {MAX_DEPTH} levels")
+        if not isinstance(n, yaml.MappingNode | yaml.SequenceNode):
+            out.append(n)
+            return
+        if id(n) in on_path:
+            raise RefusedValueError("an alias refers to a value that contains it")
+        on_path.add(id(n))
+        items = ([x for pair in n.value for x in pair] if isinstance(n, yaml.MappingNode)
+                 else n.value)
+        for item in items:
+            visit(item, depth + 1)
+        on_path.discard(id(n))
+
+    if node is not None:
+        visit(node, 0)
+    return out

@@ -133,14 +133,16 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
             # again once per bad value)
             bad.append(_swept_error(exc.located, source, lines, swept, sweeps, coords))
             continue
-        if swept and validated.environment is not None:
+        # a sweep that takes the environment away (an attacker's ``environment: [null]``) is
+        # the missing section's error, at its line, not an internal error when flown
+        if swept and (validated.environment is not None or mission.environment is not None):
             # The simulator's own limits (environment.dt_s, flow overrides...), as `load` checks
             # them for the mission file: a swept value must not first fail in a worker. (Imported
             # here: studies are planned, and the CLI inspects missions, without the simulator.)
             from cptbt.batch.scenario import check, problems
             from cptbt.sim.world import EnvironmentParams
 
-            found = problems(validated, simulate=False)
+            found = problems(validated, simulate=mission.environment is not None)
             if found:
                 bad.append(_swept_error(found, source, lines, swept, sweeps, coords))
                 continue
@@ -209,6 +211,8 @@ def _swept_error(located: list[tuple[Loc, str]], source: str, lines: dict[Loc, i
         named = (", ".join(f"{s.name}={coords[s.name]}" for s in mine)
                  if mine and coords is not None and all(s.name in coords for s in mine)
                  else swept)
+        if len(named) > 200:  # an attacker's 20 000-value list: one 129 kB line before
+            named = named[:197] + "..."
         where = None
         if lines is not None:  # the study entry that set the value, else the key's own line
             where = next((lines[("study", "sweeps", s.name)] for s in mine

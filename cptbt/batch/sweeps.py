@@ -15,7 +15,7 @@ import yaml
 
 from cptbt.mission import MissionBase, mission_to_data
 from cptbt.registry import RegistryError, default_registry
-from cptbt.yaml_dialect import OldNumberError, load_scalar
+from cptbt.yaml_dialect import RefusedValueError, load_scalar
 
 
 @dataclass(frozen=True)
@@ -50,7 +50,7 @@ class Sweep:
         shown = text if len(text) <= 120 else text[:117] + "..."  # not 5 000 digits again
         try:
             values = tuple(load_scalar(v) for v in split_values(right) if v.strip())
-        except OldNumberError as exc:
+        except RefusedValueError as exc:  # an old number form, an alias bomb or loop
             raise ValueError(f"{shown!r}: {exc}") from None
         except yaml.YAMLError as exc:
             raise ValueError(f"{shown!r}: a value is not YAML: {' '.join(str(exc).split())}"

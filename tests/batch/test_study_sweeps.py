@@ -551,6 +551,13 @@ def test_one_problem_of_many_sweep_values_is_told_once() -> None:
     ("declare_source={variant: likelihood_map, radius_m: 010}", "'010' is read by YAML 1.1 as 8"),
     ("environment.source=[043, -55]", "'043' is read by YAML 1.1 as 35"),
     ("environment.source=[1" + "0" * 5000 + ", 0]", "a number 5001 characters long"),
+    # the mission loader's guards (an attacker: RecursionError, and 0.9 GB for the bomb)
+    ("declare_source=&a [*a]", "an alias refers to a value that contains it"),
+    ("maintain_plume.beta_deg=[&a [1,1,1,1,1,1,1,1,1,1], " + ", ".join(
+        f"&{b} [{', '.join([f'*{a}'] * 10)}]"
+        for a, b in zip("abcdef", "bcdefg", strict=True)) + "]",
+     "more than 50000 values once aliases are expanded"),
+    ("maintain_plume.beta_deg=" + "[" * 45 + "1" + "]" * 45, "nested deeper than 40 levels"),
 ])
 def test_old_numbers_inside_a_mapping_or_list_sweep_value_are_refused(text: str,
                                                                       says: str) -> None:
@@ -559,6 +566,40 @@ def test_old_numbers_inside_a_mapping_or_list_sweep_value_are_refused(text: str,
     with pytest.raises(ValueError, match=says) as caught:
         Sweep.parse(text)
     assert len(str(caught.value)) < 400
+
+
+def test_a_sweep_that_takes_the_environment_away_is_told_at_its_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """An attacker's ``study: {sweeps: {environment: [null]}}`` validated, and the batch then
+    ended in an internal error with no file, line or field."""
+    from cptbt.cli import main
+
+    text = (Path(__file__).resolve().parents[2] / "missions/small_oparea.yaml").read_text(
+        encoding="utf-8")
+    path = tmp_path / "m.yaml"
+    path.write_text(text + "study: {sweeps: {environment: [null]}}\n", encoding="utf-8")
+    line = len(text.splitlines()) + 1
+    assert main(["validate", str(path)]) == 2
+    told = capsys.readouterr()
+    assert (f"m.yaml:{line}: environment: a simulated run needs an 'environment:' section"
+            in told.out + told.err), told
+
+
+def test_a_long_swept_value_is_shortened_in_a_problem() -> None:
+    """An attacker's 20 000-value list printed a 129 kB problem line."""
+    from cptbt.batch.scenario import Environment
+    from cptbt.batch.study import configurations
+    from cptbt.loader import MissionError, loads_mission
+    from cptbt.registry import default_registry
+
+    path = Path(__file__).resolve().parents[2] / "missions/tro2006_msn007.yaml"
+    mission = loads_mission(path.read_text(encoding="utf-8"), str(path), default_registry(),
+                            Environment)
+    many = ", ".join(map(str, range(5000)))
+    with pytest.raises(MissionError) as exc:
+        configurations(mission, [Sweep.parse(f"maintain_plume.beta_deg=[{many}]")], str(path))
+    (line,) = exc.value.problems
+    assert "sweep maintain_plume.beta_deg=[0, 1, 2," in line and len(line) < 400, line
 
 
 def test_a_problem_names_the_sweep_that_set_its_key_alone() -> None:
