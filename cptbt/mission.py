@@ -8,6 +8,7 @@ knows), so ``cptbt schema`` can print a JSON Schema that covers every installed 
 
 from __future__ import annotations
 
+import re
 from functools import cache
 from typing import Annotated, Any, Literal, Union
 
@@ -265,11 +266,23 @@ class MissionBase(BaseModel):
 
 
 def dotted(path: Loc) -> str:
-    """A key path as written in messages: ``behaviours[2].maintain_plume.lambda_s``."""
+    """A key path as written in messages: ``behaviours[2].maintain_plume.lambda_s``; a key
+    that is not a plain word quoted with its control characters escaped (an attacker's key
+    ``"evil\nkey\x1b[31m"`` split a problem over two lines, in red, and ``"/etc/passwd:1: x"``
+    read as a problem in another file)."""
     out = ""
     for part in path:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+        if isinstance(part, int):
+            out += f"[{part}]"
+            continue
+        word = str(part) if _WORD.fullmatch(str(part)) else repr(str(part))
+        out += f".{word}" if out else word
     return out or "(top)"
+
+
+_WORD = re.compile(r"[\w+-]+")
+"""A key written as it is in messages: letters, digits, ``_``, ``+`` (a joint sweep's) and
+``-``."""
 
 
 class BehaviourEntry(BaseModel):

@@ -149,7 +149,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except MissionError as exc:
         for line in exc.problems[:MAX_PROBLEMS_TOLD]:
-            print(line, file=sys.stderr)
+            print(_printable(line), file=sys.stderr)
         if len(exc.problems) > MAX_PROBLEMS_TOLD:  # a file of 2 000 stray keys: not 2 000 lines
             print(f"cptbt: ... and {len(exc.problems) - MAX_PROBLEMS_TOLD} more problems "
                   "(mend these and validate again)", file=sys.stderr)
@@ -189,7 +189,15 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _one_line(text: str) -> str:
-    return " ".join(text.split())
+    return _printable(" ".join(text.split()))
+
+
+def _printable(text: str) -> str:
+    """``text`` with its control characters escaped (``\\x1b``): a problem is one line, and
+    carries no terminal codes from a file name or a key (an attacker's)."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def _os_error(exc: OSError) -> str:

@@ -51,7 +51,10 @@ CASES: list[tuple[str, Edit, int, str, str]] = [
     ("nul byte", sub("name: corpus_base", "name: corpus\0base"), 1, "(yaml)", "NUL byte"),
     ("complex key", sub("speed_mps: 1.5", "? [a, b]\n: 1"), 7, "(top)", "plain word"),
     # a key YAML reads as null or true/false (a review's `~: 1.5` was told at line 1, as None)
-    ("null key", sub("speed_mps: 1.5", "~: 1.5"), 7, "~", "reads as null"),
+    ("null key", sub("speed_mps: 1.5", "~: 1.5"), 7, "'~'", "reads as null"),  # quoted: not a word
+    # control characters in a key: escaped and quoted, one line, no terminal codes (an attacker)
+    ("control key", sub("speed_mps: 1.5", 'speed_mps: 1.5\n"evil\\nkey\\x1b[31m": 1'), 8,
+     "'evil\\nkey\\x1b[31m'", "unknown key"),
     ("true/false key", sub("speed_mps: 1.5", "yes: 1.5"), 7, "yes", "reads as true/false"),
     ("deep nesting", whole("x: " + "[" * 3000 + "]" * 3000 + "\n"), 1, "(yaml)",
      "nested deeper than 40"),
@@ -370,6 +373,17 @@ def test_bad_mission_gives_one_precise_line(  # type: ignore[no-untyped-def]
     assert match, lines[0]
     assert (int(match[1]), match[2]) == (line, path), lines[0]
     assert fragment in match[3], lines[0]
+
+
+def test_a_file_name_with_control_characters_stays_on_one_line(  # type: ignore[no-untyped-def]
+        tmp_path: Path, capsys) -> None:
+    """An attacker's file name with a newline and a colour code split its problem over two
+    lines, the second in red."""
+    mission = tmp_path / "nl\nname\x1b[31m.yaml"
+    mission.write_text(BASE.replace("speed_mps: 1.5", "speed_mps: -1"), encoding="utf-8")
+    assert main(["validate", str(mission)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"{tmp_path}/nl\\nname\\x1b[31m.yaml:") and "\x1b" not in line
 
 
 def test_a_file_not_in_utf8_is_reported_at_the_bad_bytes_line_and_column(
