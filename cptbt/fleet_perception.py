@@ -13,7 +13,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cptbt.perception import SILENT_SENSOR_S, STUCK_FLOOR, TIME_EPS_S, PerceptionSettings
+from cptbt.perception import (
+    MAX_FIX_OUTSIDE_M,
+    SILENT_SENSOR_S,
+    STUCK_FLOOR,
+    TIME_EPS_S,
+    PerceptionSettings,
+)
 from cptbt.types import Point
 
 FloatArray = NDArray[np.float64]
@@ -102,6 +108,7 @@ class FleetPerception:
         self.stuck_samples = np.zeros(n, dtype=np.int64)
         self.missing_samples = np.zeros(n, dtype=np.int64)
         self.blind_cycles = np.zeros(n, dtype=np.int64)  # cycles with no reading (Perception's)
+        self.rejected_fixes = np.zeros(n, dtype=np.int64)  # as Perception's
         self._read = np.zeros(n, dtype=bool)  # has had a reading
         self._start_t = np.full(n, np.nan)  # first cycle without one, before any reading
         self._early = np.zeros(n, dtype=np.int64)  # such cycles not yet counted
@@ -148,8 +155,15 @@ class FleetPerception:
         self._flows.append((t, full_vx, full_vy, full_ok))
 
     def set_poses(self, ids: Index, x: FloatArray, y: FloatArray, heading: FloatArray) -> None:
-        """The latest navigation estimates; a non-finite fix keeps the previous estimate."""
+        """The latest navigation estimates; a non-finite fix, or one more than
+        :data:`~cptbt.perception.MAX_FIX_OUTSIDE_M` outside the OpArea, keeps the previous
+        estimate (as :meth:`Perception.set_pose <cptbt.perception.Perception.set_pose>`; an
+        attacker's navigation drift of 1e300 m had been taken as a position)."""
         ok = np.isfinite(x) & np.isfinite(y)
+        far = ok & (self.op_area.distance_outside_array(np.where(ok, x, 0.0),
+                                                        np.where(ok, y, 0.0)) > MAX_FIX_OUTSIDE_M)
+        self.rejected_fixes[ids] += far
+        ok &= ~far
         self._x[ids] = np.where(ok, x, self._x[ids])
         self._y[ids] = np.where(ok, y, self._y[ids])
         h = np.where(np.isfinite(heading), heading, 0.0)
@@ -247,13 +261,16 @@ class FleetPerception:
             first_t=first_t, in_plume=in_plume, contact_count=self._contacts[ids],
         )
 
+    def poses(self, ids: Index) -> tuple[FloatArray, FloatArray]:
+        """The navigation estimates the planner uses (x, y; NaN before a usable fix)."""
+        return self._x[ids], self._y[ids]
+
     def faults(self, i: int) -> dict[str, int]:
         """Vehicle ``i``'s :meth:`~cptbt.perception.Perception.faults` (the fleet's cycles come
-        from the simulator's clock, never corrected, and its fixes from the simulated
-        navigation, never far out)."""
+        from the simulator's clock, never corrected)."""
         return {"missing_samples": int(self.missing_samples[i]),
                 "stuck_samples": int(self.stuck_samples[i]), "late_samples": 0,
-                "rejected_fixes": 0,
+                "rejected_fixes": int(self.rejected_fixes[i]),
                 "rejected_flow_samples": int(self.rejected_flow_samples[i]),
                 "clock_corrections": 0, "flow_held_cycles": int(self.flow_held_cycles[i]),
                 "blind_cycles": int(self.blind_cycles[i])}

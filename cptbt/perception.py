@@ -270,7 +270,9 @@ class Perception:
                      "ignored (%d so far)", pose.x, pose.y, MAX_FIX_OUTSIDE_M,
                      self.rejected_fixes)
             return
-        heading = pose.heading_deg if math.isfinite(pose.heading_deg) else 0.0
+        # a non-finite heading keeps the previous one (0 had turned the pose's heading north)
+        heading = (pose.heading_deg if math.isfinite(pose.heading_deg) else
+                   self._pose.heading_deg if math.isfinite(self._pose.heading_deg) else 0.0)
         self._pose = Pose(pose.x, pose.y, heading)
 
     @property

@@ -223,7 +223,9 @@ class NavigationParams(BaseModel):
         default=0.5, ge=0.0, description="Error just after a fix, per axis, m."
     )
     heading_noise_std_deg: float = Field(
-        default=0.0, ge=0.0, description="Noise of the heading the planner is told, deg. The "
+        default=0.0, ge=0.0, le=360.0, description="Noise of the heading the planner is told, "
+        "deg (at most 360: a wider spread is no less uniform, and 1.7e308 overflowed to a NaN "
+        "heading, an attacker's). The "
         "vehicle steers to a commanded heading by its true heading (its autopilot's compass is "
         "not modelled), so behaviours that command absolute headings, as the papers' do, fly "
         "the same; only what reads the pose's heading sees it."

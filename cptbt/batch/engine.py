@@ -238,7 +238,11 @@ def simulate(
                 outcome = Outcome.CONTACT_LOST  # AB Fig. 9: the end of T_M
             else:
                 assert area is not None
-                due = give_back_trigger(pl.done, t, limit, area.distance_outside(ex, ey))
+                # on the estimate the planner took (a fix it threw away as broken had ended
+                # the run here and not in serve: an attacker's)
+                px, py = pl.perception.pose.x, pl.perception.pose.y
+                far = area.distance_outside(px, py) if math.isfinite(px + py) else 0.0
+                due = give_back_trigger(pl.done, t, limit, far)
                 if due is not None:
                     outcome = outcome_of(due[0], pl.declared_source is not None)
             if outcome is not None:
@@ -354,7 +358,9 @@ def _fly_fleet(world: World, mission: MissionBase, runs: list[VehicleRun], rec: 
         # The stop policy: the time trigger is the same for every vehicle; the outside trigger
         # is asked only for vehicles outside the OpArea (give_back_trigger is the one rule).
         due_all = give_back_trigger(False, t, limit, 0.0)
-        outside = area.distance_outside_array(ex, ey)
+        px, py = fleet.perception.poses(active)  # the estimates the planner took, as above
+        outside = np.where(np.isfinite(px + py), area.distance_outside_array(
+            np.nan_to_num(px), np.nan_to_num(py)), 0.0)
         ended = found | lost
         why: dict[int, tuple[str, str]] = {}
         for j in np.flatnonzero(~ended & ((outside > 0.0) | (due_all is not None))):

@@ -506,3 +506,15 @@ def test_a_fluorometer_that_never_starts_counts_once_it_is_late() -> None:
     blind = [p.faults()["blind_cycles"] for p in scalars]
     assert blind == [40, 60, 0, 0]
     assert [fleet.faults(i)["blind_cycles"] for i in ids] == blind
+
+
+def test_a_non_finite_heading_keeps_the_previous_one() -> None:
+    """An attacker's heading noise of 1.7e308 gave NaN headings, read as 0 (north)."""
+    from cptbt.frames import OpArea
+    from cptbt.perception import Perception
+    from cptbt.types import Pose
+
+    p = Perception(OpArea(0, 100, -50, 50))
+    p.set_pose(Pose(10.0, 0.0, 135.0))
+    p.set_pose(Pose(11.0, 0.0, float("nan")))
+    assert (p.pose.x, p.pose.heading_deg) == (11.0, 135.0)

@@ -33,3 +33,20 @@ def test_a_run_ends_at_the_time_limit_when_the_cycle_does_not_divide_it(
     for run in runs:
         assert run.outcome is not None and run.outcome.value == "timeout", run.outcome
         assert run.t_end is not None and 50.0 <= run.t_end < 50.0 + dt + 1e-9, run.t_end
+
+
+@pytest.mark.parametrize(("path", "planner"), [(MSN007, "tree"), (AB3, "fleet")])
+def test_a_fix_the_planner_throws_away_does_not_end_the_run(path: Path, planner: str) -> None:
+    """An attacker's navigation drift of 1e300 m: the planner ignored every fix (more than
+    1000 km outside), and the simulated run still ended at once as "more than 30 m outside",
+    where ``cptbt serve`` keeps the AMP in control; the fleet planner had taken the fixes."""
+    mission = load_mission(path, default_registry(), Environment)
+    mission = mission.model_copy(update={"mission_a": None})
+    params = to_sim_params(mission, 1).model_copy(update={"warm_up_s": 10.0})
+    params = params.model_copy(update={"navigation": params.navigation.model_copy(
+        update={"drift_std_m": 1e300})})
+    runs, _, _ = simulate(mission, params, [launch_pose(mission)] * 8, time_limit_s=20.0,
+                          planner=planner)
+    for run in runs:
+        assert run.outcome is not None and run.outcome.value == "timeout", run.outcome
+        assert run.sensor_faults["rejected_fixes"] > 0, run.sensor_faults
