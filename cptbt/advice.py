@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from cptbt.policy import RELINQUISH_OUTSIDE_M
+from cptbt.policy import RELINQUISH_OUTSIDE_M, metres_text
 
 if TYPE_CHECKING:
     from cptbt.frames import OpArea
@@ -203,9 +203,9 @@ def mission_a_advice(mission: MissionBase) -> list[Problem]:
         outside = mission.op_area_geometry().distance_outside(at.x, at.y)
         if outside > RELINQUISH_OUTSIDE_M:  # a review's AMP took over and gave back at once
             out.append((("mission_a", "waypoints", a.amp_enable_waypoint),
-                        f"the take-over waypoint is {outside:.1f} m outside the OpArea: the AMP "
-                        f"gives control back {RELINQUISH_OUTSIDE_M:g} m outside it (TRO II), so "
-                        "it would give back in its first cycle"))
+                        f"the take-over waypoint is {metres_text(outside)} m outside the OpArea: "
+                        f"the AMP gives control back {RELINQUISH_OUTSIDE_M:g} m outside it (TRO "
+                        "II), so it would give back in its first cycle"))
     area = mission.op_area_geometry()
     for i, wp in enumerate(a.waypoints):  # a lost sign or swapped lat/lon (a review's 9 500 km)
         at = mission.to_xy(wp)

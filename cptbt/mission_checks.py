@@ -20,7 +20,7 @@ from cptbt.mission import (
     Problem,
     latlon_problem,
 )
-from cptbt.policy import RELINQUISH_OUTSIDE_M
+from cptbt.policy import RELINQUISH_OUTSIDE_M, metres_text
 
 log = logging.getLogger("cptbt.mission")
 
@@ -46,11 +46,11 @@ def problems(m: MissionBase) -> list[Problem]:
         p = m.to_xy(coord)
         outside = area.distance_outside(p.x, p.y)
         if outside > RELINQUISH_OUTSIDE_M:  # allowed or not: the AMP cannot drive there
-            out.append(((key,), f"{outside:.1f} m outside the OpArea: the AMP gives control "
-                         f"back {RELINQUISH_OUTSIDE_M:g} m outside it (TRO II), so it could "
-                         "never fly there; place it within that distance"))
+            out.append(((key,), f"{metres_text(outside)} m outside the OpArea: the AMP gives "
+                         f"control back {RELINQUISH_OUTSIDE_M:g} m outside it (TRO II), so it "
+                         "could never fly there; place it within that distance"))
         elif outside > 0 and key not in m.allow_outside:
-            out.append(((key,), f"{outside:.1f} m outside the OpArea "
+            out.append(((key,), f"{metres_text(outside)} m outside the OpArea "
                          f"(list '{key}' in allow_outside if that is intended)"))
     out += _limit_problems(m)
     out += _rate_problems(m)
@@ -252,8 +252,8 @@ def _study_problems(m: MissionBase, area: OpArea) -> list[Problem]:
         p = m.to_xy(c)
         if not area.contains(p.x, p.y):
             out.append((("study", "starts", i),
-                        f"{area.distance_outside(p.x, p.y):.1f} m outside the OpArea (list "
-                        "'start' in allow_outside if that is intended)"))
+                        f"{metres_text(area.distance_outside(p.x, p.y))} m outside the OpArea "
+                        "(list 'start' in allow_outside if that is intended)"))
     return out
 
 

@@ -16,7 +16,7 @@ import os
 import re
 import sys
 from collections.abc import Sequence
-from typing import Any, NoReturn
+from typing import Any, NoReturn, cast
 
 from cptbt.batch.errors import BatchError
 from cptbt.cli import inspect_cmds, log_cmds, phases_cmd
@@ -107,6 +107,9 @@ def configure_logging(verbose: int, quiet: bool) -> None:
 MAX_PROBLEMS_TOLD = 50
 """A malformed mission is told this many problems at most, then how many more there are."""
 
+MAX_PROBLEM_CHARS = 2000
+"""A problem longer than this is cut, and its length said (it echoes what the file gave)."""
+
 _COMMAND_MODULES = {"run": "run_cmd", "batch": "batch_cmd", "plot": "batch_cmd",
                     "serve": "serve_cmd", "frontseat": "serve_cmd"}
 """The simulator-side sub-commands and the module that defines each."""
@@ -144,12 +147,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``cptbt`` script; returns the exit status."""
     try:
         parser = build_parser(_command_of(argv))
-        args = parser.parse_args(argv)  # usage errors exit here, with status 2
+        args, extra = parser.parse_known_args(argv)  # usage errors exit here, with status 2
+        if extra:  # told by the sub-command's parser: its --help, not cptbt's (a review)
+            own = [a for a in extra if a in parser._option_string_actions]
+            hint = (f": {own[0]} is cptbt's own option, given before the command (cptbt "
+                    f"{own[0]} {args.command} ...)" if own else "")
+            _subparser(parser, args.command).error(
+                f"unrecognized arguments: {' '.join(extra)}{hint}")
         configure_logging(args.verbose, args.quiet_log)
         return int(args.func(args) or 0)
     except MissionError as exc:
         for line in exc.problems[:MAX_PROBLEMS_TOLD]:
-            print(_printable(line), file=sys.stderr)
+            line = _printable(line)
+            if len(line) > MAX_PROBLEM_CHARS:  # an attacker's 300 000-character variant name
+                line = f"{line[:MAX_PROBLEM_CHARS]}... ({len(line)} characters in all)"
+            print(line, file=sys.stderr)
         if len(exc.problems) > MAX_PROBLEMS_TOLD:  # a file of 2 000 stray keys: not 2 000 lines
             print(f"cptbt: ... and {len(exc.problems) - MAX_PROBLEMS_TOLD} more problems "
                   "(mend these and validate again)", file=sys.stderr)
@@ -186,6 +198,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"cptbt: internal error: {type(exc).__name__}: {_one_line(str(exc))} "
                   f"(run with {DEBUG_ENV}=1 for the traceback)", file=sys.stderr)
         return EXIT_RUNTIME
+
+
+def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    """The parser of the sub-command ``command`` (``parser`` itself if it has none)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction) and command in action.choices:
+            return cast(argparse.ArgumentParser, action.choices[command])
+    return parser
 
 
 def _one_line(text: str) -> str:

@@ -8,6 +8,7 @@ import argparse
 from cptbt.batch.starts import grid_starts
 from cptbt.cli.argtypes import UsageError
 from cptbt.mission import MissionBase
+from cptbt.policy import metres_text
 from cptbt.study_spec import StudySpec
 
 
@@ -47,8 +48,9 @@ def check_starts(mission: MissionBase, starts: list[tuple[float, float]]) -> Non
                 str(mission.frame), "x, y in m (planning frame)")
             raise UsageError(
                 f"batch: the start at planning ({x:.1f}, {y:.1f}) m is "
-                f"{area.distance_outside(x, y):.1f} m outside the OpArea (starts are given as "
-                f"{frame}; list 'start' in the mission's allow_outside if that is intended)")
+                f"{metres_text(area.distance_outside(x, y))} m outside the OpArea (starts are "
+                f"given as {frame}; list 'start' in the mission's allow_outside if that is "
+                "intended)")
 
 
 def _planning(mission: MissionBase, coord: tuple[float, float]) -> tuple[float, float]:

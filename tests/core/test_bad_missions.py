@@ -386,6 +386,23 @@ def test_a_file_name_with_control_characters_stays_on_one_line(  # type: ignore[
     assert line.startswith(f"{tmp_path}/nl\\nname\\x1b[31m.yaml:") and "\x1b" not in line
 
 
+def test_a_problem_echoing_a_huge_value_is_cut(  # type: ignore[no-untyped-def]
+        tmp_path: Path, capsys) -> None:
+    """An attacker's 300 000-character variant name was echoed whole, one 300-kB line; a
+    start 1e300 m out printed all 301 digits."""
+    mission = tmp_path / "m.yaml"
+    mission.write_text(BASE.replace("start: [-80, 20]", "start: [1e300, 0]"), encoding="utf-8")
+    main(["validate", str(mission)])
+    assert "start: 1e+300 m outside the OpArea" in capsys.readouterr().err
+    entry = re.search(r"  - (\w+): \{variant: (\w+)", BASE)
+    assert entry is not None
+    mission.write_text(BASE.replace(entry[0], f"  - {entry[1]}: {{variant: {'v' * 300_000}"),
+                       encoding="utf-8")
+    assert main(["validate", str(mission)]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert len(line) < 2100 and line.endswith(" characters in all)"), line[-200:]
+
+
 def test_a_file_not_in_utf8_is_reported_at_the_bad_bytes_line_and_column(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -112,6 +112,11 @@ def test_bad_arguments_of_other_commands_are_one_usage_line() -> None:
     assert "required: COMMAND" in one_line(cptbt(), 2)
     assert "invalid choice: 'nope'" in one_line(cptbt("nope"), 2)
     assert "required: --out" in one_line(cptbt("batch", MISSION), 2)
+    # an unknown option is the sub-command's, pointed at its --help (a review: cptbt --help)
+    assert one_line(cptbt("run", MISSION, "--bogus"), 2) == (
+        "cptbt run: error: unrecognized arguments: --bogus (see cptbt run --help)")
+    assert "-q is cptbt's own option, given before the command (cptbt -q validate ...)" in \
+        one_line(cptbt("validate", MISSION, "-q"), 2)
 
 
 def test_a_sweep_path_that_names_nothing_is_a_usage_error(tmp_path: Path) -> None:
