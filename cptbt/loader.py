@@ -90,7 +90,8 @@ class _Walk:
         if self.values > MAX_VALUES:
             at = alias_at if alias_at is not None else path
             raise self.fail(self.lines.get(at, line), at, f"more than {MAX_VALUES} values once "
-                            "aliases are expanded: refused (an alias bomb?)")
+                            "aliases are expanded: refused (no mission needs so many; an alias "
+                            "bomb?)")
         if len(path) > MAX_DEPTH:
             raise self.fail(line, path, f"nested deeper than {MAX_DEPTH} levels")
         if node.tag in _OTHER_TYPES:  # !!set {100, 0} read as the point (0, 100)

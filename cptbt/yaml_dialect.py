@@ -123,7 +123,7 @@ def _scalars(node: yaml.Node | None) -> list[yaml.Node]:
         seen += 1
         if seen > MAX_VALUES:
             raise RefusedValueError(f"more than {MAX_VALUES} values once aliases are "
-                                    "expanded: refused (an alias bomb?)")
+                                    "expanded: refused (no mission needs so many; an alias bomb?)")
         if depth > MAX_DEPTH:
             raise RefusedValueError(f"nested deeper than {MAX_DEPTH} levels")
         if not isinstance(n, yaml.MappingNode | yaml.SequenceNode):
