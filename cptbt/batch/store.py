@@ -182,6 +182,9 @@ class ResultStore:
                 and not any(self.parts.glob("*"))):  # a review's --out overwrote a user's table
             raise StudyMismatch(f"{self.folder} holds a results table but no study.json or "
                                 "parts/: not a study's folder")
+        if self.parts.exists() and not self.parts.is_dir():  # "File exists" said nothing
+            raise BatchError(f"{self.parts} exists and is not a folder (a study keeps its runs "
+                             "there): move it aside")
         self.parts.mkdir(parents=True, exist_ok=True)
         self._lock()
         meta = self.folder / "study.json"

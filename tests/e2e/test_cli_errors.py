@@ -168,13 +168,19 @@ def test_read_only_out_is_one_line_exit_1(tmp_path: Path) -> None:
     ("/proc/cptbt-test/out", "/proc/cptbt-test: No such file or directory"),
     ("FILE", "FILE exists and is not a folder"),
     ("FILE/below", "FILE/below/parts: Not a directory"),
+    # an attacker's parts/ that was a file: "File exists" had said nothing
+    ("DIR", "DIR/parts exists and is not a folder (a study keeps its runs there): move it aside"),
 ])
 def test_unusable_out_is_one_line_exit_1(tmp_path: Path, out: str, expected: str) -> None:
     regular = tmp_path / "a-file"
     regular.write_text("not a folder")
-    res = cptbt("batch", MISSION, "--amp-only",
-                "--out", out.replace("FILE", str(regular)), "--no-plots")
-    assert one_line(res, 1) == "cptbt: " + expected.replace("FILE", str(regular))
+    folder = tmp_path / "a-folder"
+    folder.mkdir()
+    (folder / "parts").write_text("not a folder")
+    res = cptbt("batch", MISSION, "--amp-only", "--out",
+                out.replace("FILE", str(regular)).replace("DIR", str(folder)), "--no-plots")
+    assert one_line(res, 1) == "cptbt: " + expected.replace("FILE", str(regular)).replace(
+        "DIR", str(folder))
     assert regular.read_text() == "not a folder"
 
 
