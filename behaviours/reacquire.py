@@ -66,20 +66,33 @@ def pattern_advice(params: BehaviourParams, area: OpArea) -> list[tuple[str, str
     each side (checked every degree: in a square it needs 1.67 times the distance, a reading
     of 1.5 had passed 19 m in 30 m of room, an attacker's), points are moved inside the walls
     wherever it is centred, so the tour flown is not the one drawn."""
-    key = "d_leaf_m" if isinstance(params, CloverleafParams) else "radius_m"
-    size = float(getattr(params, key))
-    assert isinstance(params, TourParams)
-    room_x = area.xmax - area.xmin - 2.0 * params.wall_inset_m
-    room_y = area.ymax - area.ymin - 2.0 * params.wall_inset_m
-    for deg in range(120):
-        a = [math.radians(deg + 120 * k) for k in range(3)]
-        xs, ys = [size * math.cos(v) for v in a], [size * math.sin(v) for v in a]
-        if max(xs) - min(xs) <= room_x and max(ys) - min(ys) <= room_y:
-            return []
+    key, size, (room_x, room_y) = tour_size(params, area)
+    if any(tour_fits(params, area, deg) for deg in range(120)):
+        return []
     return [(key, f"{size:g} m: the tour's points, 120° apart at that distance from its centre, "
                   f"fit in no orientation inside the OpArea less wall_inset_m each side "
                   f"({max(room_x, 0):.0f} × {max(room_y, 0):.0f} m): wherever it is centred, "
                   "points are moved inside the walls, so the tour flown is not the one drawn")]
+
+
+def tour_size(params: BehaviourParams, area: OpArea) -> tuple[str, float, tuple[float, float]]:
+    """(the size's key, the tour's size, the room for it: the OpArea less ``wall_inset_m`` each
+    side, along x and y) of a triangle tour's parameters."""
+    assert isinstance(params, TourParams)
+    key = "d_leaf_m" if isinstance(params, CloverleafParams) else "radius_m"
+    inset = 2.0 * params.wall_inset_m
+    return key, float(getattr(params, key)), (area.xmax - area.xmin - inset,
+                                              area.ymax - area.ymin - inset)
+
+
+def tour_fits(params: BehaviourParams, area: OpArea, toward_deg: float) -> bool:
+    """Whether a triangle tour laid out for a flow toward ``toward_deg`` (planning frame; its
+    points toward the flow and 120° either side, :meth:`_WaypointTour.triangle`) fits inside
+    the OpArea less ``wall_inset_m`` each side, somewhere."""
+    _, size, (room_x, room_y) = tour_size(params, area)
+    points = [unit(toward_deg + 120.0 * k) for k in range(3)]
+    xs, ys = [size * x for x, _ in points], [size * y for _, y in points]
+    return max(xs) - min(xs) <= room_x and max(ys) - min(ys) <= room_y
 
 
 class _WaypointTour(PlanBehaviour):

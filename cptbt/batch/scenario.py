@@ -29,6 +29,7 @@ from cptbt.batch.sim_advice import (
     pace_advice,
     plain,
     source_wall_advice,
+    tour_flow_advice,
     turn_guard_advice,
 )
 from cptbt.coercions import coercions
@@ -249,6 +250,7 @@ def advisories(mission: MissionBase) -> list[Problem]:
         params = None
     if params is not None:
         out += [a for advice in (noise_advice, dropout_advice, adcp_advice, leaf_advice,
+                                 tour_flow_advice,
                                  move_advice, pace_advice, turn_guard_advice,
                                  flow_direction_advice, sensor_rate_advice,
                                  threshold_advice, lambda_advice)

@@ -95,6 +95,32 @@ def leaf_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem
     return out
 
 
+def tour_flow_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
+    """A cloverleaf or three-point tour that fits the OpArea in some orientation, but not in
+    the one the simulated mean flow gives it: points are moved inside the walls wherever it is
+    centred (a review's 40-m channel with the flow along it and ``radius_m: 20`` was warned of
+    by nothing: the behaviour's own advice checks every orientation, not knowing the flow)."""
+    from cptbt.behaviours.reacquire import pattern_advice, tour_fits, tour_size
+
+    area = mission.op_area_geometry()
+    toward = params.flow.mean_dir_deg
+    out: list[Problem] = []
+    for i, e in enumerate(mission.entries()):
+        if e.contract.advise is not pattern_advice:  # a triangle tour (cloverleaf, three-point)
+            continue
+        key, size, (room_x, room_y) = tour_size(e.params, area)
+        fits_some = any(tour_fits(e.params, area, deg) for deg in range(120))
+        if fits_some and not tour_fits(e.params, area, toward):
+            out.append((("behaviours", i, e.family, key),
+                        f"{plain(size)} m: laid out for the simulated mean flow (toward "
+                        f"{plain(round(toward % 360.0, 1))}° from the OpArea's x axis), the "
+                        f"tour's points do not fit inside the OpArea less wall_inset_m each side "
+                        f"({max(room_x, 0):.0f} × {max(room_y, 0):.0f} m): wherever it is "
+                        "centred, points are moved inside the walls, so the tour flown is not "
+                        "the one drawn"))
+    return out
+
+
 def move_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """An information-seeking search whose candidate moves (``step_m``) are shorter than the
     simulated vehicle's turning circle: it asks for headings the vehicle cannot reach before

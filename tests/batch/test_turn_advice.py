@@ -233,3 +233,45 @@ def test_infotaxis_moves_shorter_than_the_turning_circle_are_told(step: float | 
     assert bool(got) == warned, got
     if warned:
         assert got[0][0][-1] == "step_m" and "cannot turn onto before it reaches them" in got[0][1]
+
+
+CHANNEL = """\
+name: channel
+frame: planning
+op_area:
+  corners: [[0, -20], [200, -20], [200, 20], [0, 20]]
+home: [5, 0]
+start: [150, 0]
+speed_mps: 1.5
+turn_guard_radius_m: 3
+behaviours:
+  - safety: {}
+  - declare_source: {variant: upflow_cluster}
+  - maintain_plume: {variant: track_in_out}
+  - reacquire_plume: {variant: three_point, radius_m: RADIUS}
+  - find_plume: {variant: billiard}
+  - move_to_field: {}
+environment:
+  preset: tro_ocean
+  source: [40, 0]
+  flow_toward_deg: TOWARD
+  flow_speed_mps: 0.1
+"""
+
+
+@pytest.mark.parametrize(("radius", "toward", "warned"), [
+    (12, 0, True),  # along the channel: 20.8 m across, in 20 m of room
+    (11, 0, False),  # 19.1 m across
+    (12, 90, False),  # across the channel: 18 m across, it fits
+])
+def test_a_tour_that_fits_only_turned_from_the_flow_is_told_of(radius: int, toward: int,
+                                                               warned: bool) -> None:
+    """A review's 40-m channel with the flow along it and a tour too wide for it across was
+    warned of by nothing: the behaviour's own advice checks every orientation, and one fits."""
+    text = CHANNEL.replace("RADIUS", str(radius)).replace("TOWARD", str(toward))
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    told = [(loc, msg) for loc, msg in advisories(mission) if "simulated mean flow" in msg]
+    assert bool(told) == warned, told
+    if warned:
+        assert told[0][0] == ("behaviours", 3, "reacquire_plume", "radius_m")
+        assert "(180 × 20 m)" in told[0][1]
