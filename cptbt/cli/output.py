@@ -32,7 +32,9 @@ def times_line(s: dict[str, Any]) -> str:
     ratio = s.get("D1_over_D0")
     return (f"  T_F {fmt(s['T_F'], ' s')}  T_T {fmt(s['T_T'], ' s')}  T_D {fmt(s['T_D'], ' s')}"
             f"  D1/D0 {fmt(ratio)}"
-            + ("  (D1 ends within 13 m of the declared point: SPEC §11)"
+            + ("  (t2 = t1: the first detection was already within 13 m of the declared point, "
+               "SPEC §11)" if ratio is not None and s.get("T_T") == 0 else
+               "  (D1 ends within 13 m of the declared point: SPEC §11)"
                if ratio is not None and ratio < 1 else ""))
 
 

@@ -145,11 +145,15 @@ def test_a_d1_over_d0_below_one_is_explained() -> None:
     13 m of the declared point (SPEC §11), so it can be shorter than D0."""
     from cptbt.cli.output import times_line
 
-    base = {"T_F": 1.0, "T_T": 0.0, "T_D": 5.0}
+    base = {"T_F": 1.0, "T_T": 20.0, "T_D": 5.0}
     assert times_line({**base, "D1_over_D0": 0.4}).endswith(
         "D1/D0 0.4  (D1 ends within 13 m of the declared point: SPEC §11)")
     assert times_line({**base, "D1_over_D0": 1.8}).endswith("D1/D0 1.8")
     assert times_line({**base, "D1_over_D0": None}).endswith("D1/D0 —")
+    # t2 = t1: 0 by the definition, said so (a review read T_T 0.0 as a measured time)
+    assert times_line({**base, "T_T": 0.0, "D1_over_D0": 0.0}).endswith(
+        "D1/D0 0.0  (t2 = t1: the first detection was already within 13 m of the declared "
+        "point, SPEC §11)")
 
 
 def test_several_declared_points_are_printed_with_their_own_error_and_source() -> None:
