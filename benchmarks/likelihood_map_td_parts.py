@@ -6,8 +6,8 @@ with the likelihood-map declaration (and any ``--set`` settings), the AMP alone 
 ``benchmarks/likelihood_map.py`` flies it (same seeds, so the rows pair with that study's), and
 sums, over the runs that declared, the cycles each behaviour leaf drove in [t2, t3). Printed:
 the mean T_D, the mean of the runs' T_D shares, and each leaf's seconds per run and share of
-T_D. Measured in session 29: ``benchmarks/results/likelihood_map_tuning.md``, "Where T_D
-goes".
+T_D. Measured in session 29: ``benchmarks/results/likelihood_map_tuning.md``, "A stronger
+level" (session 20's "Where T_D goes" there was measured by hand the same way).
 
 Usage::
 
