@@ -24,10 +24,8 @@ import sys
 
 import numpy as np
 
-from cptbt.sim.world import EnvironmentParams, World, env_rng_from_seed
-
 sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parent))
-from likelihood_map_meander import WINDOW_S, back_trajectory
+from likelihood_map_meander import frames
 
 RANGES = (-3.0, -1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 50.0, 80.0, 120.0)
 FACTORS = (1, 3, 6, 10, 20, 40)
@@ -38,28 +36,10 @@ TRACK = np.linspace(-0.75, 0.75, 9)
 
 def measure(seed: int, duration: float, every: float) -> tuple[np.ndarray, np.ndarray]:
     """(readings above each factor, readings) per range, from one plume realisation."""
-    params = EnvironmentParams()
-    world = World(params, np.array([[0.0, 0.0]]), env_rng=env_rng_from_seed(seed))
-    world.warm_up()
     rng = np.random.default_rng(seed)
-    src = np.asarray(params.source_xy_m)
-    mean = world.flow.mean_velocity
-    probe = (src + 40.0 * mean / np.hypot(*mean))[None, :]
-    steps = int(duration + WINDOW_S)
-    vel = np.empty((steps, 2))
-    cum = np.zeros((steps, 2))
     hits = np.zeros((len(RANGES), len(FACTORS)))
     seen = np.zeros(len(RANGES))
-    for i in range(steps):
-        world.flow.step(1.0)
-        world.plume.step(1.0)
-        vel[i] = world.flow.velocity_at(probe)[0]
-        est = vel[max(0, i - int(WINDOW_S) + 1): i + 1].mean(axis=0)
-        if i:
-            cum[i] = cum[i - 1] + est
-        if i < WINDOW_S or (i - WINDOW_S) % every:
-            continue
-        ux, uy, along, disp = back_trajectory(cum, i)
+    for _, world, src, (ux, uy, along, disp) in frames(seed, duration, every):
         for j, a in enumerate(RANGES):
             if a < 0:  # up-flow of the source: along the flow estimate
                 base = src + a * np.array([ux, uy])

@@ -50,8 +50,10 @@ def back_trajectory(cum: np.ndarray, k: int, max_range: float = 260.0):  # type:
     return ux, uy, along, disp
 
 
-def measure(seed: int, duration: float, every: float, half: float) -> dict[float, np.ndarray]:
-    """Per range, rows (t, μ, within-variance, n) every ``every`` s."""
+def frames(seed: int, duration: float, every: float):  # type: ignore[no-untyped-def]
+    """The plume alone (TRO ocean preset, spun up), stepped 1 s at a time: every ``every`` s
+    after the first flow window, ``(i, world, src, (ux, uy, along, disp))``, the last the
+    back-trajectory of the 100-s flow estimate (:func:`back_trajectory`)."""
     params = EnvironmentParams()
     world = World(params, np.array([[0.0, 0.0]]), env_rng=env_rng_from_seed(seed))
     world.warm_up()
@@ -61,7 +63,6 @@ def measure(seed: int, duration: float, every: float, half: float) -> dict[float
     steps = int(duration + WINDOW_S)
     vel = np.empty((steps, 2))
     cum = np.zeros((steps, 2))
-    out: dict[float, list[tuple[float, float, float, int]]] = {a: [] for a in RANGES}
     for i in range(steps):
         world.flow.step(1.0)
         world.plume.step(1.0)
@@ -69,9 +70,14 @@ def measure(seed: int, duration: float, every: float, half: float) -> dict[float
         est = vel[max(0, i - int(WINDOW_S) + 1): i + 1].mean(axis=0)
         if i:
             cum[i] = cum[i - 1] + est
-        if i < WINDOW_S or (i - WINDOW_S) % every:
-            continue
-        ux, uy, along, disp = back_trajectory(cum, i)
+        if i >= WINDOW_S and not (i - WINDOW_S) % every:
+            yield i, world, src, back_trajectory(cum, i)
+
+
+def measure(seed: int, duration: float, every: float, half: float) -> dict[float, np.ndarray]:
+    """Per range, rows (t, μ, within-variance, n) every ``every`` s."""
+    out: dict[float, list[tuple[float, float, float, int]]] = {a: [] for a in RANGES}
+    for i, world, src, (ux, uy, along, disp) in frames(seed, duration, every):
         xy = world.plume.positions
         a = (xy[:, 0] - src[0]) * ux + (xy[:, 1] - src[1]) * uy
         dx = np.interp(a, along, disp[:, 0])
