@@ -175,7 +175,9 @@ def _map(groups: dict[str, Rows], path: Path, plt: Any, geometry: StudyGeometry 
         # with a compass, its bearing (a review's rotated box had none to read)
         ax.set_xlabel("start x (m), planning frame" + (
             f", compass bearing {frame.x_bearing_deg % 360:.1f}°" if frame is not None else ""))
-        ax.set_ylabel("start y (m), planning frame, drawn down")
+        # a wide map's panel is short: its whole label had run off the figure's top (a review)
+        ax.set_ylabel("start y (m), planning frame, drawn down" if aspect >= 0.75
+                      else "start y (m),\ndrawn down")
     # One bar for the panels' one scale: beside tall maps, under wide ones (never taller than
     # the map, its label never longer than the bar).
     beside = aspect >= 0.75

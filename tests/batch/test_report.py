@@ -80,6 +80,19 @@ def test_a_grid_of_two_configs_gives_maps_rates_and_counts_false_declarations(
         assert cells[1:4] == ["12", "66.7% (18.5%–94.6%)", "1"], cells
 
 
+def test_a_wide_study_maps_y_label_stays_on_the_page(tmp_path: Path) -> None:
+    """A review: a 200 x 40 m channel's map had its y label run off the figure's top."""
+    from matplotlib.image import imread
+
+    geometry = StudyGeometry((0.0, 200.0, -20.0, 20.0), (40.0, 0.0), 0.0)
+    rows = [{**r, "start_x": 2 * r["start_x"], "start_y": r["start_y"] / 2}
+            for r in grid_rows(configs=1)]
+    write_report(rows, tmp_path, geometry)
+    image = imread(tmp_path / "time_to_source_map.png")
+    top = image[:3, : image.shape[1] // 10, :3]  # the corner the label reached
+    assert (top > 0.95).all(), "something drawn at the figure's top-left edge"
+
+
 def test_the_study_map_draws_every_true_source_on_one_colour_scale(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A review: a two-source study's map drew the mission's source alone, and each panel had a
