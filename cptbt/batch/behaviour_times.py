@@ -14,6 +14,8 @@ import math
 import re
 from typing import Any
 
+from cptbt.registry import FAMILIES
+
 Rows = list[dict[str, Any]]
 
 SELDOM = 0.5
@@ -23,15 +25,15 @@ LITTLE = 0.01
 """... as is one that drove less than this share of its AMP time."""
 
 
-ORDER = ("safety", "declare_source", "maintain_plume", "reacquire_plume", "find_plume",
-         "move_to_field", "return_home")
-"""The table's columns: TRO Fig. 2's priorities first, then other families by name (a review:
-in first-seen order two studies' tables could not be read side by side)."""
+ORDER = FAMILIES
+"""The table's columns: TRO Fig. 2's priorities first (the registry's), then other families by
+name (a review: in first-seen order two studies' tables could not be read side by side)."""
 
 DECIDES = ("declare_source",)
-"""Families whose work is a decision rather than driving: a declaration rule drives only to its
-point and home, so its driving time says nothing of how much of it a sweep compared (a
-review's declaration sweep, 11 runs to 0 in McNemar's test, was noted as "drove little")."""
+"""Families whose rule is a decision as well as driving: a sweep of the rule itself (the family
+whole or its variant) compares when and where it declares, whatever it drove (a review's
+declaration sweep, 11 runs to 0 in McNemar's test, was noted as "drove little"); a sweep of
+one of its settings (``declare_source.flyby``) is noted as any other."""
 
 
 def _families(rows: Rows) -> list[str]:
@@ -44,6 +46,12 @@ def _families(rows: Rows) -> list[str]:
 def _seconds(row: dict[str, Any], family: str) -> float:
     v = row.get(f"time_{family}_s")
     return float(v) if isinstance(v, int | float) and math.isfinite(v) else 0.0
+
+
+def rule_swept(labels: list[str], family: str) -> bool:
+    """Whether the labels sweep ``family``'s rule: the family whole or its variant
+    (``declare_source=likelihood_map``, ``declare_source.variant=recent_box``)."""
+    return any(re.search(rf"(^|[ ,+]){family}(\.variant)?[=+]", label) for label in labels)
 
 
 def swept_families(labels: list[str], families: list[str]) -> list[str]:
@@ -78,7 +86,7 @@ def behaviour_time_table(groups: dict[str, Rows]) -> list[str]:
             share = spent / total if math.isfinite(total) else math.nan
             cells.append(f"{'—' if math.isnan(share) else f'{share:.1%}'} ({drove}/{len(rows)})")
             seldom = drove < SELDOM * len(rows) or not share >= LITTLE
-            if f in swept and f not in DECIDES and seldom:
+            if f in swept and seldom and not (f in DECIDES and rule_swept(list(groups), f)):
                 little.setdefault(f, []).append(
                     f"{label}: {drove} of {len(rows)} runs, {spent:.0f} s in all")
         lines.append(f"| {label} | " + " | ".join(cells) + " |")

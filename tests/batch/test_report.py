@@ -861,6 +861,10 @@ def test_a_swept_behaviour_that_drove_little_is_said() -> None:
     table = behaviour_time_table(decided)
     assert table[5] == "| configuration | declare_source | maintain_plume | find_plume |", table
     assert not [line for line in table if line.startswith("**Note")]
+    # a sweep of one of its settings is noted as any other (a diff review: the fly-by's)
+    flyby = {f"declare_source.flyby={v}": rows for v, rows in zip(
+        ("false", "true"), decided.values(), strict=True)}
+    assert [line for line in behaviour_time_table(flyby) if line.startswith("**Note")]
     # a diff review: the two tables' safety shares differed, and neither said why
     groups["find_plume=billiard"][0] |= {"time_safety_s": 12.0, "safety_entering_s": 10.0}
     assert any(line.startswith("Safety's share here includes bringing the vehicle in")
