@@ -166,7 +166,8 @@ class FleetPerception:
         ok &= ~far
         self._x[ids] = np.where(ok, x, self._x[ids])
         self._y[ids] = np.where(ok, y, self._y[ids])
-        h = np.where(np.isfinite(heading), heading, 0.0)
+        # a non-finite heading keeps the previous one, as Perception.set_pose (0 at the start)
+        h = np.where(np.isfinite(heading), heading, self._heading[ids])
         self._heading[ids] = np.where(ok, h, self._heading[ids])
 
     def _flow(self, t: float, ids: Index) -> None:

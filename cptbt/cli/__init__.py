@@ -149,11 +149,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser = build_parser(_command_of(argv))
         args, extra = parser.parse_known_args(argv)  # usage errors exit here, with status 2
         if extra:  # told by the sub-command's parser: its --help, not cptbt's (a review)
-            own = [a for a in extra if a in parser._option_string_actions]
-            hint = (f": {own[0]} is cptbt's own option, given before the command (cptbt "
-                    f"{own[0]} {args.command} ...)" if own else "")
-            _subparser(parser, args.command).error(
-                f"unrecognized arguments: {' '.join(extra)}{hint}")
+            _unrecognized(parser, list(sys.argv[1:] if argv is None else argv), extra)
         configure_logging(args.verbose, args.quiet_log)
         return int(args.func(args) or 0)
     except MissionError as exc:
@@ -200,12 +196,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_RUNTIME
 
 
-def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
-    """The parser of the sub-command ``command`` (``parser`` itself if it has none)."""
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction) and command in action.choices:
-            return cast(argparse.ArgumentParser, action.choices[command])
-    return parser
+def _unrecognized(parser: argparse.ArgumentParser, words: list[str], extra: list[str]) -> NoReturn:
+    """Refuse the arguments no parser took, told by the (sub-)command they were given to: an
+    option before the command is cptbt's, one after it the deepest sub-command's (``cptbt log
+    summary``); cptbt's own ``-q``/``-v`` given after the command say where they go."""
+    first = words.index(extra[0]) if extra[0] in words else len(words)
+    owner = parser
+    for word in words[:first]:  # down the sub-commands named before the first stray word
+        subs = [a for a in owner._actions if isinstance(a, argparse._SubParsersAction)]
+        if word.startswith("-") or not subs or word not in subs[0].choices:
+            continue
+        owner = cast(argparse.ArgumentParser, subs[0].choices[word])
+    own = [a for a in extra if a in parser._option_string_actions or re.fullmatch(r"-[vq]+", a)]
+    hint = (f": {own[0]} is cptbt's own option, given before the command (cptbt {own[0]} "
+            f"{owner.prog.removeprefix('cptbt ')} ...)" if own and owner is not parser else "")
+    owner.error(f"unrecognized arguments: {' '.join(extra)}{hint}")
 
 
 def _one_line(text: str) -> str:

@@ -510,6 +510,9 @@ def test_a_fluorometer_that_never_starts_counts_once_it_is_late() -> None:
 
 def test_a_non_finite_heading_keeps_the_previous_one() -> None:
     """An attacker's heading noise of 1.7e308 gave NaN headings, read as 0 (north)."""
+    import numpy as np
+
+    from cptbt.fleet_perception import FleetPerception
     from cptbt.frames import OpArea
     from cptbt.perception import Perception
     from cptbt.types import Pose
@@ -518,3 +521,7 @@ def test_a_non_finite_heading_keeps_the_previous_one() -> None:
     p.set_pose(Pose(10.0, 0.0, 135.0))
     p.set_pose(Pose(11.0, 0.0, float("nan")))
     assert (p.pose.x, p.pose.heading_deg) == (11.0, 135.0)
+    fleet, ids = FleetPerception(1, OpArea(0, 100, -50, 50)), np.array([0])  # the same rule
+    fleet.set_poses(ids, np.array([10.0]), np.array([0.0]), np.array([135.0]))
+    fleet.set_poses(ids, np.array([11.0]), np.array([0.0]), np.array([np.nan]))
+    assert fleet.poses(ids)[0][0] == 11.0 and fleet._heading[0] == 135.0

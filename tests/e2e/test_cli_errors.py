@@ -117,6 +117,13 @@ def test_bad_arguments_of_other_commands_are_one_usage_line() -> None:
         "cptbt run: error: unrecognized arguments: --bogus (see cptbt run --help)")
     assert "-q is cptbt's own option, given before the command (cptbt -q validate ...)" in \
         one_line(cptbt("validate", MISSION, "-q"), 2)
+    assert "-vv is cptbt's own option" in one_line(cptbt("validate", MISSION, "-vv"), 2)
+    # before the command it is cptbt's; a nested command's is its own (a diff review)
+    assert one_line(cptbt("--bogus", "validate", MISSION), 2) == (
+        "cptbt: error: unrecognized arguments: --bogus (see cptbt --help)")
+    assert one_line(cptbt("log", "summary", "x.mcap", "--bogus"), 2) == (
+        "cptbt log summary: error: unrecognized arguments: --bogus (see cptbt log summary "
+        "--help)")
 
 
 def test_a_sweep_path_that_names_nothing_is_a_usage_error(tmp_path: Path) -> None:
