@@ -280,9 +280,17 @@ def dotted(path: Loc) -> str:
     return out or "(top)"
 
 
-_WORD = re.compile(r"[\w+-]+")
-"""A key written as it is in messages: letters, digits, ``_``, ``+`` (a joint sweep's) and
-``-``."""
+_WORD = re.compile(r"[\w+.-]+")
+"""A key written as it is in messages: letters, digits, ``_``, ``+`` (a joint sweep's), ``.``
+(a sweep's path) and ``-``."""
+
+
+def printable(text: str) -> str:
+    """``text`` with its control characters escaped (``\\x1b``, ``\\n``): a message is one
+    line, and carries no terminal codes from a file name or a key (an attacker's)."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 class BehaviourEntry(BaseModel):

@@ -22,6 +22,7 @@ from cptbt.batch.errors import BatchError
 from cptbt.cli import inspect_cmds, log_cmds, phases_cmd
 from cptbt.cli.argtypes import UsageError
 from cptbt.loader import MissionError
+from cptbt.mission import printable
 from cptbt.node import blame
 from cptbt.registry import RegistryError
 
@@ -154,7 +155,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except MissionError as exc:
         for line in exc.problems[:MAX_PROBLEMS_TOLD]:
-            line = _printable(line)
+            line = printable(line)
             if len(line) > MAX_PROBLEM_CHARS:  # an attacker's 300 000-character variant name
                 line = f"{line[:MAX_PROBLEM_CHARS]}... ({len(line)} characters in all)"
             print(line, file=sys.stderr)
@@ -214,15 +215,9 @@ def _unrecognized(parser: argparse.ArgumentParser, words: list[str], extra: list
 
 
 def _one_line(text: str) -> str:
-    return _printable(" ".join(text.split()))
+    return printable(" ".join(text.split()))
 
 
-def _printable(text: str) -> str:
-    """``text`` with its control characters escaped (``\\x1b``): a problem is one line, and
-    carries no terminal codes from a file name or a key (an attacker's)."""
-    if text.isprintable():
-        return text
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def _os_error(exc: OSError) -> str:

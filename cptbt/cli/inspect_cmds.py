@@ -21,7 +21,7 @@ from cptbt.loader import (
     parse_yaml,
     read_mission_text,
 )
-from cptbt.mission import Loc, MissionBase, dotted
+from cptbt.mission import Loc, MissionBase, dotted, printable
 from cptbt.planner import Planner
 from cptbt.registry import default_registry, misspelt_slot, package_of
 from cptbt.schema import mission_json_schema
@@ -134,7 +134,7 @@ def warn_swept(mission: MissionBase, configs: list[Config], source: str,
             else:
                 extra.append(f"{source} [sweep {sweep}]: {dotted(loc)}: warning: {msg}")
     said = print_advisories(source, [a for a in shown if a in kept], echo) if own else []
-    for line in dict.fromkeys(extra):
+    for line in dict.fromkeys(printable(x) for x in extra):
         if echo:
             print(line, file=sys.stderr)
         said.append(line)
@@ -147,11 +147,11 @@ def print_advisories(path: str, advice: list[tuple[Loc, str]], echo: bool = True
     if not advice:
         return []
     _, lines = parse_yaml(mission_text(path), path)
-    said = format_problems([(loc, f"warning: {msg}") for loc, msg in advice], lines, path,
-                           by_line=True)
+    said = [printable(line) for line in format_problems(
+        [(loc, f"warning: {msg}") for loc, msg in advice], lines, path, by_line=True)]
     for line in said if echo else ():
         print(line, file=sys.stderr)
-    return list(said)
+    return said
 
 
 def add_parsers(sub: Any) -> None:
@@ -196,11 +196,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
             print(dump_mission(mission), end="")
         else:
             names = ", ".join(f"{e.family}.{e.variant}" for e in mission.entries())
-            print(f"{path}: ok ({mission.name}: {names})")
+            print(printable(f"{path}: ok ({mission.name}: {names})"))
         note = corner_fit_note(mission)
         if note is not None:
             line = parse_yaml(mission_text(path), path)[1].get(("op_area", "corners"), 1)
-            print(f"{path}:{line}: op_area.corners: note: {note}", file=sys.stderr)
+            print(printable(f"{path}:{line}: op_area.corners: note: {note}"), file=sys.stderr)
     if problems:
         raise MissionError(problems)
     return 0
@@ -227,14 +227,14 @@ def _check_study_sweeps(mission: MissionBase, path: str) -> None:
     lines = parse_yaml(mission_text(path), path)[1]
     note = configs_note(math.prod(len(s.values) for s in sweeps))
     if note:
-        print(f"{path}: note: {note}", file=sys.stderr)
+        print(printable(f"{path}: note: {note}"), file=sys.stderr)
     try:
         configs = configurations(mission, sweeps, path, lines)
     except ValueError as exc:
         where = lines.get(("study", "sweeps"), lines.get(("study",), 1))
         raise MissionError([f"{path}:{where}: study.sweeps: {exc}"]) from None
     for note in study_notes(mission, sweeps):
-        print(f"{path}: note: {note}", file=sys.stderr)
+        print(printable(f"{path}: note: {note}"), file=sys.stderr)
     warn_swept(mission, configs, path, own=False)
 
 

@@ -384,6 +384,15 @@ def test_a_file_name_with_control_characters_stays_on_one_line(  # type: ignore[
     assert main(["validate", str(mission)]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert line.startswith(f"{tmp_path}/nl\\nname\\x1b[31m.yaml:") and "\x1b" not in line
+    # its warnings and its "ok" line alike (a diff review: only errors were escaped)
+    mission.write_text(BASE.replace("time_limit_s: 1800", "time_limit_s: 1800\n"
+                                    "evaluation: {success_radius_m: 80}"), encoding="utf-8")
+    assert main(["validate", str(mission)]) == 0
+    out = capsys.readouterr()
+    (warning,) = out.err.strip().splitlines()
+    (ok,) = out.out.strip().splitlines()
+    assert "warning: 80 m" in warning and "\x1b" not in warning + ok
+    assert ok.startswith(f"{tmp_path}/nl\\nname\\x1b[31m.yaml: ok"), ok
 
 
 def test_a_problem_echoing_a_huge_value_is_cut(  # type: ignore[no-untyped-def]
