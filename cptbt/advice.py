@@ -212,7 +212,7 @@ def mission_a_advice(mission: MissionBase) -> list[Problem]:
         far = area.distance_outside(at.x, at.y)
         if far > FAR_WAYPOINT_M:
             out.append((("mission_a", "waypoints", i),
-                        f"{far / 1000:.1f} km outside the OpArea: a slip (a sign, lat/lon "
+                        f"{metres_text(far / 1000)} km outside the OpArea: a slip (a sign, lat/lon "
                         "swapped)? The vehicle would spend its mission getting there"))
     if a.amp_enable_waypoint == last and not a.loop:
         out.append((("mission_a", "amp_enable_waypoint"), f"{last} is the last waypoint: "
