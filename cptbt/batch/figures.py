@@ -21,7 +21,12 @@ from cptbt.batch.compass import (
     turn_north_up,
 )
 from cptbt.batch.engine import VehicleRun
-from cptbt.batch.map_figure import map_panel, source_markers
+from cptbt.batch.map_figure import (
+    VERIFYING_COLOUR,
+    VERIFYING_LABEL,
+    map_panel,
+    source_markers,
+)
 from cptbt.frames import OpArea
 from cptbt.mission import MissionBase
 from cptbt.types import Point, SourceBelief
@@ -222,6 +227,10 @@ def trajectory_figure(
                                 label=f"home radius {reach:g} m (by nav. estimate)"))
     declared = list(run.declared_all) or ([run.declared] if run.declared is not None else [])
     source_markers(ax, truth, declared)
+    verifying = (run.declaration_report or {}).get("verifying_at")
+    if verifying:  # where a fly-by cut short was looking, beside its loop (a diff review)
+        ax.plot(*verifying, "D", mfc="none", mec=VERIFYING_COLOUR, mew=2.0, ms=12, ls="none",
+                zorder=10, label=VERIFYING_LABEL)
     marks = [home, *truth, *declared, *([st] if st is not None else [])]
     # every marker whole, with room around it: one at the plot's edge (a start outside the
     # OpArea, at the plume grid's corner) had been half cut off (a review)
@@ -278,10 +287,11 @@ def trajectory_figure(
     # the page's width allows ~3.5 in for the legend: a longer entry (a plug-in's long name)
     # shrank the panel, or pushed its y label off the page, so long entries wrap instead
     handles, labels = [], []
-    for a in fig.axes:  # both panels' entries, as fig.legend() collects them
-        h, t = a.get_legend_handles_labels()
-        handles += h
-        labels += t
+    for a in fig.axes:  # both panels' entries, as fig.legend() collects them, each once
+        for h, t in zip(*a.get_legend_handles_labels(), strict=True):
+            if t not in labels:
+                handles.append(h)
+                labels.append(t)
     fig.legend(handles, [textwrap.fill(t, LEGEND_CHARS) for t in labels],
                loc="outside right upper", fontsize=8, frameon=False)
     # one layout pass at the saving resolution first: the constrained layout, settled in a

@@ -11,6 +11,10 @@ import numpy as np
 from cptbt.frames import OpArea
 from cptbt.types import Point, SourceBelief
 
+VERIFYING_COLOUR = "#ff00ff"
+VERIFYING_LABEL = "candidate a fly-by was verifying"
+"""The marker of the candidate a fly-by cut short was verifying, on both panels."""
+
 
 def source_markers(ax: Any, truth: Sequence[Point], declared: Sequence[Point],
              label: bool = True) -> None:
@@ -44,6 +48,7 @@ def map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Point
                              norm=LogNorm(vmin=top * 1e-4, vmax=top), rasterized=True)
         bar = plt.colorbar(mesh, ax=ax, location="bottom", shrink=0.5, aspect=40, pad=0.02)
         when = ("the search gave up" if report.get("search_given_up") else
+                "the end of the run, verifying a candidate" if report.get("verifying_at") else
                 "the end of the run, still searching" if report.get("map_at") == "end"
                 else "last declaration" if len(declared) > 1 else "declaration")
         bar.set_label(f"source-likelihood posterior per cell at t = {belief.t:.0f} s ({when}), "
@@ -68,7 +73,7 @@ def map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Point
                 zorder=10, label="replaced declaration (taken for the same source)")
     for key, colour, what in (("held_at", "#ff7f0e", "held candidate (unconfirmed: in a "
                                "declared source's plume)"),  # summary: held_candidate
-                              ("verifying_at", "#ff00ff", "candidate a fly-by was verifying")):
+                              ("verifying_at", VERIFYING_COLOUR, VERIFYING_LABEL)):
         if report.get(key):  # a probable source the rule had not confirmed
             ax.plot(*report[key], "D", mfc="none", mec=colour, mew=2.0, ms=12, ls="none",
                     zorder=10, label=what)

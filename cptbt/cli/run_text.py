@@ -135,6 +135,10 @@ def why_ended(s: dict[str, Any]) -> str | None:
     """Why a run ended without a declaration or an arrival (None when it did not)."""
     if s["outcome"] == "timeout":  # what the limit came before
         held = s.get("held_in_known_plume")
+        # with one source declared or none (a diff review: the second's was not said)
+        verifying = (f" (a fly-by was verifying a candidate at "
+                     f"{place(s['verifying_candidate'])})" if s.get("verifying_candidate")
+                     else "")
         return "the AMP's time limit came " + (
             "before the vehicle reached the source" if s["criterion"] == "arrival" else
             "while it searched for more sources" + (
@@ -142,8 +146,6 @@ def why_ended(s: dict[str, Any]) -> str | None:
                 "source's plume, where "
                 "the up-flow check cannot tell the two: known_plume_max_prob"
                 + (f"; the latest, unconfirmed, at {place(s['held_candidate'])}"
-                   if s.get("held_candidate") else "") + ")" if held else "")
-            if any(s["declared_sources"]) else "with no declaration" + (
-                f" (a fly-by was verifying a candidate at {place(s['verifying_candidate'])})"
-                if s.get("verifying_candidate") else ""))
+                   if s.get("held_candidate") else "") + ")" if held else "") + verifying
+            if any(s["declared_sources"]) else "with no declaration" + verifying)
     return WHY_ENDED.get(s["outcome"])  # a StrEnum: its members are their strings

@@ -138,6 +138,10 @@ def test_a_run_out_of_time_mid_fly_by_says_where_it_was_verifying() -> None:
                             "verifying a candidate at x -70.2 m, y 11.6 m)")
     assert why_ended({**s, "verifying_candidate": None}) == (
         "the AMP's time limit came with no declaration")
+    # one of two sources declared, the second's fly-by cut short
+    one = {**s, "declared_sources": [{"x": 3.0, "y": 4.0}], "held_in_known_plume": 0}
+    assert why_ended(one) == ("the AMP's time limit came while it searched for more sources "
+                              "(a fly-by was verifying a candidate at x -70.2 m, y 11.6 m)")
 
 
 def test_a_d1_over_d0_below_one_is_explained() -> None:
