@@ -98,12 +98,20 @@ def leaf_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem
 def tour_flow_advice(mission: MissionBase, params: EnvironmentParams) -> list[Problem]:
     """A cloverleaf or three-point tour that fits the OpArea in some orientation, but not in
     the one the simulated mean flow gives it: points are moved inside the walls wherever it is
-    centred (a review's 40-m channel with the flow along it and ``radius_m: 20`` was warned of
-    by nothing: the behaviour's own advice checks every orientation, not knowing the flow)."""
+    centred (a review's 40-m channel with the flow along it and ``radius_m: 12`` was warned of
+    by nothing: the behaviour's own advice checks every orientation, not knowing the flow).
+    The tour is laid out along the flow estimate, which the meander turns a little either way:
+    the warning judges the mean. No flow, no orientation: nothing is said."""
     from cptbt.behaviours.reacquire import pattern_advice, tour_fits, tour_size
 
+    if params.flow.mean_speed_mps <= 0.0:
+        return []
     area = mission.op_area_geometry()
     toward = params.flow.mean_dir_deg
+    # in the file's own terms: a compass bearing unless the mission is in the planning frame
+    where = (f"toward {plain(round(toward % 360.0, 1))}° from the OpArea's x axis"
+             if mission.frame == "planning" else
+             f"toward compass {(area.frame.x_bearing_deg + toward) % 360.0:.1f}°")
     out: list[Problem] = []
     for i, e in enumerate(mission.entries()):
         if e.contract.advise is not pattern_advice:  # a triangle tour (cloverleaf, three-point)
@@ -112,12 +120,11 @@ def tour_flow_advice(mission: MissionBase, params: EnvironmentParams) -> list[Pr
         fits_some = any(tour_fits(e.params, area, deg) for deg in range(120))
         if fits_some and not tour_fits(e.params, area, toward):
             out.append((("behaviours", i, e.family, key),
-                        f"{plain(size)} m: laid out for the simulated mean flow (toward "
-                        f"{plain(round(toward % 360.0, 1))}° from the OpArea's x axis), the "
+                        f"{plain(size)} m: laid out for the simulated mean flow ({where}), the "
                         f"tour's points do not fit inside the OpArea less wall_inset_m each side "
                         f"({max(room_x, 0):.0f} × {max(room_y, 0):.0f} m): wherever it is "
                         "centred, points are moved inside the walls, so the tour flown is not "
-                        "the one drawn"))
+                        "the one drawn (the meander turns it a little either way)"))
     return out
 
 

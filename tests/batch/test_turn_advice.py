@@ -275,3 +275,18 @@ def test_a_tour_that_fits_only_turned_from_the_flow_is_told_of(radius: int, towa
     if warned:
         assert told[0][0] == ("behaviours", 3, "reacquire_plume", "radius_m")
         assert "(180 × 20 m)" in told[0][1]
+    # no flow, no orientation: nothing to say (a diff review)
+    still = loads_mission(text.replace("flow_speed_mps: 0.1", "flow_speed_mps: 0.0"), "m.yaml",
+                          default_registry(), Environment)
+    assert not [m for _, m in advisories(still) if "simulated mean flow" in m]
+
+
+def test_the_tours_flow_is_told_as_the_file_gives_it() -> None:
+    """A diff review: MSN007 (a compass mission) was told "toward 358.6° from the OpArea's x
+    axis" where its file says compass 135°."""
+    text = (ROOT / "missions/tro2006_msn007.yaml").read_text(encoding="utf-8").replace(
+        "reacquire_plume: {variant: cloverleaf, d_leaf_m: 15, repeats: 3}",
+        "reacquire_plume: {variant: three_point, radius_m: 55}")
+    mission = loads_mission(text, "m.yaml", default_registry(), Environment)
+    (told,) = [m for _, m in advisories(mission) if "simulated mean flow" in m]
+    assert "laid out for the simulated mean flow (toward compass 135.0°)" in told, told
