@@ -582,6 +582,10 @@ def test_paired_comparisons_count_discordant_runs_within_a_world() -> None:
                        f"{np.mean(s):.1f} ± {s_se:.1f} ({s_lo:.1f} to {s_hi:.1f}, 5 df) |")
     assert mcnemar(0, 0) == 1.0 and mcnemar(0, 6) == pytest.approx(2 / 64)
     assert paired_table({"a": groups["a"]}) == []
+    # a failed run with no time at all (no limit recorded, no end): left out, and said
+    groups["b"][0] |= {"run_time_limit_s": None, "sim_time_s": None}
+    (row,) = [line for line in paired_table(groups) if line.startswith("| b ")]
+    assert row.endswith(" over 5 pairs |"), row
 
 
 def test_tables_say_what_was_flown(tmp_path: Path) -> None:
