@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from cptbt.batch.comparison import mcnemar
-from cptbt.batch.intervals import clustered_mcnemar, wilson
+from cptbt.batch.intervals import clustered_mcnemar, rate_interval
 from cptbt.batch.report import by_configuration, protocol
 from cptbt.batch.store import load_results
 from cptbt.cli import main as cptbt
@@ -186,8 +186,11 @@ def main() -> None:
         s3 = sum(bool(r["success"]) for r in ab["Strategy III"])
         sai = sum(bool(r["success"]) for r in ab["space-aware infotaxis"])
         n = len(ab["Strategy III"])
-        lo3, hi3 = wilson(s3, n)
-        lo, hi = wilson(sai, n)
+        # over the plumes, as the table's (its Wilson intervals had taken the runs as
+        # independent: 93.0-96.8% beside the table's 86.2-98.4%)
+        runs3, runs = ab["Strategy III"], ab["space-aware infotaxis"]
+        lo3, hi3 = rate_interval(runs3, [bool(r["success"]) for r in runs3])
+        lo, hi = rate_interval(runs, [bool(r["success"]) for r in runs])
         lines += ["", f"Target (SAI success ≥ Strategy III's): SAI {sai / n:.1%} "
                   f"({lo:.1%}–{hi:.1%}) against {s3 / n:.1%} ({lo3:.1%}–{hi3:.1%}): "
                   f"{'met' if sai >= s3 else 'NOT met'}.", "",
