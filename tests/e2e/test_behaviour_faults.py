@@ -157,7 +157,8 @@ def test_a_value_that_is_no_command_is_named_at_its_tick(faulty: None, tmp_path:
                                                          ) -> None:
     with pytest.raises(AssertionError, match=r"tick \d+ .*decide\(\) returned tuple"):
         check_behaviour(Tuple)  # it had crashed inside check_behaviour, with no tick named
-    assert cli.main(["run", mission(tmp_path, "test_tuple"), "--no-figure"]) == 1
+    assert cli.main(["run", mission(tmp_path, "test_tuple"), "--no-figure",
+                     "--out", str(tmp_path / "out")]) == 1  # not into the checkout's runs/
     err = capsys.readouterr().err
     assert "behaviour find_plume.test_tuple raised TypeError: decide() returned tuple" in err
 
