@@ -399,6 +399,7 @@ def main() -> int:
     text = "\n".join(lines)
     (report / "fig9.md").write_text(text, encoding="utf-8")
     print(text)
+    print(f"\nwrote {report / 'fig9.md'} and {report / 'fig9.png'}")  # where (a new user)
     return 0
 
 

@@ -541,6 +541,7 @@ def main() -> int:
     text = "\n".join(head + caveat + verdicts(grids, summary, judged) + body)
     (report_dir / "report.md").write_text(text + "\n", encoding="utf-8")
     print(text)
+    print(f"\nwrote {report_dir / 'report.md'} and its figures there")  # where (a new user)
     return 0
 
 
