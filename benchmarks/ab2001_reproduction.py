@@ -173,9 +173,12 @@ def grid_section(grids: dict[str, list[Row]], fig_dir: Path, judged: bool = True
         # t on the plumes less one (tables.md's rate intervals are Wilson's at the effective
         # runs, with the same t: close to this, not equal)
         half = 100 * s_se * t975(len(set(reps)) - 1)
+        # over fewer than 3 plumes the SE is no measure (two plumes alike gave "± 0.0 (49.0-49.0
+        # %)", a new user's quick run): no interval is drawn from it
+        interval = (f"({max(0.0, 100 * s - half):.1f}–{min(100.0, 100 * s + half):.1f} %)"
+                    if len(set(reps)) >= 3 else "(too few plumes for an interval)")
         lines.append(f"| {CONFIGS[key].label} | {len(rows)} | {100 * s:.1f} % ± {100 * s_se:.1f} "
-                     f"({max(0.0, 100 * s - half):.1f}–{min(100.0, 100 * s + half):.1f} %) "
-                     f"| {t:.0f} ± {t_se:.0f} s | {ab} |")
+                     f"{interval} | {t:.0f} ± {t_se:.0f} s | {ab} |")
     for key, rows in grids.items():
         if not key.startswith("III"):
             continue
@@ -218,7 +221,7 @@ def grid_paired(grids: dict[str, list[Row]], base: str = "III_last") -> list[str
     its SE over plume realisations (a review: "III beats I" had rested on overlapping SEs).
     McNemar's test is clustered by plume (a grid's 100 starts share one; Durkalski et al.
     2003): the exact test over runs treated them as independent (a paper reviewer)."""
-    from cptbt.batch.intervals import clustered_mcnemar
+    from cptbt.batch.intervals import clustered_mcnemar, sign_flip_floor
 
     if base not in grids or len(grids) < 2:
         return []
@@ -239,8 +242,13 @@ def grid_paired(grids: dict[str, list[Row]], base: str = "III_last") -> list[str
         d, d_se = clustered_mean_se([time_or_limit(a) - time_or_limit(b) for a, b in pairs],
                                     [int(a["replicate"]) for a, _ in pairs])
         p = clustered_mcnemar(pairs)
+        floor = sign_flip_floor(pairs) if p is not None else None
+        # at its floor, said (a new user read 2 against 99 at p = 0.5, over 2 plumes, as a bug)
+        least = (f" (the least {round(math.log2(2 / floor))} plumes can give)"
+                 if floor is not None and floor < 1.0 and p is not None
+                 and p <= floor * (1 + 1e-9) else "")
         lines.append(f"| {CONFIGS[key].label} | {len(pairs)} | {only_it} | {only_base} "
-                     f"| {'—' if p is None else f'{p:.2g}'} | {d:+.1f} ± {d_se:.1f} s |")
+                     f"| {'—' if p is None else f'{p:.2g}'}{least} | {d:+.1f} ± {d_se:.1f} s |")
     return lines
 
 
