@@ -20,6 +20,12 @@ def metres_text(v: float) -> str:
     return f"{v:.1f}" if v < 1e6 else f"{v:.3g}"
 
 
+def share_text(v: float) -> str:
+    """A share for a message: 12%, and "<1%" for one under half a per cent, not "0%" (a
+    review saw a behaviour that drove read as 0%)."""
+    return "<1%" if 0 < v < 0.005 else f"{v:.0%}"
+
+
 def give_back_trigger(
     done: bool, elapsed_s: float, time_limit_s: float, outside_m: float
 ) -> tuple[str, str] | None:

@@ -21,6 +21,7 @@ from cptbt.loader import load_mission, loads_mission
 from cptbt.logs import LogData, feed, num, read_log, unnum
 from cptbt.mission import MissionBase
 from cptbt.planner import Planner
+from cptbt.policy import share_text
 from cptbt.types import Point
 
 
@@ -191,7 +192,7 @@ def story(log: LogData) -> list[str]:
     if cycles_in:  # the leaves behind the family-level story (track-in and track-out, ...)
         total = sum(cycles_in.values())
         lines.append("cycles in each behaviour: " + ", ".join(
-            f"{name} {n / total:.0%}" for name, n in sorted(cycles_in.items())))
+            f"{name} {share_text(n / total)}" for name, n in sorted(cycles_in.items())))
     return lines
 
 

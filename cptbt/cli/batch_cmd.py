@@ -345,7 +345,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         partial = stats["runs_partial"]
         also = (f", and {partial} run{'s' * (partial != 1)} of groups under way when it "
                 "stopped" if partial else "")
-        print(f"{runs} mission{'s' * (runs != 1)} ({resumed} groups resumed from disk{also}): "
+        groups = f"{resumed} group{'s' * (resumed != 1)}"
+        print(f"{runs} mission{'s' * (runs != 1)} ({groups} resumed from disk{also}): "
               f"{outcome}; {pace}")
         print(f"  wrote {table}")
         if beyond := store.left_out(tasks):

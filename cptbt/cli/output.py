@@ -8,6 +8,7 @@ from typing import Any
 
 from cptbt.batch.comparison import left_oparea
 from cptbt.mission import MissionBase
+from cptbt.policy import share_text
 from cptbt.types import Point
 
 
@@ -43,10 +44,7 @@ def time_share(shares: dict[str, Any]) -> str:
     "<1%", not "0%", and ``none`` (no behaviour had output: the first cycles, before a flow
     estimate) reads "no output" and is left out only when it is nothing (a review saw it
     shown at 1% and dropped at 0.4%, while other entries showed 0%)."""
-    def pct(v: float) -> str:
-        return "<1%" if 0 < v < 0.005 else f"{v:.0%}"
-
-    return ", ".join(f"{'no output' if k == 'none' else k} {pct(v)}"
+    return ", ".join(f"{'no output' if k == 'none' else k} {share_text(v)}"
                      for k, v in shares.items() if k != "none" or v > 0)
 
 

@@ -108,7 +108,7 @@ def test_damaged_part_is_rerun_and_said_so(
     assert res.returncode == 0, res.stderr
     (line,) = stderr_lines(res)
     assert line.startswith(f"cptbt: re-running part {PART}: {reason}"), line
-    assert "(1 groups resumed from disk)" in res.stdout
+    assert "(1 group resumed from disk)" in res.stdout
     assert table(study) == reference
 
 
