@@ -354,3 +354,20 @@ def command_fault_table(groups: dict[str, Rows]) -> list[str]:
     for label, (n, flown, nonfinite, unflyable) in counts.items():
         lines.append(f"| {label} | {n} of {flown} | {nonfinite} | {unflyable} |")
     return lines
+
+
+def at_first(row: dict[str, Any]) -> bool:
+    """The run's first detection was within 13 m of its declared point (t2 = t1): T_T, D1 and
+    D1/D0 are 0 by SPEC §11's definition, not by an ideal path (a review)."""
+    return row.get("T_T") == 0 and row.get("D1_over_D0") is not None
+
+
+def zeros_note(declared: Rows) -> str:
+    """How many of the declared runs' D1/D0 are 0 because t2 = t1, and their mean without
+    them (``tables.md``'s TRO-form mean row)."""
+    zeros = sum(at_first(r) for r in declared)
+    if not zeros:
+        return ""
+    rest = [float(r["D1_over_D0"]) for r in declared if not at_first(r)
+            and r.get("D1_over_D0") is not None and math.isfinite(float(r["D1_over_D0"]))]
+    return f" ({zeros} at 0, t2 = t1; {fmt(sum(rest) / len(rest) if rest else None, 2)} without)"

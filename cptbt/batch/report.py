@@ -16,6 +16,7 @@ import numpy as np
 
 from cptbt.batch.behaviour_times import behaviour_time_table
 from cptbt.batch.comparison import (
+    at_first,
     command_fault_table,
     errors_note,
     every_source_declared,
@@ -27,6 +28,7 @@ from cptbt.batch.comparison import (
     study_json,
     td_share,
     time_to_source,
+    zeros_note,
 )
 from cptbt.batch.figures import pyplot
 from cptbt.batch.intervals import mean_sem, plumes_note, rate_interval
@@ -441,7 +443,7 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
                 f"| {fmt(r.get('T_D'))} | {fmt(share * 100 if share is not None else None)}% "
                 f"| {fmt(r.get('D0'))} | {fmt(r.get('D1'))} | {fmt(r.get('D2'))} "
                 f"| {fmt(r.get('D3'))} | {fmt(r.get('D1_over_D0'), 2)}"
-                f"{' (t2 = t1)' if _at_first(r) else ''} |")
+                f"{' (t2 = t1)' if at_first(r) else ''} |")
         keys = ("error_m", "T_F", "T_T", "T_D", "D0", "D1", "D2", "D3", "D1_over_D0")
         means = {k: _mean([r.get(k) for r in declared]) for k in keys}
         # several sources: the runs that declared one a source (a diff review: 4.8 m here too)
@@ -452,21 +454,6 @@ def _tables(groups: dict[str, Rows], path: Path, frame: PlanningFrame | None = N
             f"| {fmt(means['T_F'])} | {fmt(means['T_T'])} | {fmt(means['T_D'])} "
             f"| {fmt(share * 100)}% | {fmt(means['D0'])} | {fmt(means['D1'])} "
             f"| {fmt(means['D2'])} | {fmt(means['D3'])} | {fmt(means['D1_over_D0'], 2)}"
-            f"{_zeros_note(declared)} |")
+            f"{zeros_note(declared)} |")
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
-
-
-def _at_first(row: dict[str, Any]) -> bool:
-    """The run's first detection was within 13 m of its declared point (t2 = t1): T_T, D1 and
-    D1/D0 are 0 by SPEC §11's definition, not by an ideal path (a review)."""
-    return row.get("T_T") == 0 and row.get("D1_over_D0") is not None
-
-
-def _zeros_note(declared: Rows) -> str:
-    """How many of the mean's D1/D0 are 0 because t2 = t1, and the mean without them."""
-    zeros = sum(_at_first(r) for r in declared)
-    if not zeros:
-        return ""
-    rest = _mean([r.get("D1_over_D0") for r in declared if not _at_first(r)])
-    return f" ({zeros} at 0, t2 = t1; {fmt(rest, 2)} without)"
