@@ -122,7 +122,8 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
             apply_setting(data, path, value)
         for sweep, value in zip(sweeps, combo, strict=True):
             coords[sweep.name] = value_label(value, variants.get(sweep.name))
-        swept = ", ".join(f"{k}={v}" for k, v in coords.items())
+        # as typed in YAML: null, true (a review read Python's None)
+        swept = ", ".join(f"{k}={value_yaml(v)}" for k, v in coords.items())
         try:  # the data as it is: what YAML text of it would parse back to
             validated = cast(MissionBase, validate_data(
                 data, {}, f"{source} [sweep {swept}]" if swept else source, model))
@@ -208,7 +209,7 @@ def _swept_error(located: list[tuple[Loc, str]], source: str, lines: dict[Loc, i
     for loc, msg in located:
         path = dotted(loc)
         mine = [s for s in sweeps if any(_sets(p, path) for p in s.paths)]
-        named = (", ".join(f"{s.name}={coords[s.name]}" for s in mine)
+        named = (", ".join(f"{s.name}={value_yaml(coords[s.name])}" for s in mine)
                  if mine and coords is not None and all(s.name in coords for s in mine)
                  else swept)
         if len(named) > 200:  # an attacker's 20 000-value list: one 129 kB line before
