@@ -88,7 +88,8 @@ def test_until_sem_adds_realisations_and_resumes(tmp_path: Path,
     parts = sorted(p.name for p in (tmp_path / "parts").glob("*.parquet"))
     (tmp_path / "parts" / parts[-1]).unlink()  # as if interrupted in the last round
     assert main(args) == 0
-    assert f"({len(parts) - 1} groups resumed from disk)" in capsys.readouterr().out
+    n = len(parts) - 1
+    assert f"({n} group{'s' * (n != 1)} resumed from disk)" in capsys.readouterr().out
     again = load_results(tmp_path)
     key = lambda r: (r["replicate"], r["start"])  # noqa: E731
     strip = [{k: v for k, v in r.items() if k != "wall_time_s"} for r in sorted(first, key=key)]

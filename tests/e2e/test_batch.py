@@ -82,7 +82,8 @@ def test_killed_study_resumes_without_losing_or_repeating_runs(
     assert 1 <= len(finished) < 3, "kill the study part-way"
     res = batch(tmp_path, "--workers", "2", "--no-plots")
     assert res.returncode == 0, res.stderr
-    assert f"{len(finished)} groups resumed" in res.stdout
+    n = len(finished)
+    assert f"{n} group{'s' * (n != 1)} resumed" in res.stdout
     assert table(tmp_path) == reference
 
 
