@@ -11,7 +11,6 @@ where a family never drove); ``tables.md`` had nothing.
 from __future__ import annotations
 
 import math
-import re
 from typing import Any
 
 from cptbt.registry import FAMILIES
@@ -48,16 +47,29 @@ def _seconds(row: dict[str, Any], family: str) -> float:
     return float(v) if isinstance(v, int | float) and math.isfinite(v) else 0.0
 
 
-def rule_swept(labels: list[str], family: str) -> bool:
-    """Whether the labels sweep ``family``'s rule: the family whole or its variant
-    (``declare_source=likelihood_map``, ``declare_source.variant=recent_box``)."""
-    return any(re.search(rf"(^|[ ,+]){family}(\.variant)?[=+]", label) for label in labels)
+def swept_paths(groups: dict[str, Rows], families: list[str]) -> list[str]:
+    """The sweeps the configurations differ by: their rows' sweep columns (a sweep's path, the
+    configuration's value; ``find_plume``, ``declare_source.flyby``,
+    ``maintain_plume.variant+reacquire_plume.variant``) whose value differs between
+    configurations. Read from the columns, not the labels: a label keeps a setting's last key
+    alone (``flyby=False``), and a diff review found such a sweep never noted."""
+    def behaviour_path(key: str) -> bool:
+        return any(part.split(".")[0] in families for part in key.split("+"))
+
+    keys = {k for rows in groups.values() for r in rows for k in r if behaviour_path(k)}
+    return sorted(k for k in keys
+                  if len({repr(rows[0].get(k)) for rows in groups.values() if rows}) > 1)
 
 
-def swept_families(labels: list[str], families: list[str]) -> list[str]:
-    """The families a configuration's label names (``find_plume=lawnmower``,
-    ``reacquire_plume.give_up_s=4``, ``maintain_plume.variant+reacquire_plume.variant=...``)."""
-    named = {m for label in labels for m in re.findall(r"([a-z_]+)[.=]", label)}
+def rule_swept(paths: list[str], family: str) -> bool:
+    """Whether the sweeps change ``family``'s rule: the family whole or its variant
+    (``declare_source``, ``declare_source.variant``, or either in a joint sweep)."""
+    return any(part in (family, f"{family}.variant") for path in paths for part in path.split("+"))
+
+
+def swept_families(paths: list[str], families: list[str]) -> list[str]:
+    """The families the sweeps set something of."""
+    named = {part.split(".")[0] for path in paths for part in path.split("+")}
     return [f for f in families if f in named]
 
 
@@ -76,7 +88,8 @@ def behaviour_time_table(groups: dict[str, Rows]) -> list[str]:
              "| configuration | " + " | ".join(families) + " |",
              "|---|" + "---:|" * len(families)]
     little: dict[str, list[str]] = {}
-    swept = swept_families(list(groups), families)
+    paths = swept_paths(groups, families)
+    swept = swept_families(paths, families)
     for label, rows in groups.items():
         total = sum(_seconds(r, f) for r in rows for f in families) or math.nan
         cells = []
@@ -86,7 +99,7 @@ def behaviour_time_table(groups: dict[str, Rows]) -> list[str]:
             share = spent / total if math.isfinite(total) else math.nan
             cells.append(f"{'—' if math.isnan(share) else f'{share:.1%}'} ({drove}/{len(rows)})")
             seldom = drove < SELDOM * len(rows) or not share >= LITTLE
-            if f in swept and seldom and not (f in DECIDES and rule_swept(list(groups), f)):
+            if f in swept and seldom and not (f in DECIDES and rule_swept(paths, f)):
                 little.setdefault(f, []).append(
                     f"{label}: {drove} of {len(rows)} runs, {spent:.0f} s in all")
         lines.append(f"| {label} | " + " | ".join(cells) + " |")

@@ -841,13 +841,20 @@ def test_a_swept_behaviour_that_drove_little_is_said() -> None:
     its way to the start gave rows identical to the decimal (it drove in 1 run of 8), and
     tables.md said nothing of what each behaviour drove."""
     from cptbt.batch.behaviour_times import behaviour_time_table
+    from cptbt.batch.study import config_label
 
-    def run(find: float | None) -> dict[str, Any]:
-        return {"time_find_plume_s": find, "time_maintain_plume_s": 100.0,
+    def run(find: float | None, **coords: Any) -> dict[str, Any]:
+        return {**coords, "time_find_plume_s": find, "time_maintain_plume_s": 100.0,
                 "time_maintain_plume.track_in_s": 60.0, "time_none_s": 5.0}
 
-    groups = {"find_plume=billiard": [run(30.0)] + [run(None)] * 3,
-              "find_plume=lawnmower": [run(40.0), run(10.0), run(20.0), run(30.0)]}
+    def study(path: str, runs: dict[Any, list[dict[str, Any]]]) -> dict[str, list[Any]]:
+        """Rows as a study writes them: the sweep's column, the label config_label gives."""
+        return {config_label({path: v}, "m"): [{**r, path: v} for r in rows]
+                for v, rows in runs.items()}
+
+    groups = study("find_plume.variant", {"billiard": [run(30.0)] + [run(None)] * 3,
+                                          "lawnmower": [run(40.0), run(10.0), run(20.0),
+                                                        run(30.0)]})
     lines = behaviour_time_table(groups)
     # TRO Fig. 2's priorities order the columns, whatever the rows' order (a review)
     assert "| configuration | maintain_plume | find_plume |" in lines
@@ -858,16 +865,22 @@ def test_a_swept_behaviour_that_drove_little_is_said() -> None:
                     "4 runs, 30 s in all): the rows compare little of find_plume's settings.**")
     assert behaviour_time_table({"one": groups["find_plume=billiard"]}) == []
     assert not any("Safety's share" in line for line in lines)
+    # a setting's label keeps its last key alone (give_up_s=3): still read as find_plume's
+    setting = study("find_plume.give_up_s", {3: [run(30.0)] + [run(None)] * 3,
+                                             5: [run(None)] * 4})
+    assert list(setting) == ["give_up_s=3", "give_up_s=5"]
+    assert [line for line in behaviour_time_table(setting) if line.startswith("**Note")]
     # a declaration rule decides rather than drives: a sweep of it is not "drove little"
     # (a review's: 11 runs only the map succeeded in, none the other way)
-    decided = {f"declare_source={v}": [run(30.0) | {"time_declare_source_s": t}] * 4
-               for v, t in (("upflow_cluster", None), ("likelihood_map", 3.0))}
-    table = behaviour_time_table(decided)
+    rows = {v: [run(30.0) | {"time_declare_source_s": t}] * 4
+            for v, t in (("upflow_cluster", None), ("likelihood_map", 3.0))}
+    table = behaviour_time_table(study("declare_source.variant", rows))
     assert table[5] == "| configuration | declare_source | maintain_plume | find_plume |", table
     assert not [line for line in table if line.startswith("**Note")]
-    # a sweep of one of its settings is noted as any other (a diff review: the fly-by's)
-    flyby = {f"declare_source.flyby={v}": rows for v, rows in zip(
-        ("false", "true"), decided.values(), strict=True)}
+    # a sweep of one of its settings is noted as any other (a diff review: the fly-by's,
+    # labelled flyby=False / flyby=True)
+    flyby = study("declare_source.flyby", dict(zip((False, True), rows.values(), strict=True)))
+    assert list(flyby) == ["flyby=False", "flyby=True"]
     assert [line for line in behaviour_time_table(flyby) if line.startswith("**Note")]
     # a diff review: the two tables' safety shares differed, and neither said why
     groups["find_plume=billiard"][0] |= {"time_safety_s": 12.0, "safety_entering_s": 10.0}
