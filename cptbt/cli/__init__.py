@@ -198,17 +198,20 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _unrecognized(parser: argparse.ArgumentParser, words: list[str], extra: list[str]) -> NoReturn:
-    """Refuse the arguments no parser took, told by the (sub-)command they were given to: an
-    option before the command is cptbt's, one after it the deepest sub-command's (``cptbt log
-    summary``); cptbt's own ``-q``/``-v`` given after the command say where they go."""
-    first = words.index(extra[0]) if extra[0] in words else len(words)
-    owner = parser
-    for word in words[:first]:  # down the sub-commands named before the first stray word
+    """Refuse the arguments no parser took, told by the (sub-)command they were given to: one
+    given only before the command is cptbt's, one after it the deepest sub-command's (``cptbt
+    log summary``); cptbt's own ``-q``/``-v`` given after the command say where they go."""
+    owner, path = parser, []
+    for word in words:  # down the sub-commands the words name, in order
         subs = [a for a in owner._actions if isinstance(a, argparse._SubParsersAction)]
-        if word.startswith("-") or not subs or word not in subs[0].choices:
-            continue
-        owner = cast(argparse.ArgumentParser, subs[0].choices[word])
-    own = [a for a in extra if a in parser._option_string_actions or re.fullmatch(r"-[vq]+", a)]
+        if not word.startswith("-") and subs and word in subs[0].choices:
+            owner = cast(argparse.ArgumentParser, subs[0].choices[word])
+            path.append(words.index(word))
+    # a stray word before the command and nowhere after it is cptbt's (--bogus validate)
+    after = path and any(w == extra[0] for w in words[path[0] + 1:])
+    if not after:
+        owner = parser
+    own = [a for a in extra if re.fullmatch(r"-[vq]+|--(verbose|quiet-log)", a)]
     hint = (f": {own[0]} is cptbt's own option, given before the command (cptbt {own[0]} "
             f"{owner.prog.removeprefix('cptbt ')} ...)" if own and owner is not parser else "")
     owner.error(f"unrecognized arguments: {' '.join(extra)}{hint}")

@@ -124,6 +124,9 @@ def test_bad_arguments_of_other_commands_are_one_usage_line() -> None:
     assert one_line(cptbt("log", "summary", "x.mcap", "--bogus"), 2) == (
         "cptbt log summary: error: unrecognized arguments: --bogus (see cptbt log summary "
         "--help)")
+    # the same word before and after the command is the stray one after it (a second review)
+    assert "-v is cptbt's own option" in one_line(cptbt("-v", "validate", MISSION, "-v"), 2)
+    assert one_line(cptbt("run", MISSION, "run"), 2).startswith("cptbt run: error: ")
 
 
 def test_a_sweep_path_that_names_nothing_is_a_usage_error(tmp_path: Path) -> None:
