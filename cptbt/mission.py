@@ -9,6 +9,7 @@ knows), so ``cptbt schema`` can print a JSON Schema that covers every installed 
 from __future__ import annotations
 
 import re
+import unicodedata
 from functools import cache
 from typing import Annotated, Any, Literal, Union
 
@@ -286,11 +287,18 @@ _WORD = re.compile(r"[\w+.-]+")
 
 
 def printable(text: str) -> str:
-    """``text`` with its control characters escaped (``\\x1b``, ``\\n``): a message is one
-    line, and carries no terminal codes from a file name or a key (an attacker's)."""
+    """``text`` with its control and format characters and line breaks escaped (``\\x1b``,
+    ``\\n``, ``\\u2028``): a message is one line, and carries no terminal codes from a file
+    name or a key (an attacker's). Spaces of every kind stay (a file name with a no-break
+    space is a name, not an attack)."""
     if text.isprintable():
         return text
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return "".join(repr(c)[1:-1] if unicodedata.category(c) in _ESCAPED else c for c in text)
+
+
+_ESCAPED = ("Cc", "Cf", "Cs", "Zl", "Zp")
+"""Unicode categories :func:`printable` escapes: controls, formats, lone surrogates (a name
+not in UTF-8) and line and paragraph separators."""
 
 
 class BehaviourEntry(BaseModel):

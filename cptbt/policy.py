@@ -21,9 +21,13 @@ def metres_text(v: float) -> str:
 
 
 def share_text(v: float) -> str:
-    """A share for a message: 12%, and "<1%" for one under half a per cent, not "0%" (a
-    review saw a behaviour that drove read as 0%)."""
-    return "<1%" if 0 < v < 0.005 else f"{v:.0%}"
+    """A share for a message: 12%, "<1%" for one that would round to 0% (a review saw a
+    behaviour that drove read as 0%; 0.005 rounds to even, 0%), and ">99%" for one short of
+    the whole that would round to 100%."""
+    text = f"{v:.0%}"
+    if text == "0%" and v > 0:
+        return "<1%"
+    return ">99%" if text == "100%" and v < 1 else text
 
 
 def give_back_trigger(

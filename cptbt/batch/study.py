@@ -156,7 +156,7 @@ def configurations(mission: MissionBase, sweeps: list[Sweep], source: str,
         text = dump_mission(validated)
         twin = by_text.get(text)
         if twin is not None:  # 10 and 10.0, or a value twice: one configuration flown as two
-            same = ", ".join(f"{k}={v}" for k, v in twin.coords.items())
+            same = ", ".join(f"{k}={value_yaml(v)}" for k, v in twin.coords.items())
             raise ValueError(f"sweep {swept} flies the same mission as {same}: give each "
                              "value once")
         by_text[text] = Config(i, coords, text, validated)

@@ -17,7 +17,7 @@ from cptbt.batch.sweeps import Sweep, study_notes
 from cptbt.cli.argtypes import UsageError
 from cptbt.cli.inspect_cmds import mission_text, study_sweeps, warn_swept
 from cptbt.loader import parse_yaml
-from cptbt.mission import MissionBase
+from cptbt.mission import MissionBase, printable
 from cptbt.study_spec import configs_note, configs_problem
 
 
@@ -42,9 +42,9 @@ def study_configs(args: argparse.Namespace,
         unset = [p for s in dropped for p in s.paths
                  if not any(p in g.paths for g in args.sweep)]
         falls = "".join(f"; {_fallback(mission, p)}" for p in dict.fromkeys(unset))
-        print(f"cptbt: note: --sweep replaces the sweeps of {args.mission}'s study section; not "
-              f"flown: {'; '.join(s.text for s in dropped)} (give them as --sweep too "
-              f"to keep them){falls}", file=sys.stderr)
+        print(printable(f"cptbt: note: --sweep replaces the sweeps of {args.mission}'s study "
+                        f"section; not flown: {'; '.join(s.text for s in dropped)} (give them "
+                        f"as --sweep too to keep them){falls}"), file=sys.stderr)
     count = math.prod(len(s.values) for s in sweeps)
     too_many = configs_problem(count)
     if too_many:

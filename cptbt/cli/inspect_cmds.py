@@ -115,6 +115,7 @@ def warn_swept(mission: MissionBase, configs: list[Config], source: str,
     stderr (``echo``) and returned: a study's ``tables.md`` heads with them (a review met a
     warning about the comparison on the terminal only)."""
     from cptbt.advice import NO_START
+    from cptbt.batch.sweeps import value_yaml
 
     def flown(advice: list[tuple[Loc, str]]) -> list[tuple[Loc, str]]:
         # every run of a study has a start of its own: no word of the mission's (a review)
@@ -127,7 +128,7 @@ def warn_swept(mission: MissionBase, configs: list[Config], source: str,
     extra: list[str] = []
     for c in configs:
         m = c.mission
-        sweep = ", ".join(f"{k}={v}" for k, v in c.coords.items())
+        sweep = ", ".join(f"{k}={value_yaml(v)}" for k, v in c.coords.items())  # as typed
         for loc, msg in flown(advisories_of(m)):
             if (loc, msg) in shown:
                 kept.add((loc, msg))

@@ -393,6 +393,11 @@ def test_a_file_name_with_control_characters_stays_on_one_line(  # type: ignore[
     (ok,) = out.out.strip().splitlines()
     assert "warning: 80 m" in warning and "\x1b" not in warning + ok
     assert ok.startswith(f"{tmp_path}/nl\\nname\\x1b[31m.yaml: ok"), ok
+    # a space of another kind is part of a name, not an attack (a second review)
+    from cptbt.mission import printable
+
+    assert printable("my\u00a0survey.yaml") == "my\u00a0survey.yaml"
+    assert printable("a\u2028b\tc") == "a\\u2028b\\tc"
 
 
 def test_a_problem_echoing_a_huge_value_is_cut(  # type: ignore[no-untyped-def]
