@@ -175,10 +175,12 @@ def grid_section(grids: dict[str, list[Row]], fig_dir: Path, judged: bool = True
         half = 100 * s_se * t975(len(set(reps)) - 1)
         # over fewer than 3 plumes the SE is no measure (two plumes alike gave "± 0.0 (49.0-49.0
         # %)", a new user's quick run): no interval is drawn from it
-        interval = (f"({max(0.0, 100 * s - half):.1f}–{min(100.0, 100 * s + half):.1f} %)"
-                    if len(set(reps)) >= 3 else "(too few plumes for an interval)")
-        lines.append(f"| {CONFIGS[key].label} | {len(rows)} | {100 * s:.1f} % ± {100 * s_se:.1f} "
-                     f"{interval} | {t:.0f} ± {t_se:.0f} s | {ab} |")
+        few = len(set(reps)) < 3
+        rate = (f"{100 * s:.1f} % (too few plumes for an SE or an interval)" if few else
+                f"{100 * s:.1f} % ± {100 * s_se:.1f} ({max(0.0, 100 * s - half):.1f}–"
+                f"{min(100.0, 100 * s + half):.1f} %)")
+        lines.append(f"| {CONFIGS[key].label} | {len(rows)} | {rate} "
+                     f"| {t:.0f}{'' if few else f' ± {t_se:.0f}'} s | {ab} |")
     for key, rows in grids.items():
         if not key.startswith("III"):
             continue
@@ -244,9 +246,10 @@ def grid_paired(grids: dict[str, list[Row]], base: str = "III_last") -> list[str
         p = clustered_mcnemar(pairs)
         floor = sign_flip_floor(pairs) if p is not None else None
         # at its floor, said (a new user read 2 against 99 at p = 0.5, over 2 plumes, as a bug)
-        least = (f" (the least {round(math.log2(2 / floor))} plumes can give)"
-                 if floor is not None and floor < 1.0 and p is not None
-                 and p <= floor * (1 + 1e-9) else "")
+        differ = round(math.log2(2 / floor)) if floor is not None else 0
+        least = ("" if floor is None or p is None or p > floor * (1 + 1e-9) else
+                 f" (the least a test over the {differ} plumes that differ can give)"
+                 if differ > 1 else " (one plume differs: a test over plumes can say no more)")
         lines.append(f"| {CONFIGS[key].label} | {len(pairs)} | {only_it} | {only_base} "
                      f"| {'—' if p is None else f'{p:.2g}'}{least} | {d:+.1f} ± {d_se:.1f} s |")
     return lines

@@ -231,7 +231,8 @@ def trajectory_figure(
     if verifying:  # where a fly-by cut short was looking, beside its loop (a diff review)
         ax.plot(*verifying, "D", mfc="none", mec=VERIFYING_COLOUR, mew=2.0, ms=12, ls="none",
                 zorder=10, label=VERIFYING_LABEL)
-    marks = [home, *truth, *declared, *([st] if st is not None else [])]
+    marks = [home, *truth, *declared, *([st] if st is not None else []),
+             *([Point(*verifying)] if verifying else [])]
     # every marker whole, with room around it: one at the plot's edge (a start outside the
     # OpArea, at the plume grid's corner) had been half cut off (a review)
     pad = 0.04 * max(area.xmax - area.xmin, area.ymax - area.ymin)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from decimal import Decimal
 
+from cptbt.frames import OpArea
 from cptbt.mission import MissionBase, Problem
 from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.sim.world import EnvironmentParams
@@ -104,9 +105,9 @@ def tour_flow_advice(mission: MissionBase, params: EnvironmentParams) -> list[Pr
     the warning judges the mean. No flow, no orientation: nothing is said."""
     from cptbt.behaviours.reacquire import pattern_advice, tour_fits, tour_size
 
-    if params.flow.mean_speed_mps <= 0.0:
-        return []
     area = mission.op_area_geometry()
+    if params.flow.mean_speed_mps < WEAK_CURRENT_MPS:  # the meander's estimate lays it out
+        return _tour_any_flow(mission, area)
     toward = params.flow.mean_dir_deg
     # in the file's own terms: a compass bearing unless the mission is in the planning frame
     where = (f"toward {plain(round(toward % 360.0, 1))}° from the OpArea's x axis"
@@ -125,6 +126,28 @@ def tour_flow_advice(mission: MissionBase, params: EnvironmentParams) -> list[Pr
                         f"({max(room_x, 0):.0f} × {max(room_y, 0):.0f} m): wherever it is "
                         "centred, points are moved inside the walls, so the tour flown is not "
                         "the one drawn (the meander turns it a little either way)"))
+    return out
+
+
+def _tour_any_flow(mission: MissionBase, area: OpArea) -> list[Problem]:
+    """With (almost) no mean flow a tour is laid out along whatever the flow estimate reads:
+    one that fits in some orientations and not others is warned of with the share that fits (a
+    diff review: silence here left a tour that fits half the time unsaid)."""
+    from cptbt.behaviours.reacquire import pattern_advice, tour_fits, tour_size
+
+    out: list[Problem] = []
+    for i, e in enumerate(mission.entries()):
+        if e.contract.advise is not pattern_advice:
+            continue
+        key, size, (room_x, room_y) = tour_size(e.params, area)
+        share = sum(tour_fits(e.params, area, deg) for deg in range(360)) / 360
+        if 0 < share < 1:
+            out.append((("behaviours", i, e.family, key),
+                        f"{plain(size)} m: with (almost) no mean current the tour is laid out "
+                        f"along the flow estimate's direction, and fits inside the OpArea less "
+                        f"wall_inset_m each side ({max(room_x, 0):.0f} × {max(room_y, 0):.0f} "
+                        f"m) in {share:.0%} of directions: otherwise points are moved inside "
+                        "the walls, so the tour flown is not the one drawn"))
     return out
 
 

@@ -275,10 +275,13 @@ def test_a_tour_that_fits_only_turned_from_the_flow_is_told_of(radius: int, towa
     if warned:
         assert told[0][0] == ("behaviours", 3, "reacquire_plume", "radius_m")
         assert "(180 × 20 m)" in told[0][1]
-    # no flow, no orientation: nothing to say (a diff review)
+    # no mean flow: laid out along the estimate's direction, whatever it reads; the share of
+    # directions it fits in is said (diff reviews: "toward 0°" with no flow, then silence)
     still = loads_mission(text.replace("flow_speed_mps: 0.1", "flow_speed_mps: 0.0"), "m.yaml",
                           default_registry(), Environment)
     assert not [m for _, m in advisories(still) if "simulated mean flow" in m]
+    shares = [m for _, m in advisories(still) if "no mean current" in m]
+    assert len(shares) == (radius == 12), shares
 
 
 def test_the_tours_flow_is_told_as_the_file_gives_it() -> None:
