@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 from decimal import Decimal
 
-from cptbt.frames import OpArea
 from cptbt.mission import MissionBase, Problem
 from cptbt.policy import RELINQUISH_OUTSIDE_M
 from cptbt.sim.world import EnvironmentParams
@@ -102,13 +101,13 @@ def tour_flow_advice(mission: MissionBase, params: EnvironmentParams) -> list[Pr
     centred (a review's 40-m channel with the flow along it and ``radius_m: 12`` was warned of
     by nothing: the behaviour's own advice checks every orientation, not knowing the flow).
     The tour is laid out along the flow estimate, which the meander turns a little either way:
-    the warning judges the mean. No flow, no orientation: nothing is said."""
+    the warning judges the mean. With (almost) no mean current the estimate reads any
+    direction, and the share of directions the tour fits in is said (a diff review)."""
     from cptbt.behaviours.reacquire import pattern_advice, tour_fits, tour_size
 
     area = mission.op_area_geometry()
-    if params.flow.mean_speed_mps < WEAK_CURRENT_MPS:  # the meander's estimate lays it out
-        return _tour_any_flow(mission, area)
     toward = params.flow.mean_dir_deg
+    weak = params.flow.mean_speed_mps < WEAK_CURRENT_MPS
     # in the file's own terms: a compass bearing unless the mission is in the planning frame
     where = (f"toward {plain(round(toward % 360.0, 1))}° from the OpArea's x axis"
              if mission.frame == "planning" else
@@ -118,36 +117,23 @@ def tour_flow_advice(mission: MissionBase, params: EnvironmentParams) -> list[Pr
         if e.contract.advise is not pattern_advice:  # a triangle tour (cloverleaf, three-point)
             continue
         key, size, (room_x, room_y) = tour_size(e.params, area)
-        fits_some = any(tour_fits(e.params, area, deg) for deg in range(120))
-        if fits_some and not tour_fits(e.params, area, toward):
-            out.append((("behaviours", i, e.family, key),
-                        f"{plain(size)} m: laid out for the simulated mean flow ({where}), the "
-                        f"tour's points do not fit inside the OpArea less wall_inset_m each side "
-                        f"({max(room_x, 0):.0f} × {max(room_y, 0):.0f} m): wherever it is "
-                        "centred, points are moved inside the walls, so the tour flown is not "
-                        "the one drawn (the meander turns it a little either way)"))
-    return out
-
-
-def _tour_any_flow(mission: MissionBase, area: OpArea) -> list[Problem]:
-    """With (almost) no mean flow a tour is laid out along whatever the flow estimate reads:
-    one that fits in some orientations and not others is warned of with the share that fits (a
-    diff review: silence here left a tour that fits half the time unsaid)."""
-    from cptbt.behaviours.reacquire import pattern_advice, tour_fits, tour_size
-
-    out: list[Problem] = []
-    for i, e in enumerate(mission.entries()):
-        if e.contract.advise is not pattern_advice:
-            continue
-        key, size, (room_x, room_y) = tour_size(e.params, area)
         share = sum(tour_fits(e.params, area, deg) for deg in range(360)) / 360
-        if 0 < share < 1:
-            out.append((("behaviours", i, e.family, key),
-                        f"{plain(size)} m: with (almost) no mean current the tour is laid out "
-                        f"along the flow estimate's direction, and fits inside the OpArea less "
-                        f"wall_inset_m each side ({max(room_x, 0):.0f} × {max(room_y, 0):.0f} "
-                        f"m) in {share:.0%} of directions: otherwise points are moved inside "
-                        "the walls, so the tour flown is not the one drawn"))
+        room = (f"inside the OpArea less wall_inset_m each side ({max(room_x, 0):.0f} × "
+                f"{max(room_y, 0):.0f} m)")
+        if not 0 < share < 1:  # fits every way, or none (the behaviour's own advice says so)
+            continue
+        if weak:
+            why = (f"with (almost) no mean current the tour is laid out along the flow "
+                   f"estimate's direction, and fits {room} in {share:.0%} of directions: "
+                   "otherwise points")
+        elif not tour_fits(e.params, area, toward):
+            why = (f"laid out for the simulated mean flow ({where}), the tour's points do not "
+                   f"fit {room}: wherever it is centred, points")
+        else:
+            continue
+        out.append((("behaviours", i, e.family, key), f"{plain(size)} m: {why} are moved "
+                    "inside the walls, so the tour flown is not the one drawn"
+                    + ("" if weak else " (the meander turns it a little either way)")))
     return out
 
 
