@@ -283,7 +283,8 @@ def dotted(path: Loc) -> str:
 
 _WORD = re.compile(r"[\w+.-]+")
 """A key written as it is in messages: letters, digits, ``_``, ``+`` (a joint sweep's), ``.``
-(a sweep's path) and ``-``."""
+(a sweep's path: a single key holding a dot reads as a nested path, as the sweep means it) and
+``-``."""
 
 
 def printable(text: str) -> str:
