@@ -17,7 +17,7 @@ VERIFYING_LABEL = "candidate a fly-by was verifying"
 
 
 def source_markers(ax: Any, truth: Sequence[Point], declared: Sequence[Point],
-             label: bool = True) -> None:
+                   label: bool = True) -> None:
     """True sources (stars) and declared sources (circles) on one panel."""
     ax.plot([q.x for q in truth], [q.y for q in truth], "*", color="gold", mec="black", ms=16,
             ls="none", label=(("true source" if len(truth) == 1 else "true sources")
@@ -36,7 +36,7 @@ def source_markers(ax: Any, truth: Sequence[Point], declared: Sequence[Point],
 
 
 def map_panel(ax: Any, belief: SourceBelief, area: OpArea, truth: Sequence[Point],
-               declared: Sequence[Point], report: dict[str, Any], plt: Any) -> None:
+              declared: Sequence[Point], report: dict[str, Any], plt: Any) -> None:
     """The source-likelihood posterior (log scale, four decades) with the declarations."""
     from matplotlib.colors import LogNorm
 

@@ -117,7 +117,8 @@ def tour_flow_advice(mission: MissionBase, params: EnvironmentParams) -> list[Pr
         if e.contract.advise is not pattern_advice:  # a triangle tour (cloverleaf, three-point)
             continue
         key, size, (room_x, room_y) = tour_size(e.params, area)
-        share = sum(tour_fits(e.params, area, deg) for deg in range(360)) / 360
+        # over 120°: the triangle repeats every 120° (pattern_advice's range)
+        share = sum(tour_fits(e.params, area, deg) for deg in range(120)) / 120
         room = (f"inside the OpArea less wall_inset_m each side ({max(room_x, 0):.0f} × "
                 f"{max(room_y, 0):.0f} m)")
         if not 0 < share < 1:  # fits every way, or none (the behaviour's own advice says so)
